@@ -1,0 +1,310 @@
+"""Write the golden byte vectors in golden/ (run: python protocol_specs/make_golden.py [--check]).
+
+Deliberately independent of franka_sim: every value is placed with the standard ``struct``
+module at the offset written in robot_v10.md / gripper_v3.md, and enum names are translated with
+tables restated here. The tests then require the construct declarations to build exactly these
+bytes and to parse them back to these values, so a mistake would have to be made twice, in two
+different notations, to go unnoticed. The script also checks that each layout covers every byte
+of its message exactly once.
+
+``--check`` regenerates in memory and fails if a file in golden/ differs.
+"""
+
+import json
+import math
+import re
+import struct
+import sys
+from pathlib import Path
+
+GOLDEN = Path(__file__).with_name("golden")
+
+
+def _numbered(names):
+    return {n: i for i, n in enumerate(names.split())}
+
+
+COMMAND = _numbered(
+    "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
+    "SetGuidingMode SetEEToK SetNEToEE SetLoad AutomaticErrorRecovery GetRobotModel")
+GRIPPER_COMMAND = _numbered("Connect Homing Grasp Move Stop")
+
+# Status tables, restated from the .md files (the same name means different numbers per table).
+CONNECT_STATUS = _numbered("kSuccess kIncompatibleLibraryVersion")
+BASE_STATUS = _numbered("kSuccess kCommandNotPossibleRejected "
+                        "kCommandRejectedDueToActivatedSafetyFunctions")
+GETTER_SETTER_STATUS = _numbered(
+    "kSuccess kCommandNotPossibleRejected kInvalidArgumentRejected "
+    "kCommandRejectedDueToActivatedSafetyFunctions")
+MOVE_STATUS = _numbered(
+    "kSuccess kMotionStarted kPreempted kPreemptedDueToActivatedSafetyFunctions "
+    "kCommandRejectedDueToActivatedSafetyFunctions kCommandNotPossibleRejected "
+    "kStartAtSingularPoseRejected kInvalidArgumentRejected kReflexAborted kEmergencyAborted "
+    "kInputErrorAborted kAborted")
+STOP_MOVE_STATUS = _numbered(
+    "kSuccess kCommandNotPossibleRejected kCommandRejectedDueToActivatedSafetyFunctions "
+    "kEmergencyAborted kReflexAborted kAborted")
+AER_STATUS = _numbered(
+    "kSuccess kCommandNotPossibleRejected kCommandRejectedDueToActivatedSafetyFunctions "
+    "kManualErrorRecoveryRequiredRejected kReflexAborted kEmergencyAborted kAborted")
+GRIPPER_CONNECT_STATUS = CONNECT_STATUS
+GRIPPER_STATUS = _numbered("kSuccess kFail kUnsuccessful kAborted")
+STATUS_OF = {"Connect": CONNECT_STATUS, "Move": MOVE_STATUS, "StopMove": STOP_MOVE_STATUS,
+             "AutomaticErrorRecovery": AER_STATUS, "GetRobotModel": BASE_STATUS}
+MOVE_CONTROLLER_MODE = _numbered("kJointImpedance kCartesianImpedance kExternalController")
+MOVE_MOTION_GENERATOR_MODE = _numbered(
+    "kJointPosition kJointVelocity kCartesianPosition kCartesianVelocity kNone")
+STATE_ENUMS = {
+    "motion_generator_mode": _numbered(
+        "kIdle kJointPosition kJointVelocity kCartesianPosition kCartesianVelocity kNone"),
+    "controller_mode": _numbered(
+        "kJointImpedance kCartesianImpedance kExternalController kOther"),
+    "robot_mode": _numbered(
+        "kOther kIdle kMove kGuiding kReflex kUserStopped kAutomaticErrorRecovery"),
+}
+
+# RobotState, robot_v10.md: (offset, name, struct format)
+STATE_LAYOUT = [
+    (0, "message_id", "Q"), (8, "O_T_EE", "16f"), (72, "O_T_EE_d", "16f"),
+    (136, "F_T_EE", "16f"), (200, "EE_T_K", "16f"), (264, "F_T_NE", "16f"),
+    (328, "NE_T_EE", "16f"), (392, "m_ee", "f"), (396, "I_ee", "9f"), (432, "F_x_Cee", "3f"),
+    (444, "m_load", "f"), (448, "I_load", "9f"), (484, "F_x_Cload", "3f"), (496, "elbow", "2f"),
+    (504, "elbow_d", "2f"), (512, "tau_J", "7f"), (540, "tau_J_d", "7f"), (568, "dtau_J", "7f"),
+    (596, "q", "7f"), (624, "q_d", "7f"), (652, "dq", "7f"), (680, "dq_d", "7f"),
+    (708, "ddq_d", "7f"), (736, "joint_contact", "7f"), (764, "cartesian_contact", "6f"),
+    (788, "joint_collision", "7f"), (816, "cartesian_collision", "6f"),
+    (840, "tau_ext_hat_filtered", "7f"), (868, "O_F_ext_hat_K", "6f"),
+    (892, "K_F_ext_hat_K", "6f"), (916, "O_dP_EE_d", "6f"), (940, "O_ddP_O", "3f"),
+    (952, "elbow_c", "2f"), (960, "delbow_c", "2f"), (968, "ddelbow_c", "2f"),
+    (976, "O_T_EE_c", "16f"), (1040, "O_dP_EE_c", "6f"), (1064, "O_ddP_EE_c", "6f"),
+    (1088, "theta", "7f"), (1116, "dtheta", "7f"), (1144, "accelerometer_top", "18f"),
+    (1216, "accelerometer_bottom", "18f"), (1288, "motion_generator_mode", "B"),
+    (1289, "controller_mode", "B"), (1290, "errors", "41?"), (1331, "reflex_reason", "41?"),
+    (1372, "robot_mode", "B"), (1373, "control_command_success_rate", "f"),
+]
+COMMAND_LAYOUT = [
+    (0, "message_id", "Q"), (8, "q_c", "7d"), (64, "dq_c", "7d"), (120, "O_T_EE_c", "16d"),
+    (248, "O_dP_EE_c", "6d"), (296, "elbow_c", "2d"), (312, "valid_elbow", "?"),
+    (313, "motion_generation_finished", "?"), (314, "tau_J_d", "7d"),
+    (370, "torque_command_finished", "?"),
+]
+ROBOT_HEADER = [(0, "header.command", "I"), (4, "header.command_id", "I"), (8, "header.size", "I")]
+GRIPPER_HEADER = [(0, "header.command", "H"), (2, "header.command_id", "I"),
+                  (6, "header.size", "I")]
+
+
+def robot_enums(command):
+    """Enum tables for a robot message: its command, its status, the Move request modes."""
+    return {"header.command": COMMAND,
+            "status": STATUS_OF.get(command, GETTER_SETTER_STATUS),
+            "controller_mode": MOVE_CONTROLLER_MODE,
+            "motion_generator_mode": MOVE_MOTION_GENERATOR_MODE}
+
+
+def _get(fields, dotted):
+    for key in dotted.split("."):
+        fields = fields[key]
+    return fields
+
+
+def pack(size, layout, fields, enums):
+    """Place every field at its offset; fail on gaps or overlaps."""
+    buf, cover = bytearray(size), bytearray(size)
+    for offset, key, fmt in layout:
+        value = _get(fields, key)
+        if isinstance(value, str) and fmt != "s*":
+            value = enums[key][value]
+        if fmt == "s*":  # text to the end of the message (URDF)
+            value, fmt = [value.encode()], f"{len(value.encode())}s"
+        values = value if isinstance(value, list) else [value]
+        struct.pack_into("<" + fmt, buf, offset, *values)
+        for i in range(offset, offset + struct.calcsize("<" + fmt)):
+            cover[i] += 1
+    assert all(c == 1 for c in cover), f"layout does not cover each byte once: {layout}"
+    return bytes(buf)
+
+
+def header(command, command_id, size):
+    return {"command": command, "command_id": command_id, "size": size}
+
+
+def robot_state_fields():
+    """Distinct, float32-exact values per element, so any offset slip changes the bytes."""
+    special = {
+        "message_id": 0x0123456789ABCDEF, "motion_generator_mode": "kJointVelocity",
+        "controller_mode": "kCartesianImpedance", "robot_mode": "kMove",
+        "errors": [i in (0, 25, 31, 34, 40) for i in range(41)],
+        "reflex_reason": [i in (6, 7) for i in range(41)], "control_command_success_rate": 0.75,
+    }
+    fields = {}
+    for k, (_, name, fmt) in enumerate(STATE_LAYOUT):
+        vals = [(-1) ** i * ((k + 1) + i / 8) for i in range(int(fmt[:-1] or 1))]
+        fields[name] = special.get(name, vals if fmt[:-1] else vals[0])
+    return fields
+
+
+def messages():
+    """(file stem, struct name in franka_sim.protocol, size, layout, fields, enums)."""
+    two_pi = 2 * math.pi
+    dev = {"translation": 10.0, "rotation": 3.12, "elbow": two_pi}
+    status_only = ROBOT_HEADER + [(12, "status", "B")]
+    yield ("robot_state", "RobotState", 1377, STATE_LAYOUT, robot_state_fields(),
+           STATE_ENUMS)
+    yield ("robot_command", "RobotCommand", 371, COMMAND_LAYOUT, {
+        "message_id": 4242, "q_c": [0.1 * i for i in range(7)],
+        "dq_c": [-0.01 * i for i in range(7)],
+        "O_T_EE_c": [1, 0, 0, 0, 0, -1, 0, 0, 0, 0, -1, 0, 0.3, 0.0, 0.5, 1.0],
+        "O_dP_EE_c": [0.5, -0.5, 0.25, 0.0, 1e-3, -1e-3], "elbow_c": [0.75, -1.0],
+        "valid_elbow": True, "motion_generation_finished": False,
+        "tau_J_d": [1.5, -2.5, 3.5, -4.5, 5.5, -6.5, 7.5], "torque_command_finished": True,
+    }, {})
+    yield ("robot_connect_request", "ConnectRequest", 16,
+           ROBOT_HEADER + [(12, "version", "H"), (14, "udp_port", "H")],
+           {"header": header("Connect", 0, 16), "version": 10, "udp_port": 54321},
+           robot_enums("Connect"))
+    yield ("robot_connect_response", "ConnectResponse", 15,
+           status_only + [(13, "version", "H")],
+           {"header": header("Connect", 0, 15), "status": "kSuccess", "version": 10},
+           robot_enums("Connect"))
+    yield ("robot_move_request", "MoveRequest", 125, ROBOT_HEADER + [
+        (12, "controller_mode", "I"), (16, "motion_generator_mode", "I"),
+        (20, "maximum_path_deviation.translation", "d"),
+        (28, "maximum_path_deviation.rotation", "d"), (36, "maximum_path_deviation.elbow", "d"),
+        (44, "maximum_goal_pose_deviation.translation", "d"),
+        (52, "maximum_goal_pose_deviation.rotation", "d"),
+        (60, "maximum_goal_pose_deviation.elbow", "d"),
+        (68, "use_async_motion_generator", "?"), (69, "maximum_velocity", "7d")], {
+        "header": header("Move", 2, 125), "controller_mode": "kJointImpedance",
+        "motion_generator_mode": "kJointVelocity", "maximum_path_deviation": dict(dev),
+        "maximum_goal_pose_deviation": dict(dev), "use_async_motion_generator": True,
+        "maximum_velocity": [2.0, 2.0, 2.0, 2.0, 2.5, 2.5, 2.5]}, robot_enums("Move"))
+    thresholds = [  # SetCollisionBehavior payload, in wire order
+        ("lower_torque_thresholds_acceleration", 7), ("upper_torque_thresholds_acceleration", 7),
+        ("lower_torque_thresholds_nominal", 7), ("upper_torque_thresholds_nominal", 7),
+        ("lower_force_thresholds_acceleration", 6), ("upper_force_thresholds_acceleration", 6),
+        ("lower_force_thresholds_nominal", 6), ("upper_force_thresholds_nominal", 6),
+    ]
+    layout, fields, offset = list(ROBOT_HEADER), {}, 12
+    for k, (name, n) in enumerate(thresholds):
+        layout.append((offset, name, f"{n}d"))
+        fields[name] = [10.0 * (k + 1) + i for i in range(n)]
+        offset += 8 * n
+    yield ("robot_set_collision_behavior_request", "SetCollisionBehaviorRequest", 428, layout,
+           {"header": header("SetCollisionBehavior", 3, 428), **fields},
+           robot_enums("SetCollisionBehavior"))
+    simple = [  # (file stem, command, request size, payload layout, payload fields)
+        ("set_joint_impedance", "SetJointImpedance", 68, [(12, "K_theta", "7d")],
+         {"K_theta": [3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0]}),
+        ("set_cartesian_impedance", "SetCartesianImpedance", 60, [(12, "K_x", "6d")],
+         {"K_x": [3000.0, 3000.0, 3000.0, 300.0, 300.0, 300.0]}),
+        ("set_guiding_mode", "SetGuidingMode", 19, [(12, "guiding_mode", "6?"),
+                                                    (18, "nullspace", "?")],
+         {"guiding_mode": [True, True, False, True, False, True], "nullspace": True}),
+        ("set_ee_to_k", "SetEEToK", 140, [(12, "EE_T_K", "16d")],
+         {"EE_T_K": [1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0.01, 0.02, 0.03, 1.0]}),
+        ("set_ne_to_ee", "SetNEToEE", 140, [(12, "NE_T_EE", "16d")],
+         {"NE_T_EE": [0.7071, -0.7071, 0, 0, 0.7071, 0.7071, 0, 0, 0, 0, 1.0, 0,
+                      0, 0, 0.1034, 1.0]}),
+        ("set_load", "SetLoad", 116,
+         [(12, "m_load", "d"), (20, "F_x_Cload", "3d"), (44, "I_load", "9d")],
+         {"m_load": 0.5, "F_x_Cload": [0.0, 0.01, 0.05],
+          "I_load": [1e-3, 0, 0, 0, 2e-3, 0, 0, 0, 3e-3]}),
+        ("stop_move", "StopMove", 12, [], {}),
+        ("automatic_error_recovery", "AutomaticErrorRecovery", 12, [], {}),
+        ("get_robot_model", "GetRobotModel", 12, [], {}),
+    ]
+    statuses = {"StopMove": "kSuccess", "AutomaticErrorRecovery":
+                "kManualErrorRecoveryRequiredRejected", "SetLoad": "kInvalidArgumentRejected",
+                "GetRobotModel": "kSuccess"}
+    for cid, (stem, cmd, size, payload, values) in enumerate(simple, start=4):
+        yield (f"robot_{stem}_request", f"{cmd}Request", size, ROBOT_HEADER + payload,
+               {"header": header(cmd, cid, size), **values}, robot_enums(cmd))
+        if cmd != "GetRobotModel":
+            yield (f"robot_{stem}_response", f"{cmd}Response", 13, status_only,
+                   {"header": header(cmd, cid, 13), "status": statuses.get(cmd, "kSuccess")},
+                   robot_enums(cmd))
+    yield ("robot_move_response", "MoveResponse", 13, status_only,
+           {"header": header("Move", 2, 13), "status": "kMotionStarted"}, robot_enums("Move"))
+    yield ("robot_set_collision_behavior_response", "SetCollisionBehaviorResponse", 13,
+           status_only, {"header": header("SetCollisionBehavior", 3, 13),
+                         "status": "kCommandRejectedDueToActivatedSafetyFunctions"},
+           robot_enums("SetCollisionBehavior"))
+    urdf = '<robot name="fr3"><link name="link0"/></robot>'
+    yield ("robot_get_robot_model_response", "GetRobotModelResponse", 13 + len(urdf),
+           status_only + [(13, "urdf", "s*")],
+           {"header": header("GetRobotModel", 12, 13 + len(urdf)), "status": "kSuccess",
+            "urdf": urdf}, robot_enums("GetRobotModel"))
+    yield from gripper_messages()
+
+
+def gripper_messages():
+    enums = {"header.command": GRIPPER_COMMAND, "status": GRIPPER_STATUS}
+    status = GRIPPER_HEADER + [(10, "status", "H")]
+    yield ("gripper_state", "GripperState", 23,
+           [(0, "message_id", "I"), (4, "width", "d"), (12, "max_width", "d"),
+            (20, "is_grasped", "?"), (21, "temperature", "H")],
+           {"message_id": 123456, "width": 0.0405, "max_width": 0.0805, "is_grasped": True,
+            "temperature": 31}, {})
+    yield ("gripper_connect_request", "GripperConnectRequest", 14,
+           GRIPPER_HEADER + [(10, "version", "H"), (12, "udp_port", "H")],
+           {"header": header("Connect", 0, 14), "version": 3, "udp_port": 40001}, enums)
+    yield ("gripper_connect_response", "GripperConnectResponse", 14,
+           status + [(12, "version", "H")],
+           {"header": header("Connect", 0, 14), "status": "kSuccess", "version": 3},
+           {**enums, "status": GRIPPER_CONNECT_STATUS})
+    yield ("gripper_homing_request", "GripperHomingRequest", 10, GRIPPER_HEADER,
+           {"header": header("Homing", 1, 10)}, enums)
+    yield ("gripper_grasp_request", "GripperGraspRequest", 50, GRIPPER_HEADER + [
+        (10, "width", "d"), (18, "epsilon_inner", "d"), (26, "epsilon_outer", "d"),
+        (34, "speed", "d"), (42, "force", "d")],
+        {"header": header("Grasp", 2, 50), "width": 0.02, "epsilon_inner": 0.005,
+         "epsilon_outer": 0.005, "speed": 0.1, "force": 60.0}, enums)
+    yield ("gripper_move_request", "GripperMoveRequest", 26,
+           GRIPPER_HEADER + [(10, "width", "d"), (18, "speed", "d")],
+           {"header": header("Move", 3, 26), "width": 0.08, "speed": 0.05}, enums)
+    yield ("gripper_stop_request", "GripperStopRequest", 10, GRIPPER_HEADER,
+           {"header": header("Stop", 4, 10)}, enums)
+    for cid, (cmd, st) in enumerate([("Homing", "kSuccess"), ("Grasp", "kUnsuccessful"),
+                                     ("Move", "kSuccess"), ("Stop", "kSuccess")], start=1):
+        yield (f"gripper_{cmd.lower()}_response", "GripperCommandResponse", 12, status,
+               {"header": header(cmd, cid, 12), "status": st}, enums)
+
+
+def _one_line_arrays(text):
+    """Keep number/bool arrays on one line so a 1377-byte state stays readable."""
+    return re.sub(r"\[([^\[\]{}\"]*)\]",
+                  lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
+
+
+def render():
+    """{file name: JSON text} for every golden vector."""
+    out = {}
+    for stem, struct_name, size, layout, fields, enums in messages():
+        doc = {"struct": struct_name, "size": size, "fields": fields,
+               "hex": pack(size, layout, fields, enums).hex()}
+        text = [key for _, key, fmt in layout if fmt == "s*"]
+        if text:
+            doc["text_fields"] = text  # JSON has no bytes; these are UTF-8 text
+        out[f"{stem}.json"] = _one_line_arrays(json.dumps(doc, indent=1)) + "\n"
+    return out
+
+
+def main(argv):
+    files = render()
+    if "--check" in argv:
+        stale = [n for n, t in files.items()
+                 if not (GOLDEN / n).exists() or (GOLDEN / n).read_text() != t]
+        extra = {p.name for p in GOLDEN.glob("*.json")} - set(files)
+        if stale or extra:
+            print("golden/ is out of date:", sorted(stale), sorted(extra))
+            return 1
+        return 0
+    GOLDEN.mkdir(exist_ok=True)
+    for name, text in files.items():
+        (GOLDEN / name).write_text(text)
+    print(f"wrote {len(files)} golden vectors to {GOLDEN}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
