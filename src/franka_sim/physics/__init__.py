@@ -1,0 +1,1 @@
+"""Physics: the Backend protocol and its MuJoCo implementation (synchronous; one owner thread)."""

@@ -1,0 +1,88 @@
+"""What the robot core and the physics exchange once per 1 ms cycle.
+
+The core decides *what the joint drives do* (JointCommand); the backend integrates one step
+and reports *what the robot's sensors read* (Measured). Keeping both as plain arrays lets the
+core be tested against a fake backend and lets the physics be swapped without touching it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class JointCommand:
+    """What the joint drives are asked to do during one 1 ms step.
+
+    The drive torque is tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q): the robot always adds its
+    own gravity compensation, and in torque mode K = D = 0 so tau_ff is the user torque.
+    """
+
+    tau_ff: np.ndarray  # (7,) Nm
+    q_d: np.ndarray  # (7,) rad, impedance set-point
+    dq_d: np.ndarray  # (7,) rad/s
+    K: np.ndarray  # (7,) Nm/rad
+    D: np.ndarray  # (7,) Nm·s/rad
+
+    @classmethod
+    def torque(cls, tau) -> "JointCommand":
+        """Pure torque control: the user's torque on top of gravity compensation."""
+        zero = np.zeros(7)
+        return cls(np.asarray(tau, float), zero, zero, zero, zero)
+
+    @classmethod
+    def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None) -> "JointCommand":
+        """Joint impedance about q_d (e.g. idle holding), optionally with a feed-forward torque."""
+        zero = np.zeros(7)
+        return cls(zero if tau_ff is None else np.asarray(tau_ff, float), np.asarray(q_d, float),
+                   zero if dq_d is None else np.asarray(dq_d, float),
+                   np.asarray(K, float), np.asarray(D, float))
+
+
+@dataclass
+class Measured:
+    """The robot's sensor readings after a step; arrays are fresh per step (safe to keep)."""
+
+    q: np.ndarray  # (7,) link-side joint angle
+    dq: np.ndarray  # (7,)
+    ddq: np.ndarray  # (7,) acceleration over the last step
+    tau_J: np.ndarray  # (7,) link-side joint torque (≈ g(q) at rest, libfranka's sign)
+    dtau_J: np.ndarray  # (7,) backward difference over 1 ms
+    theta: np.ndarray  # (7,) motor angle (elastic joint: q + tau_J / stiffness)
+    dtheta: np.ndarray  # (7,)
+    O_T_F: np.ndarray  # (4,4) base → flange (link8)
+    accelerometer_top: np.ndarray  # (6,3) specific force in each sensor frame, m/s²
+    accelerometer_bottom: np.ndarray  # (6,3)
+
+
+class Backend(Protocol):
+    """A physics engine as the robot core sees it. Synchronous; one thread owns it."""
+
+    timestep: float  # seconds per step(); the robot's clock requires 0.001
+
+    def step(self, cmd: JointCommand) -> Measured:
+        """Advance exactly one timestep with the given drive command."""
+
+    def measure(self) -> Measured:
+        """The readings of the last step (or reset), without stepping."""
+
+    def reset(self, q0) -> None:
+        """Put the arm at rest at q0 (dq = 0), clearing the torque history."""
+
+    def gravity(self, q) -> np.ndarray:
+        """(7,) torque that holds the arm (incl. end effector) still at q."""
+
+    def mass_matrix(self, q, *, include_armature: bool = False) -> np.ndarray:
+        """(7,7) joint-space inertia; the rigid-body part unless include_armature."""
+
+    def coriolis(self, q, dq) -> np.ndarray:
+        """(7,) C(q, dq)·dq."""
+
+    def jacobian_flange(self, q) -> np.ndarray:
+        """(6,7) flange Jacobian in the base frame, rows [linear; angular]."""
+
+    def set_end_effector(self, mass: float, com, inertia) -> None:
+        """Replace what hangs on the flange (hand + load): mass, CoM in F, inertia about CoM."""

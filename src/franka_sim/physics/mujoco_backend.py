@@ -1,0 +1,187 @@
+"""The MuJoCo implementation of the physics Backend: one 1 ms step per published state.
+
+Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
+at the start of the step, as the real drives do with one 1 kHz sample. g(q) is MuJoCo's body
+gravity compensation (`gravcomp` on every moving body, hand included), so it always covers the
+current end-effector inertials and costs nothing extra. There is no joint friction or damping:
+the real robot compensates its own friction in every mode, so a client sees none.
+
+Step structure. `mj_step2` then `mj_step1`: the second half of step n followed by the first
+half of step n+1. After it, positions-dependent quantities (flange pose, g(q)) belong to the
+new q that we report, while accelerations (ddq, accelerometers) are those of the step just
+taken — a sensor reports the acceleration over the interval it sampled.
+
+Sensors. tau_J is the link-side torque of an elastic joint whose motor carries the rotor
+inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign). theta models the
+joint elasticity with the stiffness K = 7000 Nm/rad inferred from the robot's own θ − q ≈ τ_J/7000
+(fr3_facts §2); the elasticity is only reported, not simulated (the joints are rigid here).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
+from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
+
+JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
+
+
+class MujocoBackend:
+    """Owns one MjModel/MjData pair; not thread-safe (the physics worker serialises access)."""
+
+    def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | None = None,
+                 armature=ROTOR_INERTIA_FR3) -> None:
+        self.desc = desc
+        self.model = model = build_model(desc, armature=armature, scene_xml=scene_xml)
+        self.timestep = float(model.opt.timestep)
+        self.data = data = mujoco.MjData(model)
+        self._scratch = mujoco.MjData(model)  # for queries, so they never disturb the state
+
+        jids = [model.joint(j.name).id for j in desc.joints]
+        qadr, vadr = model.jnt_qposadr[jids], model.jnt_dofadr[jids]
+        if list(qadr) != list(range(qadr[0], qadr[0] + 7)) or list(vadr) != list(range(vadr[0], vadr[0] + 7)):
+            raise RuntimeError("arm joints must be contiguous in qpos/qvel")
+        self._qs, self._vs = slice(qadr[0], qadr[0] + 7), slice(vadr[0], vadr[0] + 7)
+        self._flange = model.site(FLANGE_SITE).id
+        self._hand = model.body(HAND_BODY).id
+        self._sensor_rows = [[model.sensor_adr[model.sensor(n).id] if n in desc.frames else -1
+                              for n in names] for names in (ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)]
+        self._armature = model.dof_armature[self._vs].copy()
+
+        # Views into MjData (its buffers never move) and preallocated work arrays.
+        self._q, self._dq = data.qpos[self._qs], data.qvel[self._vs]
+        self._applied = data.qfrc_applied[self._vs]
+        self._gcomp = data.qfrc_gravcomp[self._vs]
+        self._flange_pos, self._flange_mat = data.site_xpos[self._flange], data.site_xmat[self._flange]
+        self._acc_index = np.array([[r + np.arange(3) if r >= 0 else np.full(3, -1) for r in rows]
+                                    for rows in self._sensor_rows])
+        self._has_all_accelerometers = bool((self._acc_index >= 0).all())
+        self._tmp = np.zeros(7)
+        self._motor = np.zeros(7)
+        self._dq_prev = np.zeros(7)
+        self._ddq = np.zeros(7)
+        self._tau_J_prev = np.zeros(7)
+        self._theta_prev = np.zeros(7)
+        self._last: Measured | None = None
+        self.reset(q0)
+
+    # -- the hot path ---------------------------------------------------------------------------
+    def step(self, cmd: JointCommand) -> Measured:
+        m, d, tmp, applied = self.model, self.data, self._tmp, self._applied
+        np.subtract(cmd.q_d, self._q, out=tmp)
+        np.multiply(cmd.K, tmp, out=applied)
+        np.subtract(cmd.dq_d, self._dq, out=tmp)
+        tmp *= cmd.D
+        applied += tmp
+        applied += cmd.tau_ff
+        np.add(applied, self._gcomp, out=self._motor)  # gcomp: from mj_step1 at this q
+        self._dq_prev[:] = self._dq
+        mujoco.mj_step2(m, d)
+        np.subtract(self._dq, self._dq_prev, out=self._ddq)
+        self._ddq /= self.timestep
+        mujoco.mj_step1(m, d)
+        return self._record(self._motor, self._ddq, first=False)
+
+    def _record(self, motor: np.ndarray, ddq: np.ndarray, *, first: bool) -> Measured:
+        tau_J = motor - self._armature * ddq
+        theta = self._q + tau_J / JOINT_STIFFNESS
+        if first:
+            dtau_J, dtheta = np.zeros(7), np.zeros(7)
+        else:
+            dtau_J = (tau_J - self._tau_J_prev) / self.timestep
+            dtheta = (theta - self._theta_prev) / self.timestep
+        self._tau_J_prev, self._theta_prev = tau_J, theta
+        O_T_F = np.eye(4)
+        O_T_F[:3, :3] = self._flange_mat.reshape(3, 3)
+        O_T_F[:3, 3] = self._flange_pos
+        sensordata = self.data.sensordata
+        if self._has_all_accelerometers:
+            top, bottom = sensordata[self._acc_index[0]], sensordata[self._acc_index[1]]
+        else:
+            padded = np.append(sensordata, 0.0)  # index −1 → the appended zero
+            top, bottom = padded[self._acc_index[0]], padded[self._acc_index[1]]
+        self._last = Measured(
+            q=self._q.copy(), dq=self._dq.copy(), ddq=ddq.copy(), tau_J=tau_J, dtau_J=dtau_J,
+            theta=theta, dtheta=dtheta, O_T_F=O_T_F, accelerometer_top=top,
+            accelerometer_bottom=bottom)
+        return self._last
+
+    def measure(self) -> Measured:
+        return self._last
+
+    def reset(self, q0) -> None:
+        """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values."""
+        q0 = np.asarray(q0, dtype=float)
+        if q0.shape != (7,):
+            raise ValueError(f"q0 must have shape (7,), got {q0.shape}")
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        self._q[:] = q0
+        mujoco.mj_forward(m, d)  # qacc ≈ 0 here: gravcomp cancels gravity, nothing else acts
+        self._record(self._gcomp.copy(), np.zeros(7), first=True)
+
+    # -- queries (scratch data, state untouched) --------------------------------------------------
+    def _at(self, q, dq=None) -> mujoco.MjData:
+        s = self._scratch
+        s.qpos[:] = self.data.qpos  # scene objects where they are
+        s.qvel[:] = 0.0
+        s.qpos[self._qs] = q
+        if dq is not None:
+            s.qvel[self._vs] = dq
+        mujoco.mj_fwdPosition(self.model, s)
+        mujoco.mj_fwdVelocity(self.model, s)
+        return s
+
+    def gravity(self, q) -> np.ndarray:
+        return self._at(q).qfrc_bias[self._vs].copy()
+
+    def coriolis(self, q, dq) -> np.ndarray:
+        bias = self._at(q, dq).qfrc_bias[self._vs].copy()  # copy: gravity() reuses the scratch
+        return bias - self.gravity(q)
+
+    def mass_matrix(self, q, *, include_armature: bool = False) -> np.ndarray:
+        s = self._at(q)
+        full = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, s, full)
+        M = full[self._vs, self._vs].copy()
+        if not include_armature:
+            M[np.diag_indices(7)] -= self.model.dof_armature[self._vs]
+        return M
+
+    def jacobian_flange(self, q) -> np.ndarray:
+        s = self._at(q)
+        jacp, jacr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
+        mujoco.mj_jacSite(self.model, s, jacp, jacr, self._flange)
+        return np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
+
+    def flange_pose(self, q) -> np.ndarray:
+        """O_T_F at q computed by MuJoCo (for cross-checks against the numpy kinematics)."""
+        s = self._at(q)
+        pose = np.eye(4)
+        pose[:3, :3] = s.site_xmat[self._flange].reshape(3, 3)
+        pose[:3, 3] = s.site_xpos[self._flange]
+        return pose
+
+    # -- run-time changes -------------------------------------------------------------------------
+    def set_end_effector(self, mass: float, com, inertia) -> None:
+        """Replace the rigid body on the flange (Hand + load): mass, CoM in F, inertia about CoM.
+
+        Gravity compensation follows automatically (gravcomp reads the body's mass), and it is
+        refreshed for the current q at once so the very next step is consistent.
+        """
+        inertia = np.asarray(inertia, float).reshape(3, 3)
+        if mass < 0 or not np.allclose(inertia, inertia.T):
+            raise ValueError("mass must be ≥ 0 and inertia symmetric")
+        principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
+        if np.linalg.det(axes) < 0:
+            axes[:, 0] = -axes[:, 0]
+        m, b = self.model, self._hand
+        m.body_mass[b] = mass
+        m.body_ipos[b] = np.asarray(com, float)
+        m.body_inertia[b] = np.clip(principal, 0.0, None)
+        mujoco.mju_mat2Quat(m.body_iquat[b], np.ascontiguousarray(axes).ravel())
+        mujoco.mj_setConst(m, self._scratch)  # subtree masses etc. derived from body masses
+        mujoco.mj_step1(m, self.data)  # recompute g(q) at the current state

@@ -1,0 +1,176 @@
+"""Build the MuJoCo model of the arm from the same ArmDescription the client receives.
+
+The client's `franka::Model` is Pinocchio over the served URDF; we build MuJoCo's model from
+that same parsed URDF (not from a hand-written MJCF) so kinematic origins, masses, CoMs, full
+inertia tensors and joint axes agree by construction. MuJoCo is told to take the inertials
+verbatim (inertiafromgeom off, no balancing), and it stores each tensor in principal axes,
+which is an exact change of basis.
+
+What the URDF does not say and the physics needs is added here, each as a named table:
+rotor inertia (armature), the Franka Hand, collision primitives and the sensor sites.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from franka_sim.description import hand
+from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, FLANGE_LINK,
+                                         ArmDescription)
+
+TIMESTEP = 0.001  # the robot's control cycle: one physics step per published state
+GRAVITY = (0.0, 0.0, -9.81)
+
+# Motor rotor inertia reflected through the gearbox, kg·m², per joint. libfranka's Model (the
+# URDF's rigid bodies) leaves it out, but the physics needs it: without it joint 7 is so light
+# that an explicit 1 kHz impedance loop diverges. Figures: the MuJoCo Menagerie FR3 model's
+# armature (identified in torque control per its changelog, fr3_facts §2). Drake quotes ~3×
+# larger "reflected inertia provided by Franka"; the sources are not reconciled, and we take
+# the smaller, torque-control-identified set.
+ROTOR_INERTIA_FR3 = (0.195, 0.195, 0.195, 0.195, 0.074, 0.074, 0.074)
+
+FLANGE_SITE = "flange"
+HAND_BODY = "hand"
+
+# Collision capsules (from, to, radius) in each link's own frame, m. Rough envelopes of the
+# FR3's housings, our own sizing: good enough for contact with the environment and gross
+# self-collision, not for clearance checks. The served URDF carries no collision geometry.
+COLLISION_CAPSULES: dict[str, tuple[tuple[tuple[float, ...], tuple[float, ...], float], ...]] = {
+    "link0": (((-0.04, 0.0, 0.05), (0.0, 0.0, 0.16), 0.09),),
+    "link1": (((0.0, 0.0, -0.19), (0.0, 0.0, -0.05), 0.07),),
+    "link2": (((0.0, 0.0, -0.05), (0.0, 0.0, 0.05), 0.065), ((0.0, 0.0, 0.0), (0.0, -0.21, 0.0), 0.06)),
+    "link3": (((0.0, 0.0, -0.14), (0.0, 0.0, -0.02), 0.06), ((0.0825, -0.05, 0.0), (0.0825, 0.05, 0.0), 0.055)),
+    "link4": (((0.0, 0.0, -0.05), (0.0, 0.0, 0.05), 0.06), ((-0.0825, 0.08, 0.0), (-0.0825, 0.13, 0.0), 0.06)),
+    "link5": (((0.0, 0.0, -0.29), (0.0, 0.0, -0.20), 0.06), ((0.0, 0.08, -0.18), (0.0, 0.08, -0.05), 0.03)),
+    "link6": (((0.0, 0.0, -0.03), (0.0, 0.0, 0.01), 0.055), ((0.02, 0.0, 0.0), (0.088, 0.0, 0.0), 0.05)),
+    "link7": (((0.0, 0.0, -0.01), (0.0, 0.0, 0.07), 0.045),),
+}
+# The Hand, in the flange frame: a bar across the finger direction (the hand's y axis is the
+# flange's y turned −45° about z), standing on the flange.
+_FINGER_DIR = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0])
+HAND_CAPSULES = ((tuple(-0.07 * _FINGER_DIR + [0, 0, 0.045]),
+                  tuple(0.07 * _FINGER_DIR + [0, 0, 0.045]), 0.04),)
+
+# Contact filtering: each arm body gets its own contype bit (bit 0 is the environment's), and
+# its conaffinity omits its neighbours' bits, so adjacent links (whose envelopes overlap at the
+# joint by design) never collide, while every link still touches the environment.
+COLLISION_BODIES = ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7",
+                    HAND_BODY)
+_NO_CONTACT = {frozenset((a, b)) for a, b in zip(COLLISION_BODIES, COLLISION_BODIES[1:])}
+_NO_CONTACT.add(frozenset(("link6", HAND_BODY)))  # the hand sits over joint 7, next to link 6
+
+
+def collision_bits(body: str) -> tuple[int, int]:
+    """(contype, conaffinity) for an arm body; environment geoms keep MuJoCo's default 1/1."""
+    contype = 1 << (COLLISION_BODIES.index(body) + 1)
+    conaffinity = 1
+    for i, other in enumerate(COLLISION_BODIES):
+        if other != body and frozenset((body, other)) not in _NO_CONTACT:
+            conaffinity |= 1 << (i + 1)
+    return contype, conaffinity
+
+
+def _quat(rotation: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
+    return quat
+
+
+def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str) -> None:
+    contype, conaffinity = collision_bits(owner)
+    for k, (start, end, radius) in enumerate(capsules):
+        ends = [offset[:3, :3] @ np.asarray(p, float) + offset[:3, 3] for p in (start, end)]
+        body.add_geom(name=f"{owner}_collision{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                      fromto=np.concatenate(ends), size=[radius, 0, 0], contype=contype,
+                      conaffinity=conaffinity, group=3, rgba=[0.9, 0.9, 0.9, 1.0])
+
+
+def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
+    inertia = np.asarray(inertia, float)
+    body.explicitinertial = True
+    body.mass = mass
+    body.ipos = np.asarray(com, float)
+    body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                        inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+
+
+def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.MjSpec:
+    """The arm (+ rigid Hand) as an editable MjSpec; `build_model` compiles it."""
+    spec = mujoco.MjSpec()
+    spec.modelname = desc.name
+    spec.compiler.degree = False  # every angle below is in radians
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.balanceinertia = False
+    spec.option.timestep = TIMESTEP
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.gravity = GRAVITY
+
+    # One MuJoCo body per moving link; links fixed to a body ride on it as an offset.
+    holders: dict[int, mujoco.MjsBody] = {0: spec.worldbody}
+    for joint in desc.joints:
+        parent = desc.frames[joint.parent]
+        origin = parent.offset @ joint.origin
+        body = holders[parent.body].add_body(name=joint.child, pos=origin[:3, 3],
+                                             quat=_quat(origin[:3, :3]))
+        body.gravcomp = 1.0  # the robot's own gravity compensation, see MujocoBackend.step
+        limits = joint.limits
+        # The physical stop is the widest range the robot allows: the datasheet (soft) limits.
+        lower = limits.lower if limits.soft_lower is None else min(limits.lower, limits.soft_lower)
+        upper = limits.upper if limits.soft_upper is None else max(limits.upper, limits.soft_upper)
+        body.add_joint(name=joint.name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint.axis,
+                       range=[lower, upper], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                       armature=armature[joint.index - 1], damping=0.0, frictionloss=0.0)
+        holders[joint.index] = body
+
+    moving_links = {joint.child for joint in desc.joints}
+    for name, frame in desc.frames.items():
+        if name == desc.root:
+            continue
+        inertial = desc.inertials.get(name)
+        if name in moving_links:
+            body, offset = holders[frame.body], np.eye(4)
+        elif inertial is not None:
+            # A massive link fixed to a body (link0 on the base): a welded body of its own,
+            # which also gives its geoms a name. On the base its inertia never moves.
+            body = holders[frame.body].add_body(name=name, pos=frame.offset[:3, 3],
+                                                quat=_quat(frame.offset[:3, :3]))
+            body.gravcomp = 0.0 if frame.body == 0 else 1.0
+            offset = np.eye(4)
+        else:  # a massless frame (flange, accelerometers): a site
+            body, offset = holders[frame.body], frame.offset
+            body.add_site(name=FLANGE_SITE if name == FLANGE_LINK else name,
+                          pos=offset[:3, 3], quat=_quat(offset[:3, :3]))
+        if inertial is not None:
+            _set_inertial(body, inertial.mass, inertial.com, inertial.inertia_in_link)
+        if name in COLLISION_CAPSULES:
+            _add_capsules(body, COLLISION_CAPSULES[name], offset, name)
+
+    flange = desc.frames[FLANGE_LINK]
+    hand_body = holders[flange.body].add_body(name=HAND_BODY, pos=flange.offset[:3, 3],
+                                              quat=_quat(flange.offset[:3, :3]))
+    hand_body.gravcomp = 1.0
+    _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+    _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY)
+
+    for name in ACCELEROMETER_TOP + ACCELEROMETER_BOTTOM:
+        if name not in desc.frames:  # a description without them reports zeros
+            continue
+        spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_ACCELEROMETER,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
+    return spec
+
+
+def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
+                scene_xml: str | None = None) -> mujoco.MjModel:
+    """Compile the arm, optionally inside a scene.
+
+    `scene_xml` is an MJCF document whose worldbody contents (floor, lights, objects) are
+    attached around the arm, with names prefixed "scene/" so they cannot clash with the arm's.
+    The arm's options (1 ms step, integrator, gravity) win over the scene's.
+    """
+    spec = build_spec(desc, armature=armature)
+    if scene_xml is not None:
+        scene = mujoco.MjSpec.from_string(scene_xml)
+        spec.attach(scene, frame=spec.worldbody.add_frame(), prefix="scene/")
+    return spec.compile()
