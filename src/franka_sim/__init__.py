@@ -1,0 +1,24 @@
+"""franka-sim: a simulated Franka FR3 that libfranka clients cannot tell from the robot."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("franka-sim")
+except PackageNotFoundError:  # running from a source tree
+    __version__ = "0.0.0"
+
+
+def __getattr__(name: str):
+    # Lazy so `import franka_sim` stays cheap for the CLI's --help and for tools.
+    if name == "FrankaSim":
+        from franka_sim.server.sim import FrankaSim
+
+        return FrankaSim
+    if name == "Config":
+        from franka_sim.config import Config
+
+        return Config
+    raise AttributeError(name)
+
+
+__all__ = ["FrankaSim", "Config", "__version__"]

@@ -1,0 +1,3 @@
+from franka_sim.cli import main
+
+main()

@@ -1,0 +1,92 @@
+"""`franka-sim`: run a simulated FR3 that libfranka clients connect to as if it were the robot."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import signal
+from pathlib import Path
+
+import typer
+
+from franka_sim.config import ClockMode, Config
+
+app = typer.Typer(
+    help="A simulated Franka FR3 (with Franka Hand) that speaks libfranka's wire protocol.\n\n"
+    "Point unmodified libfranka / pylibfranka code at the address it serves "
+    "(127.0.0.1 by default) instead of the robot's.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+
+log = logging.getLogger("franka_sim")
+
+
+@app.callback()
+def _root() -> None:
+    """Keeps `serve` a sub-command even while it is the only one."""
+
+
+@app.command()
+def serve(
+    host: str = typer.Option(
+        "127.0.0.1", envvar="FRANKA_SIM_HOST",
+        help="Address to serve the robot on (TCP 1337 + UDP). Use one loopback address "
+        "per simulated robot, e.g. 127.0.0.2.",
+    ),
+    urdf: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_URDF", exists=True, dir_okay=False,
+        help="Serve (and simulate) this hand-less FR3 URDF instead of the packaged one.",
+    ),
+    clock: ClockMode = typer.Option(
+        ClockMode.realtime, envvar="FRANKA_SIM_CLOCK",
+        help="realtime: one cycle per wall-clock ms. lockstep: while a motion runs, the next "
+        "cycle starts as soon as the client answered the last one.",
+    ),
+    log_level: str = typer.Option(
+        "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
+    ),
+) -> None:
+    """Run the simulated robot until Ctrl-C or SIGTERM."""
+    logging.basicConfig(
+        level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s"
+    )
+    config = Config(host=host, urdf=urdf, clock=clock)
+    try:
+        import uvloop
+
+        uvloop.run(_serve(config))
+    except _Failed as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+class _Failed(Exception):
+    pass
+
+
+async def _serve(config: Config) -> None:
+    from franka_sim.description.urdf import DescriptionError
+    from franka_sim.server.sim import AddressInUse, FrankaSim
+
+    try:
+        sim = FrankaSim(config)
+    except DescriptionError as exc:
+        raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
+    try:
+        await sim.start()
+    except AddressInUse as exc:
+        raise _Failed(exc.strerror) from None
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    try:
+        await stop.wait()
+    finally:
+        log.info("stopping")
+        await sim.stop()
+
+
+def main() -> None:
+    app()

@@ -1,0 +1,103 @@
+"""The publish loop: release a cycle, step physics once, publish the state, pace the next.
+
+Callback-driven rather than a coroutine per cycle, because it runs 1000 times a second and a
+callback chain is the cheapest thing asyncio does. Exactly one physics step per published
+cycle; only the release instant depends on the wall clock (see pacing.py).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from typing import Callable
+
+from franka_sim.physics.worker import PhysicsWorker
+from franka_sim.robot.core import RobotCore
+from franka_sim.server.pacing import Pacer
+from franka_sim.server.timer import DeadlineTimer
+
+log = logging.getLogger(__name__)
+
+
+def _step(backend, joint_command):
+    return backend.step(joint_command)
+
+
+class CycleDriver:
+    def __init__(
+        self,
+        core: RobotCore,
+        worker: PhysicsWorker,
+        publish: Callable[[bytes], None],
+        *,
+        lockstep: bool = False,
+        after_cycle: Callable[[], None] | None = None,
+    ) -> None:
+        self.core = core
+        self.worker = worker
+        self.publish = publish
+        self.lockstep = lockstep
+        self.after_cycle = after_cycle
+        self.pacer = Pacer()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._timer: DeadlineTimer | None = None
+        self._token = 0
+        self._busy = False
+        self._pending = False
+        self._running = False
+        self._idle = asyncio.Event()
+
+    def start(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._timer = DeadlineTimer(self._loop, self._on_deadline)
+        self._timer.start()
+        self._running = True
+        self._release()
+
+    async def stop(self) -> None:
+        self._running = False
+        if self._timer is not None:
+            self._timer.stop()
+        if self._busy:
+            await self._idle.wait()
+
+    def release_early(self) -> None:
+        """Lockstep: the command answering the current cycle arrived; go on at once."""
+        if not self._running:
+            return
+        if self._busy:
+            self._pending = True
+        else:
+            self._release()
+
+    def _on_deadline(self, token: int) -> None:
+        if token == self._token and self._running and not self._busy:
+            self._release()
+
+    def _release(self) -> None:
+        self._busy = True
+        self._pending = False
+        self._idle.clear()
+        self._token += 1  # invalidates any armed deadline for this cycle
+        self.worker.submit(_step, (self.core.joint_command(),), self._on_stepped, self._loop)
+
+    def _on_stepped(self, measured) -> None:
+        if isinstance(measured, BaseException):
+            log.error("physics step failed; publishing stopped: %s", measured)
+            self._running = False
+        else:
+            self.publish(self.core.publish(measured))
+            if self.after_cycle is not None:
+                self.after_cycle()
+        released_at = time.monotonic()
+        self._busy = False
+        self._idle.set()
+        if not self._running:
+            return
+        lockstep = self.lockstep and self.core.motion_running
+        if self._pending and lockstep:
+            self._release()
+            return
+        deadline = self.pacer.next_deadline(released_at, lockstep=lockstep)
+        self._timer.arm(deadline, self._token)

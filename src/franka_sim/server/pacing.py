@@ -1,0 +1,39 @@
+"""When to release the next cycle: the clock policy, as pure arithmetic on monotonic times.
+
+The robot's time is the cycle counter; this only decides the wall-clock instant at which the
+next cycle is released. `realtime` keeps absolute 1 ms deadlines (t0 + k·1 ms) so the rate has
+no drift, but never releases two states closer than `min_spacing` — after an overrun it catches
+up at up to 2 kHz instead of bursting — and re-anchors after a stall too long to catch up (a
+frozen host), because no client benefits from a flood of stale cycles. `lockstep` (only while a
+motion runs) gives each cycle a 1 ms window from its release; the server releases the next
+cycle early as soon as the command answering the current one arrives.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+PERIOD = 1e-3
+
+
+@dataclass
+class Pacer:
+    period: float = PERIOD
+    min_spacing: float = 0.5e-3
+    max_lag: float = 0.020
+    _t0: float | None = None
+    _k: int = 0
+
+    def next_deadline(self, released_at: float, *, lockstep: bool) -> float:
+        """The deadline of the cycle after the one released at `released_at`."""
+        if lockstep:
+            self._t0 = None  # realtime pacing re-anchors when lockstep ends
+            return released_at + self.period
+        if self._t0 is None:
+            self._t0, self._k = released_at, 0
+        self._k += 1
+        deadline = self._t0 + self._k * self.period
+        if released_at - deadline > self.max_lag:
+            self._t0, self._k = released_at, 1
+            deadline = released_at + self.period
+        return max(deadline, released_at + self.min_spacing)

@@ -1,0 +1,119 @@
+"""FrankaSim: one simulated FR3 on one address, usable as `async with FrankaSim(...)`.
+
+It wires the pieces and nothing else: description → physics worker, robot core, the TCP and
+UDP endpoints, and the cycle driver. Works on any asyncio loop (uvloop is the CLI's choice,
+not a requirement here).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import logging
+
+import numpy as np
+
+from franka_sim.config import ClockMode, Config
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.worker import PhysicsWorker
+from franka_sim.robot.core import RobotCore
+from franka_sim.robot.requests import RequestHandler
+from franka_sim.robot.session import RobotSession
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.udp_endpoint import UdpEndpoint
+
+log = logging.getLogger(__name__)
+
+
+class AddressInUse(OSError):
+    """The robot port on this address is taken (another simulator, or a robot bridge)."""
+
+
+class FrankaSim:
+    def __init__(self, config: Config | None = None, **overrides) -> None:
+        config = config or Config()
+        for key, value in overrides.items():
+            setattr(config, key, value)
+        self.config = config
+        self.urdf_text = (
+            config.urdf.read_text() if config.urdf is not None else default_urdf_text()
+        )
+        self.description = load_arm_description(self.urdf_text)
+        q0 = np.array(config.q0, dtype=float)
+        self.core = RobotCore(q0)
+        self.worker = PhysicsWorker(lambda: MujocoBackend(self.description, q0))
+        self.udp = UdpEndpoint(self._on_command)
+        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect)
+        self.driver = CycleDriver(
+            self.core, self.worker, self.udp.send_state,
+            lockstep=config.clock is ClockMode.lockstep, after_cycle=self._flush_replies,
+        )
+        self._started = False
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    async def start(self) -> "FrankaSim":
+        loop = asyncio.get_running_loop()
+        await self.worker.start()
+        try:
+            await self.robot.start(self.config.host, self.config.robot_port)
+        except OSError as exc:
+            await self.worker.stop()
+            if exc.errno == errno.EADDRINUSE:
+                raise AddressInUse(
+                    exc.errno,
+                    f"{self.config.host}:{self.config.robot_port} is already in use "
+                    "(another franka-sim or robot bridge on this address?)",
+                ) from exc
+            raise
+        await loop.create_datagram_endpoint(lambda: self.udp, local_addr=(self.config.host, 0))
+        self.driver.start()
+        self._started = True
+        log.info(
+            "simulated FR3 serving on %s:%d (clock %s)",
+            self.config.host, self.config.robot_port, self.config.clock.value,
+        )
+        return self
+
+    async def stop(self) -> None:
+        if not self._started:
+            return
+        self._started = False
+        await self.robot.stop()
+        await self.driver.stop()
+        if self.udp.transport is not None:
+            self.udp.transport.close()
+        await self.worker.stop()
+
+    async def __aenter__(self) -> "FrankaSim":
+        return await self.start()
+
+    async def __aexit__(self, *exc) -> None:
+        await self.stop()
+
+    @property
+    def address(self) -> tuple[str, int]:
+        """(host, port) of the robot's TCP endpoint."""
+        return self.config.host, self.config.robot_port
+
+    # -- wiring --------------------------------------------------------------------------------
+    def _make_session(self) -> RobotSession:
+        return RobotSession(RequestHandler(self.core, self.urdf_text.encode()))
+
+    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
+        self.udp.target = (peer_ip, udp_port)
+        self.core.client_connected()
+
+    def _on_disconnect(self) -> None:
+        self.udp.target = None
+        self.core.client_gone()
+
+    def _on_command(self, command) -> None:
+        if self.core.receive_command(command):
+            self.driver.release_early()
+        self._flush_replies()
+
+    def _flush_replies(self) -> None:
+        for reply in self.core.take_replies():
+            self.robot.send(reply)

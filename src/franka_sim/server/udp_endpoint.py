@@ -1,0 +1,57 @@
+"""The UDP side: RobotState out to the connected client, RobotCommand in from it.
+
+States go to (client IP, the port it announced in Connect); libfranka answers from that same
+socket, so a datagram from any other address is not the client's and is dropped and counted.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Callable
+
+from franka_sim.protocol.codec import decode_command
+from franka_sim.protocol.framing import ProtocolError
+
+log = logging.getLogger(__name__)
+
+
+class UdpEndpoint(asyncio.DatagramProtocol):
+    def __init__(self, on_command: Callable[[object], None]) -> None:
+        self.on_command = on_command
+        self.target: tuple[str, int] | None = None
+        self.transport: asyncio.DatagramTransport | None = None
+        self.dropped_foreign = 0
+        self.dropped_malformed = 0
+
+    def connection_made(self, transport) -> None:  # type: ignore[override]
+        self.transport = transport
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.transport.get_extra_info("sockname")[:2]
+
+    def send_state(self, data: bytes) -> None:
+        if self.target is not None and self.transport is not None:
+            self.transport.sendto(data, self.target)
+
+    def datagram_received(self, data: bytes, addr) -> None:  # type: ignore[override]
+        if self.target is None or tuple(addr[:2]) != self.target:
+            self.dropped_foreign += 1
+            if self.dropped_foreign in (1, 10, 100) or self.dropped_foreign % 1000 == 0:
+                log.warning(
+                    "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
+                    addr[0], addr[1], self.dropped_foreign,
+                )
+            return
+        try:
+            command = decode_command(data)
+        except ProtocolError as exc:
+            self.dropped_malformed += 1
+            log.warning("dropped UDP datagram from the client: %s", exc)
+            return
+        self.on_command(command)
+
+    def error_received(self, exc: Exception) -> None:  # type: ignore[override]
+        # ICMP port unreachable after a client vanished: nothing to do but keep serving.
+        log.debug("UDP error: %s", exc)

@@ -1,0 +1,73 @@
+"""Connecting: what a libfranka client sees when it opens and closes the robot connection."""
+
+from __future__ import annotations
+
+import socket
+import struct
+import subprocess
+import sys
+
+import pylibfranka
+import pytest
+
+
+ROBOT_PORT = 1337
+
+
+def _connect(host: str) -> pylibfranka.Robot:
+    return pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+
+
+def test_pylibfranka_connects_and_reads_an_idle_robot(robot):
+    state = robot.read_once()
+    assert state.robot_mode == pylibfranka.RobotMode.Idle
+    assert state.control_command_success_rate == 0.0
+
+
+def test_disconnect_then_reconnect_at_once(sim):
+    first = _connect(sim.host)
+    t1 = first.read_once().time.to_sec() * 1000
+    del first
+    second = _connect(sim.host)
+    t2 = second.read_once().time.to_sec() * 1000
+    assert t2 > t1  # the robot's clock kept counting across clients
+    del second
+
+
+def test_second_simultaneous_client_is_turned_away_and_first_keeps_working(robot, sim):
+    with pytest.raises(pylibfranka.NetworkException):
+        _connect(sim.host)
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def _raw_connect(host: str, version: int, udp_port: int = 40000) -> bytes:
+    with socket.create_connection((host, ROBOT_PORT), timeout=2) as s:
+        s.sendall(struct.pack("<IIIHH", 0, 0, 16, version, udp_port))
+        data = b""
+        while len(data) < 15:
+            chunk = s.recv(64)
+            if not chunk:
+                break
+            data += chunk
+        return data
+
+
+def test_wrong_library_version_gets_incompatible_and_our_version(sim):
+    reply = _raw_connect(sim.host, version=9)
+    command, command_id, size, status, version = struct.unpack("<IIIBH", reply[:15])
+    assert (command, command_id, size) == (0, 0, 15)
+    assert status == 1  # kIncompatibleLibraryVersion
+    assert version == 10
+    # ...and the robot is still there for a client that speaks v10.
+    r = _connect(sim.host)
+    assert r.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_port_taken_is_a_clear_one_line_error_and_nonzero_exit(sim):
+    second = subprocess.run(
+        [sys.executable, "-m", "franka_sim", "serve", "--host", sim.host],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert second.returncode != 0
+    assert "already in use" in second.stderr
+    assert second.stderr.strip().count("\n") == 0 or "Traceback" not in second.stderr
