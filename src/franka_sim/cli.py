@@ -43,6 +43,12 @@ def serve(
         help="realtime: one cycle per wall-clock ms. lockstep: while a motion runs, the next "
         "cycle starts as soon as the client answered the last one.",
     ),
+    enforce_comm_constraints: bool = typer.Option(
+        False, "--enforce-comm-constraints/--no-enforce-comm-constraints",
+        envvar="FRANKA_SIM_ENFORCE_COMM_CONSTRAINTS",
+        help="Abort a motion with communication_constraints_violation after 20 consecutive "
+        "lost command cycles, as the robot does. Off: losses are only counted and reported.",
+    ),
     log_level: str = typer.Option(
         "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
     ),
@@ -51,7 +57,9 @@ def serve(
     logging.basicConfig(
         level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s"
     )
-    config = Config(host=host, urdf=urdf, clock=clock)
+    config = Config(
+        host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints
+    )
     try:
         import uvloop
 

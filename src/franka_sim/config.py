@@ -24,4 +24,5 @@ class Config:
     robot_port: int = 1337  # libfranka pins it; other values only serve raw-socket clients
     urdf: Path | None = None  # None: the packaged FR3 description
     clock: ClockMode = ClockMode.realtime
+    enforce_comm_constraints: bool = False  # abort after 20 lost cycles, as the robot does
     q0: tuple[float, ...] = field(default=READY_POSE)

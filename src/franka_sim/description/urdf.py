@@ -36,7 +36,7 @@ def _frozen(values) -> np.ndarray:
     return array
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # numpy fields: identity, not value, equality
 class Inertial:
     """A link's rigid-body inertia, as URDF states it (mass, CoM frame, tensor about the CoM)."""
 
@@ -63,7 +63,7 @@ class JointLimits:
     soft_upper: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ArmJoint:
     name: str
     index: int  # 1..7, position in the chain
@@ -74,7 +74,7 @@ class ArmJoint:
     limits: JointLimits
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Frame:
     """Where a link sits on the kinematic chain: a fixed offset from one moving body.
 
@@ -86,7 +86,7 @@ class Frame:
     offset: np.ndarray  # (4,4) pose in that body's frame
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ArmDescription:
     name: str
     root: str

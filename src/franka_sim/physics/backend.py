@@ -13,7 +13,7 @@ from typing import Protocol
 import numpy as np
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # numpy fields: identity, not value, equality
 class JointCommand:
     """What the joint drives are asked to do during one 1 ms step.
 
@@ -42,7 +42,7 @@ class JointCommand:
                    np.asarray(K, float), np.asarray(D, float))
 
 
-@dataclass
+@dataclass(eq=False)
 class Measured:
     """The robot's sensor readings after a step; arrays are fresh per step (safe to keep)."""
 

@@ -42,23 +42,28 @@ class MujocoBackend:
 
         jids = [model.joint(j.name).id for j in desc.joints]
         qadr, vadr = model.jnt_qposadr[jids], model.jnt_dofadr[jids]
-        if list(qadr) != list(range(qadr[0], qadr[0] + 7)) or list(vadr) != list(range(vadr[0], vadr[0] + 7)):
+        if not (np.diff(qadr) == 1).all() or not (np.diff(vadr) == 1).all():
             raise RuntimeError("arm joints must be contiguous in qpos/qvel")
         self._qs, self._vs = slice(qadr[0], qadr[0] + 7), slice(vadr[0], vadr[0] + 7)
         self._flange = model.site(FLANGE_SITE).id
         self._hand = model.body(HAND_BODY).id
-        self._sensor_rows = [[model.sensor_adr[model.sensor(n).id] if n in desc.frames else -1
-                              for n in names] for names in (ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)]
+        # Accelerometer readings as one gather: (top, bottom) × joints 1..6 × xyz. A description
+        # without some sensors points them one past the end, at a zero appended per read.
+        index = np.full((2, 6, 3), model.nsensordata)
+        for k, names in enumerate((ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)):
+            for i, name in enumerate(names):
+                if name in desc.frames:
+                    index[k, i] = model.sensor_adr[model.sensor(name).id] + np.arange(3)
+        self._acc_index = index
+        self._acc_all_present = bool((index < model.nsensordata).all())
         self._armature = model.dof_armature[self._vs].copy()
 
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self._qs], data.qvel[self._vs]
         self._applied = data.qfrc_applied[self._vs]
         self._gcomp = data.qfrc_gravcomp[self._vs]
-        self._flange_pos, self._flange_mat = data.site_xpos[self._flange], data.site_xmat[self._flange]
-        self._acc_index = np.array([[r + np.arange(3) if r >= 0 else np.full(3, -1) for r in rows]
-                                    for rows in self._sensor_rows])
-        self._has_all_accelerometers = bool((self._acc_index >= 0).all())
+        self._flange_pos = data.site_xpos[self._flange]
+        self._flange_mat = data.site_xmat[self._flange]
         self._tmp = np.zeros(7)
         self._motor = np.zeros(7)
         self._dq_prev = np.zeros(7)
@@ -98,11 +103,9 @@ class MujocoBackend:
         O_T_F[:3, :3] = self._flange_mat.reshape(3, 3)
         O_T_F[:3, 3] = self._flange_pos
         sensordata = self.data.sensordata
-        if self._has_all_accelerometers:
-            top, bottom = sensordata[self._acc_index[0]], sensordata[self._acc_index[1]]
-        else:
-            padded = np.append(sensordata, 0.0)  # index −1 → the appended zero
-            top, bottom = padded[self._acc_index[0]], padded[self._acc_index[1]]
+        if not self._acc_all_present:
+            sensordata = np.append(sensordata, 0.0)
+        top, bottom = sensordata[self._acc_index]
         self._last = Measured(
             q=self._q.copy(), dq=self._dq.copy(), ddq=ddq.copy(), tau_J=tau_J, dtau_J=dtau_J,
             theta=theta, dtheta=dtheta, O_T_F=O_T_F, accelerometer_top=top,
@@ -164,6 +167,20 @@ class MujocoBackend:
         pose[:3, :3] = s.site_xmat[self._flange].reshape(3, 3)
         pose[:3, 3] = s.site_xpos[self._flange]
         return pose
+
+    def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """O_T_F and the flange Jacobian at q from one kinematics pass (the desired-state path)."""
+        s = self._scratch
+        s.qpos[:] = self.data.qpos
+        s.qpos[self._qs] = q
+        mujoco.mj_kinematics(self.model, s)
+        mujoco.mj_comPos(self.model, s)  # what mj_jacSite needs, nothing more
+        pose = np.eye(4)
+        pose[:3, :3] = s.site_xmat[self._flange].reshape(3, 3)
+        pose[:3, 3] = s.site_xpos[self._flange]
+        jacp, jacr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
+        mujoco.mj_jacSite(self.model, s, jacp, jacr, self._flange)
+        return pose, np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
 
     # -- run-time changes -------------------------------------------------------------------------
     def set_end_effector(self, mass: float, com, inertia) -> None:

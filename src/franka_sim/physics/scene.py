@@ -36,15 +36,21 @@ HAND_BODY = "hand"
 # Collision capsules (from, to, radius) in each link's own frame, m. Rough envelopes of the
 # FR3's housings, our own sizing: good enough for contact with the environment and gross
 # self-collision, not for clearance checks. The served URDF carries no collision geometry.
-COLLISION_CAPSULES: dict[str, tuple[tuple[tuple[float, ...], tuple[float, ...], float], ...]] = {
-    "link0": (((-0.04, 0.0, 0.05), (0.0, 0.0, 0.16), 0.09),),
-    "link1": (((0.0, 0.0, -0.19), (0.0, 0.0, -0.05), 0.07),),
-    "link2": (((0.0, 0.0, -0.05), (0.0, 0.0, 0.05), 0.065), ((0.0, 0.0, 0.0), (0.0, -0.21, 0.0), 0.06)),
-    "link3": (((0.0, 0.0, -0.14), (0.0, 0.0, -0.02), 0.06), ((0.0825, -0.05, 0.0), (0.0825, 0.05, 0.0), 0.055)),
-    "link4": (((0.0, 0.0, -0.05), (0.0, 0.0, 0.05), 0.06), ((-0.0825, 0.08, 0.0), (-0.0825, 0.13, 0.0), 0.06)),
-    "link5": (((0.0, 0.0, -0.29), (0.0, 0.0, -0.20), 0.06), ((0.0, 0.08, -0.18), (0.0, 0.08, -0.05), 0.03)),
-    "link6": (((0.0, 0.0, -0.03), (0.0, 0.0, 0.01), 0.055), ((0.02, 0.0, 0.0), (0.088, 0.0, 0.0), 0.05)),
-    "link7": (((0.0, 0.0, -0.01), (0.0, 0.0, 0.07), 0.045),),
+Capsule = tuple[tuple[float, float, float], tuple[float, float, float], float]
+COLLISION_CAPSULES: dict[str, tuple[Capsule, ...]] = {
+    "link0": (((-0.04, 0, 0.05), (0, 0, 0.16), 0.09),),  # base column
+    "link1": (((0, 0, -0.19), (0, 0, -0.05), 0.07),),  # shoulder housing
+    "link2": (((0, 0, -0.05), (0, 0, 0.05), 0.065),  # joint-2 housing
+              ((0, 0, 0), (0, -0.21, 0), 0.06)),  # upper arm
+    "link3": (((0, 0, -0.14), (0, 0, -0.02), 0.06),  # upper arm, elbow side
+              ((0.0825, -0.05, 0), (0.0825, 0.05, 0), 0.055)),  # elbow, along joint 4
+    "link4": (((0, 0, -0.05), (0, 0, 0.05), 0.06),  # elbow housing
+              ((-0.0825, 0.08, 0), (-0.0825, 0.13, 0), 0.06)),  # forearm root
+    "link5": (((0, 0, -0.29), (0, 0, -0.20), 0.06),  # forearm
+              ((0, 0.08, -0.18), (0, 0.08, -0.05), 0.03)),  # forearm strut to the wrist
+    "link6": (((0, 0, -0.03), (0, 0, 0.01), 0.055),  # wrist housing (joint 6)
+              ((0.02, 0, 0), (0.088, 0, 0), 0.05)),  # towards joint 7
+    "link7": (((0, 0, -0.01), (0, 0, 0.07), 0.045),),  # joint-7 housing up to the flange
 }
 # The Hand, in the flange frame: a bar across the finger direction (the hand's y axis is the
 # flange's y turned −45° about z), standing on the flange.

@@ -1,10 +1,11 @@
 """The FCI robot as a state machine clocked by the cycle number.
 
-No sockets, threads or wall time here (see docs/architecture.md): the server asks the core
-which joint command to apply for the next cycle, steps physics with it, and hands the measured
-state back to be published. Everything the client can observe — modes, errors, desired and
-commanded signals, the frames it configured — is decided here, so it can be tested in
-microseconds without a network.
+No sockets, threads or wall time here (see docs/architecture.md). Per cycle the server calls
+`joint_command()` when it releases the cycle (that closes the previous cycle's command window),
+steps physics with the result, and hands the measurement to `publish()`, which returns the
+RobotState bytes. TCP requests and UDP commands arrive in between. Everything a client can
+observe — modes, errors, desired signals, the frames it configured, Move replies — is decided
+here, so it is testable in microseconds without a network.
 """
 
 from __future__ import annotations
@@ -13,9 +14,7 @@ import logging
 
 import numpy as np
 
-from franka_sim.description import hand
 from franka_sim.physics.backend import JointCommand, Measured
-from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import (
     AutomaticErrorRecoveryStatus,
     Command,
@@ -25,141 +24,251 @@ from franka_sim.protocol.enums import (
     RobotMode,
     StopMoveStatus,
 )
+from franka_sim.protocol.errors import NUM_ERRORS, error_index
 from franka_sim.protocol.robot_messages import build_response
-from franka_sim.protocol.errors import NUM_ERRORS
-from franka_sim.robot.frames import column_major, elbow_of
+from franka_sim.robot.command_cycle import CommandCycle
+from franka_sim.robot.controllers import impedance_damping
+from franka_sim.robot.motion import (
+    JOINT_GENERATORS,
+    MAX_EXTRAPOLATED_CYCLES,
+    Motion,
+    MoveRejected,
+    MoveSpec,
+    parse_move,
+)
+from franka_sim.robot.publisher import StatePublisher
 from franka_sim.robot.settings import Load, RobotSettings
 
 log = logging.getLogger(__name__)
 
-GRAVITY = np.array([0.0, 0.0, -9.81])
-
-
-def idle_damping(K: np.ndarray) -> np.ndarray:
-    """Damping the internal joint impedance derives from its stiffness.
-
-    The robot's law is unpublished ("damping is derived from the stiffness"); we use critical
-    damping against a nominal reflected inertia per joint (rotor + distal links), which keeps the
-    explicit 1 kHz loop far inside its stability bound for every K in the allowed range.
-    """
-    return 2.0 * np.sqrt(K * NOMINAL_JOINT_INERTIA)
-
-
-# Rough reflected inertia seen by each joint at a typical pose, kg·m² (armature + distal links);
-# only used to derive impedance damping.
-NOMINAL_JOINT_INERTIA = np.array([0.6, 0.6, 0.35, 0.3, 0.1, 0.1, 0.08])
-
+# Recovery waits for the arm to stop before it answers, at most this long (the robot's
+# answer time is bounded well inside libfranka's 1 s TCP timeout).
+RECOVERY_MAX_CYCLES = 700
+RECOVERY_REST_VELOCITY = 1e-3  # rad/s
+_COMMAND_FIELDS = ("q_c", "dq_c", "O_T_EE_c", "O_dP_EE_c", "elbow_c", "tau_J_d")
 
 class RobotCore:
-    """Owns what the robot reports and decides: the session-independent robot."""
+    """The robot behind the FCI: settings, modes, errors, the running motion, the state."""
 
-    def __init__(self, q0: np.ndarray, *, first_message_id: int = 1) -> None:
+    def __init__(self, q0: np.ndarray, *, enforce_comm_constraints: bool = False,
+                 first_message_id: int = 1) -> None:
         self.settings = RobotSettings()
+        self.enforce_comm_constraints = enforce_comm_constraints
         self.message_id = first_message_id - 1  # id of the last published state
         self.robot_mode = RobotMode.kIdle
-        self.motion_generator_mode = MotionGeneratorMode.kIdle
-        self.controller_mode = ControllerMode.kJointImpedance
         self.errors = np.zeros(NUM_ERRORS, dtype=bool)
         self.reflex_reason = np.zeros(NUM_ERRORS, dtype=bool)
         self.q_hold = np.array(q0, dtype=float)
         self.measured: Measured | None = None
-        self.state = StateBuffer()
+        self.motion: Motion | None = None
+        self.cycle = CommandCycle()
+        self.publisher = StatePublisher(self.settings)
         self._replies: list[bytes] = []
-        self._write_constant_fields()
+        self._recovery: tuple[int, int] | None = None  # (command_id, cycles waited)
+        self._stray_commands = 0
+        self._stalled_at: np.ndarray | None = None
 
-    # -- the cycle -------------------------------------------------------------------------
+    # -- the cycle ---------------------------------------------------------------------------
     def joint_command(self) -> JointCommand:
-        """What the drives should do during the next 1 ms: hold the pose, gravity compensated."""
+        """Release the next cycle: close the open command window and decide the drives' task."""
+        motion = self.motion
+        if motion is not None and motion.running:
+            self._close_cycle(motion)
+        motion = self.motion  # closing may have ended it
         K = self.settings.K_theta
-        return JointCommand(
-            tau_ff=np.zeros(7), q_d=self.q_hold, dq_d=np.zeros(7), K=K, D=idle_damping(K)
-        )
+        if motion is None or not motion.running:
+            return JointCommand.impedance(self.q_hold, K, impedance_damping(K))
+        if self._stalled_at is not None:
+            return JointCommand.impedance(self._stalled_at, K, impedance_damping(K))
+        if motion.spec.torque_controlled:
+            return JointCommand.torque(motion.tau_J_d)
+        ref = motion.reference
+        return JointCommand.impedance(ref.q_d, K, impedance_damping(K), dq_d=ref.dq_d)
 
-    def publish(self, measured: Measured) -> bytes:
-        """Close the cycle: record the measured state and pack the next RobotState."""
+    def publish(self, measured: Measured, desired_kinematics=None) -> bytes:
+        """Close the cycle: take the measurement, advance the clock, pack the RobotState."""
         self.message_id += 1
         self.measured = measured
-        s = self.state
-        s.message_id[...] = self.message_id
-        F_T_EE = hand.F_T_NE_HAND @ self.settings.NE_T_EE
-        O_T_EE = measured.O_T_F @ F_T_EE
-        s.O_T_EE[:] = column_major(O_T_EE)
-        s.O_T_EE_d[:] = s.O_T_EE
-        s.O_T_EE_c[:] = s.O_T_EE
-        s.F_T_EE[:] = column_major(F_T_EE)
-        s.NE_T_EE[:] = column_major(self.settings.NE_T_EE)
-        s.EE_T_K[:] = column_major(self.settings.EE_T_K)
-        load = self.settings.load
-        s.m_load[...] = load.mass
-        s.F_x_Cload[:] = load.F_x_C
-        s.I_load[:] = column_major(load.inertia)
-        q = measured.q
-        s.q[:] = q
-        s.q_d[:] = q
-        s.dq[:] = measured.dq
-        s.tau_J[:] = measured.tau_J
-        s.dtau_J[:] = measured.dtau_J
-        s.theta[:] = measured.theta
-        s.dtheta[:] = measured.dtheta
-        elbow = elbow_of(q)
-        s.elbow[:] = elbow
-        s.elbow_d[:] = elbow
-        s.elbow_c[:] = elbow
-        s.accelerometer_top[:] = measured.accelerometer_top.ravel()
-        s.accelerometer_bottom[:] = measured.accelerometer_bottom.ravel()
-        s.robot_mode[...] = int(self.robot_mode)
-        s.motion_generator_mode[...] = int(self.motion_generator_mode)
-        s.controller_mode[...] = int(self.controller_mode)
-        s.errors[:] = self.errors
-        s.reflex_reason[:] = self.reflex_reason
-        s.control_command_success_rate[...] = 0.0
-        return s.pack()
+        motion = self.motion
+        if motion is not None and not motion.running:
+            motion.running = True  # the modes flip on the first state after kMotionStarted
+            self.robot_mode = RobotMode.kMove
+            self.reflex_reason[:] = False
+        if motion is not None:
+            self.cycle.opened(self.message_id)
+        self._advance_recovery(measured)
+        return self.publisher.pack(self, measured, desired_kinematics)
 
-    # -- the session's view -------------------------------------------------------------------
     @property
     def motion_running(self) -> bool:
-        return False
+        return self.motion is not None and self.motion.running
 
+    @property
+    def desired_q(self) -> np.ndarray | None:
+        """Joint positions whose kinematics the published state needs (None: the measured q)."""
+        motion = self.motion
+        if motion is None or not motion.running or motion.spec.generator not in JOINT_GENERATORS:
+            return None
+        return motion.reference.q_d
+
+    @property
+    def state_modes(self) -> tuple[MotionGeneratorMode, ControllerMode]:
+        if self.motion is not None and self.motion.running:
+            return self.motion.spec.state_modes
+        return MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance
+
+    @property
+    def success_rate(self) -> float:
+        return self.cycle.success_rate if self.motion_running else 0.0
+
+    def _close_cycle(self, motion: Motion) -> None:
+        closed = self.cycle.close()
+        if closed.command is not None:
+            motion.apply(closed.command)
+            self._stalled_at = None
+        else:
+            motion.miss(closed.consecutive_lost)
+        lost = closed.consecutive_lost
+        if lost >= MAX_EXTRAPOLATED_CYCLES and not motion.spec.use_async:
+            if self.enforce_comm_constraints:
+                log.warning("%d consecutive command cycles lost: communication_constraints_violation", lost)
+                self._reflex(["communication_constraints_violation"])
+                return
+            if lost == MAX_EXTRAPOLATED_CYCLES:
+                log.warning("client silent for %d cycles: holding the arm until it is heard again", lost)
+            if self._stalled_at is None and self.measured is not None:
+                self._stalled_at = self.measured.q.copy()
+        if closed.command is not None and motion.finished:
+            self._finish(motion)
+
+    # -- UDP commands ----------------------------------------------------------------------------
+    def receive_command(self, command) -> bool:
+        """A RobotCommand datagram from the client. True if it answered the open cycle in time."""
+        motion = self.motion
+        message_id = int(command["message_id"])
+        if motion is None or not motion.running:
+            self._stray_commands += 1
+            if self._stray_commands in (1, 100) or self._stray_commands % 10000 == 0:
+                log.info("RobotCommand for message_id %d ignored: no motion is running (%d so far)",
+                         message_id, self._stray_commands)
+            return False
+        for name in _COMMAND_FIELDS:
+            if not np.all(np.isfinite(command[name])):
+                log.warning("RobotCommand for message_id %d dropped: non-finite %s", message_id, name)
+                return False
+        return self.cycle.receive(message_id, command)
+
+    # -- TCP requests ----------------------------------------------------------------------------
+    def request_move(self, command_id: int, request) -> list[bytes]:
+        try:
+            spec = parse_move(request)
+            self._check_can_move(spec)
+        except MoveRejected as exc:
+            log.warning("Move rejected (%s): %s", exc.status.name, exc)
+            return [build_response(Command.Move, command_id, exc.status)]
+        start = self.measured.q if self.measured is not None else self.q_hold
+        self.motion = Motion(command_id, spec, start)
+        self.cycle = CommandCycle()
+        self._stalled_at = None
+        return [build_response(Command.Move, command_id, MoveStatus.kMotionStarted)]
+
+    def _check_can_move(self, spec: MoveSpec) -> None:
+        if self.motion is not None:
+            raise MoveRejected(MoveStatus.kCommandNotPossibleRejected, "a motion is already running")
+        if self.robot_mode is not RobotMode.kIdle:
+            raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
+                               f"robot is in {self.robot_mode.name}; recover first")
+        if spec.generator.name.startswith("kCartesian") and not spec.torque_controlled:
+            raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
+                               "Cartesian generators under an internal controller are not available yet")
+
+    def request_stop(self, command_id: int) -> list[bytes]:
+        replies = []
+        if self.motion is not None:
+            replies.append(build_response(Command.Move, self.motion.command_id, MoveStatus.kPreempted))
+            self._end_motion(RobotMode.kIdle)
+        replies.append(build_response(Command.StopMove, command_id, StopMoveStatus.kSuccess))
+        return replies
+
+    def request_recovery(self, command_id: int) -> list[bytes]:
+        if self.robot_mode is RobotMode.kMove:
+            return [build_response(Command.AutomaticErrorRecovery, command_id,
+                                   AutomaticErrorRecoveryStatus.kCommandNotPossibleRejected)]
+        if not self.errors.any() and self.robot_mode is RobotMode.kIdle:
+            return [build_response(Command.AutomaticErrorRecovery, command_id,
+                                   AutomaticErrorRecoveryStatus.kSuccess)]
+        self.robot_mode = RobotMode.kAutomaticErrorRecovery
+        self._recovery = (command_id, 0)
+        return []  # answered once the arm is at rest (see _advance_recovery)
+
+    def set_load(self, load: Load) -> None:
+        self.settings.load = load
+
+    # -- the session's view ----------------------------------------------------------------------
     def client_connected(self) -> None:
         """A client completed Connect; states now stream to it."""
 
     def client_gone(self) -> None:
-        """The client closed TCP: whatever it was doing ends, the arm holds."""
+        """The client closed TCP: its motion ends as if it went silent, and the arm holds."""
+        if self.motion is not None:
+            if self.enforce_comm_constraints and self.motion.running:
+                self._reflex(["communication_constraints_violation"])
+            else:
+                self._end_motion(RobotMode.kIdle)
+        self._recovery = None
+        if self.robot_mode is RobotMode.kAutomaticErrorRecovery:
+            self.robot_mode = RobotMode.kReflex
         self._replies.clear()
-
-    def receive_command(self, command) -> bool:
-        """A RobotCommand datagram from the client. True if it answered the current cycle."""
-        log.info("RobotCommand for message_id %d ignored: no motion is running",
-                 int(command["message_id"]))
-        return False
 
     def take_replies(self) -> list[bytes]:
         """TCP replies the robot produced on its own (a Move's final status), in order."""
         replies, self._replies = self._replies, []
         return replies
 
-    def request_move(self, command_id: int, request) -> list[bytes]:
-        log.warning("Move refused: motion generation is not implemented yet")
-        return [build_response(Command.Move, command_id, MoveStatus.kCommandNotPossibleRejected)]
+    # -- transitions -----------------------------------------------------------------------------
+    def _finish(self, motion: Motion) -> None:
+        if motion.still_moving():
+            log.warning("motion finished while the generator still moves: aborted")
+            self._replies.append(build_response(Command.Move, motion.command_id, MoveStatus.kReflexAborted))
+            self._end_motion(RobotMode.kIdle)
+            return
+        self._replies.append(build_response(Command.Move, motion.command_id, MoveStatus.kSuccess))
+        if not motion.spec.torque_controlled:
+            self.q_hold = motion.reference.q_d.copy()
+            self.motion = None
+            self.robot_mode = RobotMode.kIdle
+        else:
+            self._end_motion(RobotMode.kIdle)
 
-    def request_stop(self, command_id: int) -> list[bytes]:
-        return [build_response(Command.StopMove, command_id, StopMoveStatus.kSuccess)]
+    def _reflex(self, names: list[str]) -> None:
+        for name in names:
+            self.errors[error_index(name)] = True
+            self.reflex_reason[error_index(name)] = True
+        if self.motion is not None:
+            self._replies.append(
+                build_response(Command.Move, self.motion.command_id, MoveStatus.kReflexAborted)
+            )
+        self._end_motion(RobotMode.kReflex)
 
-    def request_recovery(self, command_id: int) -> list[bytes]:
+    def _end_motion(self, mode: RobotMode) -> None:
+        """Stop where the arm is: the impedance hold brings it to rest."""
+        self.motion = None
+        self._stalled_at = None
+        self.robot_mode = mode
+        if self.measured is not None:
+            self.q_hold = self.measured.q.copy()
+
+    def _advance_recovery(self, measured: Measured) -> None:
+        if self._recovery is None:
+            return
+        command_id, waited = self._recovery
+        at_rest = float(np.max(np.abs(measured.dq))) < RECOVERY_REST_VELOCITY
+        if not at_rest and waited < RECOVERY_MAX_CYCLES:
+            self._recovery = (command_id, waited + 1)
+            return
+        self._recovery = None
         self.errors[:] = False
         self.robot_mode = RobotMode.kIdle
-        return [build_response(
-            Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess
-        )]
-
-    def set_load(self, load: Load) -> None:
-        self.settings.load = load
-
-    # -- helpers ---------------------------------------------------------------------------
-    def _write_constant_fields(self) -> None:
-        s = self.state
-        s.F_T_NE[:] = column_major(hand.F_T_NE_HAND)
-        s.m_ee[...] = hand.HAND_MASS
-        s.F_x_Cee[:] = hand.HAND_COM
-        s.I_ee[:] = column_major(np.asarray(hand.HAND_INERTIA))
-        s.O_ddP_O[:] = GRAVITY
+        self.q_hold = measured.q.copy()
+        self._replies.append(build_response(
+            Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess))

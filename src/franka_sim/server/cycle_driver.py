@@ -20,8 +20,12 @@ from franka_sim.server.timer import DeadlineTimer
 log = logging.getLogger(__name__)
 
 
-def _step(backend, joint_command):
-    return backend.step(joint_command)
+def _step(backend, joint_command, q_desired):
+    """One physics step, plus the desired-side kinematics when a generator sets q_d."""
+    measured = backend.step(joint_command)
+    if q_desired is None:
+        return measured, None
+    return measured, backend.flange_pose_and_jacobian(q_desired)
 
 
 class CycleDriver:
@@ -80,14 +84,16 @@ class CycleDriver:
         self._pending = False
         self._idle.clear()
         self._token += 1  # invalidates any armed deadline for this cycle
-        self.worker.submit(_step, (self.core.joint_command(),), self._on_stepped, self._loop)
+        joint_command = self.core.joint_command()
+        q_desired = self.core.desired_q
+        self.worker.submit(_step, (joint_command, q_desired), self._on_stepped, self._loop)
 
-    def _on_stepped(self, measured) -> None:
-        if isinstance(measured, BaseException):
-            log.error("physics step failed; publishing stopped: %s", measured)
+    def _on_stepped(self, result) -> None:
+        if isinstance(result, BaseException):
+            log.error("physics step failed; publishing stopped: %s", result)
             self._running = False
         else:
-            self.publish(self.core.publish(measured))
+            self.publish(self.core.publish(*result))
             if self.after_cycle is not None:
                 self.after_cycle()
         released_at = time.monotonic()

@@ -1,0 +1,147 @@
+"""Shared helpers for the benchmarks: spawn/stop `franka-sim serve`, a raw v10 client, /proc stats.
+
+Not a benchmark itself. Everything here uses only the standard library so the figures do not
+depend on the package under test (except for spawning its console script).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import sysconfig
+import threading
+import time
+from pathlib import Path
+
+PRIVATE_HOST = "127.0.0.200"
+ROBOT_PORT = 1337
+STATE_SIZE = 1377
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+_CMSG_SPACE = socket.CMSG_SPACE(16)  # one struct timespec
+SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux value; Python lacks the name
+
+
+def serve_command(host: str) -> list[str]:
+    """The `franka-sim` console script of *this* interpreter (skips pyenv's shim), then PATH."""
+    script = Path(sysconfig.get_path("scripts")) / "franka-sim"
+    exe = str(script) if script.exists() else shutil.which("franka-sim")
+    if exe is None:
+        sys.exit("franka-sim not found: pip install -e . first")
+    return [exe, "serve", "--host", host]
+
+
+class Server:
+    """A `franka-sim serve` subprocess whose stderr is drained by a thread (so it never blocks).
+
+    `serving_at` is the perf_counter() instant the "serving on" log line was read.
+    """
+
+    def __init__(self, host: str = PRIVATE_HOST) -> None:
+        self.host = host
+        self.spawned_at = time.perf_counter()
+        self.proc = subprocess.Popen(
+            serve_command(host), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE, text=True, bufsize=1,
+        )
+        self.pid = self.proc.pid
+        self.serving_at: float | None = None
+        self.log: list[str] = []
+        self._serving = threading.Event()
+        threading.Thread(target=self._drain, daemon=True).start()
+
+    def _drain(self) -> None:
+        for line in self.proc.stderr:
+            if self.serving_at is None and "serving on" in line:
+                self.serving_at = time.perf_counter()
+                self._serving.set()
+            if len(self.log) < 200:
+                self.log.append(line.rstrip())
+        self._serving.set()  # EOF: the process died before serving
+
+    def wait_serving(self, timeout: float = 20.0) -> float:
+        """Seconds from spawn to the "serving on" line."""
+        if not self._serving.wait(timeout) or self.serving_at is None:
+            self.stop()
+            sys.exit("server did not start:\n" + "\n".join(self.log[-20:]))
+        return self.serving_at - self.spawned_at
+
+    def stop(self, timeout: float = 10.0) -> float:
+        """SIGTERM, wait for exit; seconds it took (inf if it had to be killed)."""
+        if self.proc.poll() is not None:
+            return 0.0
+        t0 = time.perf_counter()
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+            return float("inf")
+        return time.perf_counter() - t0
+
+
+class RawClient:
+    """The minimal v10 client: TCP Connect handshake, then a UDP socket receiving RobotState."""
+
+    def __init__(self, host: str, timeout: float = 2.0) -> None:
+        self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.udp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        # Kernel arrival timestamps: tell server-side jitter from this client's own scheduling.
+        self.udp.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+        self.udp.bind((host, 0))
+        self.udp.settimeout(timeout)
+        udp_port = self.udp.getsockname()[1]
+        # The server streams to the TCP peer's IP, so TCP must leave from the UDP socket's IP.
+        self.tcp = socket.create_connection((host, ROBOT_PORT), timeout, source_address=(host, 0))
+        self.tcp.sendall(struct.pack("<IIIHH", 0, 0, 16, 10, udp_port))
+        reply = b""
+        while len(reply) < 15:
+            chunk = self.tcp.recv(15 - len(reply))
+            if not chunk:
+                raise ConnectionError("server closed the connection during Connect")
+            reply += chunk
+        status = struct.unpack("<IIIBH", reply)[3]
+        if status != 0:
+            raise ConnectionError(f"Connect rejected with status {status}")
+
+    def recv_state(self) -> tuple[int, int, int]:
+        """(perf_counter_ns right after recv, message_id, kernel arrival ns) of the next state."""
+        data, anc, _, _ = self.udp.recvmsg(2048, _CMSG_SPACE)
+        t = time.perf_counter_ns()
+        sec, nsec = struct.unpack("<qq", anc[0][2]) if anc else (0, 0)
+        return t, struct.unpack_from("<Q", data)[0], sec * 1_000_000_000 + nsec
+
+    def close(self) -> None:
+        self.tcp.close()
+        self.udp.close()
+
+
+def cpu_seconds(pid: int) -> float:
+    """utime + stime of a process (all its threads), in seconds."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()  # comm may contain spaces
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # fields 14 and 15 of stat(5)
+
+
+def rss_mib(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def cpu_percent(pid: int, seconds: float) -> float:
+    """CPU used by pid over the next `seconds`, as % of one core."""
+    c0, t0 = cpu_seconds(pid), time.perf_counter()
+    time.sleep(seconds)
+    return 100 * (cpu_seconds(pid) - c0) / (time.perf_counter() - t0)
+
+
+def verdict(ok: bool) -> str:
+    return "ok" if ok else "MISS"

@@ -1,0 +1,103 @@
+"""RobotState stream quality seen by a minimal raw UDP client, plus the server's CPU and RSS.
+
+    python benchmarks/stream.py --seconds 10
+    python benchmarks/stream.py --host 127.0.0.1 --pid 1234   # an already-running server
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from _common import PRIVATE_HOST, RawClient, Server, cpu_percent, cpu_seconds, rss_mib, verdict
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=10.0, help="measured window (default 10)")
+    ap.add_argument("--warmup", type=float, default=1.0, help="states discarded first (s)")
+    ap.add_argument("--idle-seconds", type=float, default=3.0,
+                    help="server CPU with no client, measured before connecting (0: skip)")
+    ap.add_argument("--host", help="use an already-running server on this address")
+    ap.add_argument("--pid", type=int, help="its pid, for CPU/RSS (with --host)")
+    args = ap.parse_args()
+
+    server = None if args.host else Server(PRIVATE_HOST)
+    host = args.host or PRIVATE_HOST
+    pid = server.pid if server else args.pid
+    try:
+        if server:
+            server.wait_serving()
+            time.sleep(1.0)  # let start-up work settle before the idle figure
+        idle_cpu = cpu_percent(pid, args.idle_seconds) if pid and args.idle_seconds > 0 else None
+
+        client = RawClient(host)
+        t_end = time.perf_counter_ns() + int(args.warmup * 1e9)
+        while client.recv_state()[0] < t_end:
+            pass
+        times, ids, ktimes = [], [], []
+        cpu0 = cpu_seconds(pid) if pid else None
+        w0 = time.perf_counter_ns()
+        t_end = w0 + int(args.seconds * 1e9)
+        t = w0
+        while t < t_end:
+            t, mid, kt = client.recv_state()
+            times.append(t)
+            ids.append(mid)
+            ktimes.append(kt)
+        w1 = time.perf_counter_ns()
+        cpu = 100 * (cpu_seconds(pid) - cpu0) / ((w1 - w0) / 1e9) if pid else None
+        rss = rss_mib(pid) if pid else None
+        client.close()
+    finally:
+        if server:
+            server.stop()
+
+    t = np.array(times, dtype=np.int64)
+    did = np.diff(np.array(ids, dtype=np.int64))
+    rate = (len(t) - 1) / ((t[-1] - t[0]) / 1e9)
+    skipped = int((did[did > 1] - 1).sum())
+    backwards = int((did <= 0).sum())
+    app = intervals(t)  # when this process got each state (what the brief's targets apply to)
+    kern = intervals(np.array(ktimes, dtype=np.int64))  # when the kernel queued it
+
+    print(f"franka-sim stream, {args.seconds:g} s window after {args.warmup:g} s warm-up, "
+          f"host {host}{'' if server else ' (external server)'}")
+    print(f"  {'':<42} {'recv':>10}   {'target':<11} {'':4} {'kernel':>8}")
+    rows = [
+        ("states received", f"{len(t)}", "", None, ""),
+        ("states/s (count/wall)", f"{rate:.2f}", "1000 ± 0.5", abs(rate - 1000) <= 0.5, ""),
+    ]
+    for key, target, ok in [
+        ("p50", "", None), ("p99", "≤ 1.05", app["p99"] <= 1.05), ("p99.9", "", None),
+        ("max", "≤ 2", app["max"] <= 2.0), ("min", "", None),
+    ]:
+        rows.append((f"interval {key} ms", f"{app[key]:.3f}", target, ok, f"{kern[key]:.3f}"))
+    rows += [
+        ("intervals < 0.5 ms", f"{app['short']}", "0", app["short"] == 0, f"{kern['short']}"),
+        ("message_ids skipped", f"{skipped}", "", None, ""),
+        ("message_ids not increasing", f"{backwards}", "", None, ""),
+    ]
+    if cpu is not None:
+        rows += [
+            ("server CPU % of a core (streaming)", f"{cpu:.1f}", "≤ 15", cpu <= 15, ""),
+            ("server RSS MiB", f"{rss:.1f}", "≤ 65", rss <= 65, ""),
+        ]
+    if idle_cpu is not None:
+        rows.append(("server CPU % of a core (idle, no client)", f"{idle_cpu:.1f}", "", None, ""))
+    for name, value, target, ok, kernel in rows:
+        mark = "" if ok is None else verdict(ok)
+        print(f"  {name:<42} {value:>10}   {target:<11} {mark:<4} {kernel:>8}")
+
+
+def intervals(ns: np.ndarray) -> dict:
+    dt = np.diff(ns) / 1e6
+    p50, p99, p999 = np.percentile(dt, [50, 99, 99.9])
+    return {"p50": p50, "p99": p99, "p99.9": p999, "max": dt.max(), "min": dt.min(),
+            "short": int((dt < 0.5).sum())}
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,74 @@
+"""Command-cycle accounting: which published state each RobotCommand answered.
+
+Every published state opens a cycle; a command echoing that state's message_id that arrives
+before the next cycle is released closes it on time. The release of the next cycle is the end
+of the window (the robot's "< 1 ms" budget), so this module never looks at a clock: the server
+calls `opened` when it publishes and `close` when it releases the next cycle. Missed cycles,
+late answers and ids that were never published all count as lost, which is what
+control_command_success_rate reports (share of the last 100 cycles answered on time).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+WINDOW = 100
+
+
+@dataclass
+class Closed:
+    """The outcome of one cycle: the command to apply next (if any) and whether it was on time."""
+
+    command: object | None  # newest unapplied command, possibly a late one
+    on_time: bool
+    consecutive_lost: int
+
+
+class CommandCycle:
+    def __init__(self) -> None:
+        self.open_id: int | None = None  # message_id of the cycle awaiting its answer
+        self._answered = False
+        self._latest = None
+        self._latest_id = -1
+        self._history: deque[bool] = deque(maxlen=WINDOW)
+        self.consecutive_lost = 0
+        self.lost_total = 0
+        self.answered_total = 0
+        self.invented_total = 0
+
+    def opened(self, message_id: int) -> None:
+        self.open_id = message_id
+        self._answered = False
+
+    def receive(self, message_id: int, command) -> bool:
+        """Take a command; True if it answers the open cycle in time (lockstep may go on)."""
+        if message_id < self._latest_id:
+            return False  # overtaken by a newer command already received
+        if self.open_id is not None and message_id > self.open_id:
+            self.invented_total += 1  # never published: applied, but it answers nothing
+        self._latest, self._latest_id = command, message_id
+        if message_id == self.open_id and not self._answered:
+            self._answered = True
+            return True
+        return False
+
+    def close(self) -> Closed:
+        """The window of the open cycle ends (the next one is being released)."""
+        on_time = self._answered
+        self._history.append(on_time)
+        if on_time:
+            self.answered_total += 1
+            self.consecutive_lost = 0
+        else:
+            self.lost_total += 1
+            self.consecutive_lost += 1
+        command, self._latest = self._latest, None
+        self.open_id = None
+        return Closed(command, on_time, self.consecutive_lost)
+
+    @property
+    def success_rate(self) -> float:
+        if not self._history:
+            return 0.0
+        return sum(self._history) / len(self._history)

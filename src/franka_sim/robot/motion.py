@@ -1,0 +1,197 @@
+"""A running Move: its mode pair, and the desired signals its command stream generates.
+
+The robot turns each applied RobotCommand into desired joint signals (q_d, dq_d, ddq_d) or a
+desired torque (tau_J_d), differentiating by backward differences at the 1 ms cycle. A cycle
+the client missed is filled in as the FCI fills it: motion signals continue at constant
+acceleration, torques repeat. After 20 consecutive misses the robot stops extrapolating (that is
+where it would abort); from then on the reference stands still until the client is heard again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from franka_sim.protocol.enums import (
+    STATE_CONTROLLER_MODE,
+    STATE_MOTION_GENERATOR_MODE,
+    ControllerMode,
+    MotionGeneratorMode,
+    MoveControllerMode,
+    MoveMotionGeneratorMode,
+    MoveStatus,
+)
+
+DT = 1e-3
+MAX_EXTRAPOLATED_CYCLES = 20
+# A finished motion must end at rest: |dq_d| above this on the finishing cycle is "still moving".
+FINISH_VELOCITY_TOLERANCE = 0.05  # rad/s
+
+JOINT_GENERATORS = (MoveMotionGeneratorMode.kJointPosition, MoveMotionGeneratorMode.kJointVelocity)
+CARTESIAN_GENERATORS = (
+    MoveMotionGeneratorMode.kCartesianPosition, MoveMotionGeneratorMode.kCartesianVelocity,
+)
+
+
+class MoveRejected(Exception):
+    """A Move the robot refuses; carries the MoveStatus to answer with."""
+
+    def __init__(self, status: MoveStatus, reason: str) -> None:
+        super().__init__(reason)
+        self.status = status
+
+
+@dataclass(frozen=True)
+class MoveSpec:
+    controller: MoveControllerMode
+    generator: MoveMotionGeneratorMode
+    use_async: bool
+    maximum_velocity: np.ndarray
+
+    @property
+    def state_modes(self) -> tuple[MotionGeneratorMode, ControllerMode]:
+        return STATE_MOTION_GENERATOR_MODE[self.generator], STATE_CONTROLLER_MODE[self.controller]
+
+    @property
+    def torque_controlled(self) -> bool:
+        return self.controller is MoveControllerMode.kExternalController
+
+
+def parse_move(request) -> MoveSpec:
+    """Validate a Move request's mode pair and arguments as the robot does."""
+    invalid = MoveStatus.kInvalidArgumentRejected
+    try:
+        controller = MoveControllerMode(int(request.controller_mode))
+        generator = MoveMotionGeneratorMode(int(request.motion_generator_mode))
+    except ValueError as exc:
+        raise MoveRejected(invalid, f"unknown mode: {exc}") from None
+    if generator is MoveMotionGeneratorMode.kNone and controller is not MoveControllerMode.kExternalController:
+        raise MoveRejected(invalid, "no motion generator requires the external controller")
+    deviations = [
+        float(v) for d in (request.maximum_path_deviation, request.maximum_goal_pose_deviation)
+        for v in (d.translation, d.rotation, d.elbow)
+    ]
+    if not np.all(np.isfinite(deviations)) or min(deviations) < 0:
+        raise MoveRejected(invalid, "path/goal deviations must be finite and non-negative")
+    v_max = np.asarray(request.maximum_velocity, dtype=float)
+    use_async = bool(request.use_async_motion_generator)
+    if use_async:
+        if generator is not MoveMotionGeneratorMode.kJointPosition or controller is MoveControllerMode.kExternalController:
+            raise MoveRejected(invalid, "the async generator is a joint-position motion under an internal controller")
+        if not np.all(np.isfinite(v_max)) or np.any(v_max <= 0):
+            raise MoveRejected(invalid, "async motion needs a positive finite maximum_velocity")
+    return MoveSpec(controller, generator, use_async, v_max)
+
+
+class JointReference:
+    """Desired joint signals of a joint-space generator, with the FCI's gap filling."""
+
+    def __init__(self, q_start: np.ndarray) -> None:
+        self.q_d = np.array(q_start, dtype=float)
+        self.dq_d = np.zeros(7)
+        self.ddq_d = np.zeros(7)
+
+    def follow_position(self, q_c: np.ndarray) -> None:
+        dq = (q_c - self.q_d) / DT
+        self.ddq_d = (dq - self.dq_d) / DT
+        self.dq_d = dq
+        self.q_d = np.array(q_c, dtype=float)
+
+    def follow_velocity(self, dq_c: np.ndarray) -> None:
+        dq = np.array(dq_c, dtype=float)
+        self.ddq_d = (dq - self.dq_d) / DT
+        self.dq_d = dq
+        self.q_d = self.q_d + dq * DT
+
+    def extrapolate(self) -> None:
+        """A missed cycle: continue at the acceleration frozen when the gap began."""
+        self.dq_d = self.dq_d + self.ddq_d * DT
+        self.q_d = self.q_d + self.dq_d * DT
+
+    def stand_still(self) -> None:
+        self.dq_d = np.zeros(7)
+        self.ddq_d = np.zeros(7)
+
+
+# Acceleration the robot's own point-to-point generator uses for async targets (the FR3's
+# joint acceleration limit is 10 rad/s²; the generator keeps well inside it).
+ASYNC_ACCELERATION = 5.0  # rad/s²
+
+
+class AsyncTarget:
+    """The robot-side generator behind `use_async_motion_generator`.
+
+    The client streams (possibly rarely) a target q_c; the robot moves every joint toward it
+    under the Move's maximum_velocity and a fixed acceleration, braking so it arrives at rest.
+    Gaps in the command stream are normal here: the generator simply keeps going.
+    """
+
+    def __init__(self, reference: JointReference, maximum_velocity: np.ndarray) -> None:
+        self.reference = reference
+        self.v_max = np.asarray(maximum_velocity, dtype=float)
+        self.target = reference.q_d.copy()
+
+    def advance(self) -> None:
+        ref = self.reference
+        error = self.target - ref.q_d
+        # Fastest speed from which the joint can still stop at the target.
+        v_stop = np.sqrt(2.0 * ASYNC_ACCELERATION * np.abs(error))
+        v_goal = np.sign(error) * np.minimum(self.v_max, v_stop)
+        dv = np.clip(v_goal - ref.dq_d, -ASYNC_ACCELERATION * DT, ASYNC_ACCELERATION * DT)
+        dq = ref.dq_d + dv
+        arrived = np.abs(error) <= np.abs(dq) * DT
+        dq = np.where(arrived, 0.0, dq)
+        q = np.where(arrived, self.target, ref.q_d + dq * DT)
+        ref.ddq_d = (dq - ref.dq_d) / DT
+        ref.dq_d = dq
+        ref.q_d = q
+
+
+class Motion:
+    """One Move from kMotionStarted to its final status."""
+
+    def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray) -> None:
+        self.command_id = command_id
+        self.spec = spec
+        self.running = False  # modes flip on the first published cycle after the Move
+        self.reference = JointReference(q_start)
+        self.async_target = (
+            AsyncTarget(self.reference, spec.maximum_velocity) if spec.use_async else None
+        )
+        self.tau_J_d = np.zeros(7)
+        self.last_command = None
+        self.finished = False
+
+    def apply(self, command) -> None:
+        """Take the command the client sent for this cycle."""
+        self.last_command = command
+        if self.async_target is not None:
+            self.async_target.target = np.array(command["q_c"], dtype=float)
+            self.async_target.advance()
+        elif self.spec.generator is MoveMotionGeneratorMode.kJointPosition:
+            self.reference.follow_position(np.asarray(command["q_c"], dtype=float))
+        elif self.spec.generator is MoveMotionGeneratorMode.kJointVelocity:
+            self.reference.follow_velocity(np.asarray(command["dq_c"], dtype=float))
+        if self.spec.torque_controlled:
+            self.tau_J_d = np.array(command["tau_J_d"], dtype=float)
+        if self.spec.generator is MoveMotionGeneratorMode.kNone:
+            self.finished = bool(command["torque_command_finished"])
+        else:
+            self.finished = bool(command["motion_generation_finished"])
+
+    def miss(self, consecutive: int) -> None:
+        """No command for this cycle: extrapolate (torques are simply held)."""
+        if self.async_target is not None:
+            self.async_target.advance()
+        elif self.spec.generator in JOINT_GENERATORS:
+            if consecutive <= MAX_EXTRAPOLATED_CYCLES:
+                self.reference.extrapolate()
+            else:
+                self.reference.stand_still()
+
+    def still_moving(self) -> bool:
+        """Whether a finishing command leaves the generator moving (the robot refuses that)."""
+        if self.spec.generator in JOINT_GENERATORS:
+            return bool(np.max(np.abs(self.reference.dq_d)) > FINISH_VELOCITY_TOLERANCE)
+        return False
