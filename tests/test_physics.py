@@ -157,6 +157,13 @@ def test_flange_jacobian_matches_fk_differences(backend):
         assert np.allclose(J[3:, k], [W[2, 1], W[0, 2], W[1, 0]], atol=1e-8)
 
 
+def test_combined_flange_query_agrees(backend):
+    for q in poses(3, seed=11):
+        pose, jacobian = backend.flange_pose_and_jacobian(q)
+        assert np.allclose(pose, flange_pose(DESC, q), atol=1e-12)
+        assert np.allclose(jacobian, backend.jacobian_flange(q), atol=1e-12)
+
+
 # -- behaviour over steps -------------------------------------------------------------------------
 def test_idle_hold_is_still(backend):
     measured = hold(backend, HOME, 2000)

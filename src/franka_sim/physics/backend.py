@@ -84,5 +84,8 @@ class Backend(Protocol):
     def jacobian_flange(self, q) -> np.ndarray:
         """(6,7) flange Jacobian in the base frame, rows [linear; angular]."""
 
+    def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """O_T_F and jacobian_flange at q in one kinematics pass (desired-state fields)."""
+
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace what hangs on the flange (hand + load): mass, CoM in F, inertia about CoM."""

@@ -89,7 +89,7 @@ def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str
         ends = [offset[:3, :3] @ np.asarray(p, float) + offset[:3, 3] for p in (start, end)]
         body.add_geom(name=f"{owner}_collision{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                       fromto=np.concatenate(ends), size=[radius, 0, 0], contype=contype,
-                      conaffinity=conaffinity, group=3, rgba=[0.9, 0.9, 0.9, 1.0])
+                      conaffinity=conaffinity, rgba=[0.9, 0.9, 0.9, 1.0])
 
 
 def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
