@@ -143,5 +143,18 @@ def cpu_percent(pid: int, seconds: float) -> float:
     return 100 * (cpu_seconds(pid) - c0) / (time.perf_counter() - t0)
 
 
+def machine_jiffies() -> tuple[int, int]:
+    """(busy, total) jiffies over all CPUs from /proc/stat, to report how loaded the host was."""
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:]]
+    idle = v[3] + v[4]  # idle + iowait
+    return sum(v) - idle, sum(v)
+
+
+def machine_busy_percent(start: tuple[int, int], end: tuple[int, int]) -> float:
+    """% of all CPUs busy between two machine_jiffies() samples (100 = every core busy)."""
+    return 100 * (end[0] - start[0]) / max(1, end[1] - start[1])
+
+
 def verdict(ok: bool) -> str:
     return "ok" if ok else "MISS"

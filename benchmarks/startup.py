@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import time
 
 from _common import PRIVATE_HOST, RawClient, Server
 
@@ -27,11 +28,11 @@ def main() -> None:
             serving.append(server.wait_serving())
             client = RawClient(args.host)
             client.recv_state()
-            import time
             first.append(time.perf_counter() - server.spawned_at)
-        finally:
             stop.append(server.stop())
-        client.close()
+            client.close()
+        finally:
+            server.stop()
 
     print(f"franka-sim serve start/stop, {args.runs} runs on {args.host}")
     for name, xs, target, limit in [

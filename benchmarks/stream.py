@@ -7,11 +7,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
 
-from _common import PRIVATE_HOST, RawClient, Server, cpu_percent, cpu_seconds, rss_mib, verdict
+from _common import (PRIVATE_HOST, RawClient, Server, cpu_percent, cpu_seconds, machine_busy_percent,
+                     machine_jiffies, rss_mib, verdict)
 
 
 def main() -> None:
@@ -39,6 +41,7 @@ def main() -> None:
             pass
         times, ids, ktimes = [], [], []
         cpu0 = cpu_seconds(pid) if pid else None
+        jiffies0 = machine_jiffies()
         w0 = time.perf_counter_ns()
         t_end = w0 + int(args.seconds * 1e9)
         t = w0
@@ -48,6 +51,7 @@ def main() -> None:
             ids.append(mid)
             ktimes.append(kt)
         w1 = time.perf_counter_ns()
+        busy = machine_busy_percent(jiffies0, machine_jiffies())
         cpu = 100 * (cpu_seconds(pid) - cpu0) / ((w1 - w0) / 1e9) if pid else None
         rss = rss_mib(pid) if pid else None
         client.close()
@@ -65,6 +69,8 @@ def main() -> None:
 
     print(f"franka-sim stream, {args.seconds:g} s window after {args.warmup:g} s warm-up, "
           f"host {host}{'' if server else ' (external server)'}")
+    print(f"  machine: {os.cpu_count()} CPUs, {busy:.0f} % busy during the window "
+          f"(server + client + anything else), load average {os.getloadavg()[0]:.2f}")
     print(f"  {'':<42} {'recv':>10}   {'target':<11} {'':4} {'kernel':>8}")
     rows = [
         ("states received", f"{len(t)}", "", None, ""),

@@ -1,10 +1,12 @@
 """The MuJoCo implementation of the physics Backend: one 1 ms step per published state.
 
 Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
-at the start of the step, as the real drives do with one 1 kHz sample. g(q) is MuJoCo's body
-gravity compensation (`gravcomp` on every moving body, hand included), so it always covers the
-current end-effector inertials and costs nothing extra. There is no joint friction or damping:
-the real robot compensates its own friction in every mode, so a client sees none.
+at the start of the step, as the real drives do with one 1 kHz sample. g(q) is the gravity
+compensation the robot adds (whole chain, hand and declared load included). It is computed by
+the same recursive Newton–Euler pass MuJoCo uses for its own bias force, at zero velocity, so at
+rest the two cancel to the last bit: an idle arm stays exactly where it is, however long it
+idles, which is what makes runs reproducible from a given pose. There is no joint friction or
+damping: the real robot compensates its own friction in every mode, so a client sees none.
 
 Step structure. `mj_step2` then `mj_step1`: the second half of step n followed by the first
 half of step n+1. After it, positions-dependent quantities (flange pose, g(q)) belong to the
@@ -61,10 +63,11 @@ class MujocoBackend:
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self._qs], data.qvel[self._vs]
         self._applied = data.qfrc_applied[self._vs]
-        self._gcomp = data.qfrc_gravcomp[self._vs]
+        self._gcomp = np.zeros(7)
         self._flange_pos = data.site_xpos[self._flange]
         self._flange_mat = data.site_xmat[self._flange]
         self._tmp = np.zeros(7)
+        self._rne = np.zeros(model.nv)
         self._motor = np.zeros(7)
         self._dq_prev = np.zeros(7)
         self._ddq = np.zeros(7)
@@ -82,13 +85,26 @@ class MujocoBackend:
         tmp *= cmd.D
         applied += tmp
         applied += cmd.tau_ff
-        np.add(applied, self._gcomp, out=self._motor)  # gcomp: from mj_step1 at this q
+        self._gravity_at_rest()
+        applied += self._gcomp
+        self._motor[:] = applied
         self._dq_prev[:] = self._dq
         mujoco.mj_step2(m, d)
         np.subtract(self._dq, self._dq_prev, out=self._ddq)
         self._ddq /= self.timestep
         mujoco.mj_step1(m, d)
         return self._record(self._motor, self._ddq, first=False)
+
+    def _gravity_at_rest(self) -> None:
+        """g(q) at the current q into self._gcomp, bit-identical to MuJoCo's bias at dq = 0."""
+        s = self._scratch
+        s.qpos[:] = self.data.qpos
+        s.qvel[:] = 0.0
+        mujoco.mj_kinematics(self.model, s)
+        mujoco.mj_comPos(self.model, s)
+        mujoco.mj_comVel(self.model, s)
+        mujoco.mj_rne(self.model, s, 0, self._rne)
+        self._gcomp[:] = self._rne[self._vs]
 
     def _record(self, motor: np.ndarray, ddq: np.ndarray, *, first: bool) -> Measured:
         tau_J = motor - self._armature * ddq
@@ -123,7 +139,9 @@ class MujocoBackend:
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
-        mujoco.mj_forward(m, d)  # qacc ≈ 0 here: gravcomp cancels gravity, nothing else acts
+        self._gravity_at_rest()
+        self._applied[:] = self._gcomp
+        mujoco.mj_forward(m, d)  # qacc = 0 here: gravity compensation alone holds the arm
         self._record(self._gcomp.copy(), np.zeros(7), first=True)
 
     # -- queries (scratch data, state untouched) --------------------------------------------------

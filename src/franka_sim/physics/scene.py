@@ -119,7 +119,6 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.Mj
         origin = parent.offset @ joint.origin
         body = holders[parent.body].add_body(name=joint.child, pos=origin[:3, 3],
                                              quat=_quat(origin[:3, :3]))
-        body.gravcomp = 1.0  # the robot's own gravity compensation, see MujocoBackend.step
         limits = joint.limits
         # The physical stop is the widest range the robot allows: the datasheet (soft) limits.
         lower = limits.lower if limits.soft_lower is None else min(limits.lower, limits.soft_lower)
@@ -141,7 +140,6 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.Mj
             # which also gives its geoms a name. On the base its inertia never moves.
             body = holders[frame.body].add_body(name=name, pos=frame.offset[:3, 3],
                                                 quat=_quat(frame.offset[:3, :3]))
-            body.gravcomp = 0.0 if frame.body == 0 else 1.0
             offset = np.eye(4)
         else:  # a massless frame (flange, accelerometers): a site
             body, offset = holders[frame.body], frame.offset
@@ -155,7 +153,6 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.Mj
     flange = desc.frames[FLANGE_LINK]
     hand_body = holders[flange.body].add_body(name=HAND_BODY, pos=flange.offset[:3, 3],
                                               quat=_quat(flange.offset[:3, :3]))
-    hand_body.gravcomp = 1.0
     _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
     _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY)
 

@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-# Rough reflected inertia each joint sees at a typical pose (rotor + distal links), kg·m²;
-# only used to derive the impedance damping from the stiffness.
-NOMINAL_JOINT_INERTIA = np.array([0.6, 0.6, 0.35, 0.3, 0.1, 0.1, 0.08])
+# The joint-space inertia diagonal (rotors included) near the ready pose, kg·m², rounded; only
+# used to derive the impedance damping from the stiffness. Even at K = 14250 and the lightest
+# pose the explicit 1 kHz damping term stays inside its stability bound (D·dt/J < 2).
+NOMINAL_JOINT_INERTIA = np.array([0.8, 1.8, 1.2, 1.2, 0.12, 0.13, 0.08])
 
 
 def impedance_damping(K: np.ndarray) -> np.ndarray:

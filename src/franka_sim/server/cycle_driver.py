@@ -48,7 +48,6 @@ class CycleDriver:
         self._timer: DeadlineTimer | None = None
         self._token = 0
         self._busy = False
-        self._pending = False
         self._running = False
         self._idle = asyncio.Event()
 
@@ -67,12 +66,10 @@ class CycleDriver:
             await self._idle.wait()
 
     def release_early(self) -> None:
-        """Lockstep: the command answering the current cycle arrived; go on at once."""
-        if not self._running:
-            return
-        if self._busy:
-            self._pending = True
-        else:
+        """The command answering the open cycle arrived: in lockstep, go on at once."""
+        if not (self._running and self.lockstep and self.core.motion_running):
+            return  # realtime: the next cycle waits for its deadline
+        if not self._busy:
             self._release()
 
     def _on_deadline(self, token: int) -> None:
@@ -81,7 +78,6 @@ class CycleDriver:
 
     def _release(self) -> None:
         self._busy = True
-        self._pending = False
         self._idle.clear()
         self._token += 1  # invalidates any armed deadline for this cycle
         joint_command = self.core.joint_command()
@@ -102,8 +98,5 @@ class CycleDriver:
         if not self._running:
             return
         lockstep = self.lockstep and self.core.motion_running
-        if self._pending and lockstep:
-            self._release()
-            return
         deadline = self.pacer.next_deadline(released_at, lockstep=lockstep)
         self._timer.arm(deadline, self._token)

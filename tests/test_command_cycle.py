@@ -1,0 +1,200 @@
+"""The command cycle, specified on the sans-IO robot core (no sockets, no clock).
+
+Each published state opens a cycle; the command echoing its message_id closes it on time if
+it arrives before the next cycle is released. Misses are extrapolated, counted, reported as
+control_command_success_rate, and — with enforcement — abort after 20 in a row.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from franka_sim.protocol.enums import (
+    AutomaticErrorRecoveryStatus as AER,
+    Command,
+    MoveStatus,
+    RobotMode,
+)
+from franka_sim.protocol.errors import error_index
+from harness import Harness
+
+COMM = error_index("communication_constraints_violation")
+
+
+def _running_velocity_motion(**kwargs) -> Harness:
+    h = Harness(**kwargs)
+    assert h.move(0, 1) == MoveStatus.kMotionStarted
+    h.cycle()
+    return h
+
+
+def test_modes_flip_on_the_first_state_after_motion_started():
+    h = Harness()
+    assert h.move(0, 1) == MoveStatus.kMotionStarted
+    assert h.state["robot_mode"] == RobotMode.kIdle  # not before the next cycle
+    s = h.cycle()
+    assert (s["robot_mode"], s["motion_generator_mode"], s["controller_mode"]) == (2, 2, 0)
+
+
+def test_success_rate_counts_answered_cycles_over_the_last_100():
+    h = _running_velocity_motion()
+    for i in range(100):
+        if i % 4:  # every fourth cycle goes unanswered
+            assert h.send(dq_c=np.zeros(7))
+        h.cycle()
+    assert h.state["control_command_success_rate"] == pytest.approx(0.75)
+
+
+def test_idle_success_rate_is_zero():
+    h = Harness()
+    h.cycle(5)
+    assert h.state["control_command_success_rate"] == 0.0
+
+
+def test_a_late_command_is_applied_but_counts_as_lost():
+    h = _running_velocity_motion()
+    stale = int(h.state["message_id"])
+    h.cycle()  # the window of `stale` closed unanswered
+    assert not h.send(message_id=stale, dq_c=np.full(7, 0.1))
+    h.cycle()
+    np.testing.assert_allclose(h.state["dq_d"], 0.1, rtol=1e-6)  # applied all the same
+    assert h.core.cycle.lost_total == 2
+
+
+def test_an_id_never_published_answers_nothing():
+    h = _running_velocity_motion()
+    future = int(h.state["message_id"]) + 5
+    assert not h.send(message_id=future, dq_c=np.zeros(7))
+    h.cycle()
+    assert h.core.cycle.invented_total == 1 and h.core.cycle.lost_total == 1
+
+
+def test_missed_cycles_extrapolate_at_constant_acceleration():
+    h = _running_velocity_motion()
+    for dq in (0.0, 0.001, 0.002):
+        h.send(dq_c=np.full(7, dq))
+        h.cycle()
+    # acceleration 1 rad/s² frozen when the gap begins: dq_d goes on rising 1e-3 per cycle
+    for k in range(1, 4):
+        h.cycle()
+        np.testing.assert_allclose(h.state["dq_d"], 0.002 + k * 0.001, atol=1e-6)
+        np.testing.assert_allclose(h.state["ddq_d"], 1.0, atol=1e-3)
+
+
+def test_twenty_lost_cycles_abort_with_communication_constraints_violation():
+    h = _running_velocity_motion(enforce_comm_constraints=True)
+    h.send(dq_c=np.zeros(7))
+    h.cycle()  # closes the answered cycle
+    h.cycle(19)
+    assert h.state["robot_mode"] == RobotMode.kMove  # 19 lost: still running
+    h.cycle()
+    assert h.state["robot_mode"] == RobotMode.kReflex
+    assert h.state["errors"][COMM] and h.state["reflex_reason"][COMM]
+    assert (Command.Move, 5, MoveStatus.kReflexAborted) in h.statuses()
+    # A Move before recovery is refused as the robot refuses it.
+    assert h.move(0, 1) == MoveStatus.kCommandNotPossibleRejected
+    assert h.core.request_recovery(9) == []  # answered once the arm is at rest
+    h.cycle(3)
+    assert (Command.AutomaticErrorRecovery, 9, AER.kSuccess) in h.statuses()
+    assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
+    assert h.move(0, 1) == MoveStatus.kMotionStarted
+
+
+def test_without_enforcement_losses_are_only_counted_and_the_arm_stops():
+    h = _running_velocity_motion()
+    h.send(dq_c=np.full(7, 0.2))
+    h.cycle()
+    h.cycle(300)  # the client fell silent
+    assert h.state["robot_mode"] == RobotMode.kMove
+    assert not h.state["errors"].any()
+    assert np.max(np.abs(h.state["dq"])) < 1e-3  # it came to rest instead of running away
+    assert h.state["control_command_success_rate"] < 0.05
+
+
+def test_non_finite_command_is_dropped_not_applied():
+    h = _running_velocity_motion()
+    bad = np.zeros(7)
+    bad[2] = np.nan
+    assert not h.send(dq_c=bad)
+    h.cycle()
+    assert np.all(np.isfinite(h.state["dq_d"])) and np.all(np.isfinite(h.state["q"]))
+
+
+def test_finishing_answers_the_move_and_holds_the_final_pose():
+    h = Harness()
+    h.move(0, 0)
+    h.cycle()
+    q = np.array(h.state["q_d"], dtype=float)
+    target = q.copy()
+    for _ in range(200):
+        target[6] += 1e-4
+        h.send(q_c=target)
+        h.cycle()
+    h.send(q_c=target, motion_generation_finished=True)
+    h.cycle()
+    assert (Command.Move, 5, MoveStatus.kSuccess) in h.statuses()
+    assert h.state["robot_mode"] == RobotMode.kIdle and h.state["motion_generator_mode"] == 0
+    h.cycle(500)
+    assert abs(h.state["q"][6] - target[6]) < 1e-5
+
+
+def test_finishing_while_still_moving_is_a_reflex_abort():
+    h = _running_velocity_motion()
+    h.send(dq_c=np.full(7, 0.3), motion_generation_finished=True)
+    h.cycle()
+    assert (Command.Move, 5, MoveStatus.kReflexAborted) in h.statuses()
+
+
+@pytest.mark.parametrize(
+    "controller, generator",
+    [(0, 4), (1, 4), (7, 0), (0, 9)],
+)
+def test_invalid_mode_pairs_are_rejected_as_invalid_arguments(controller, generator):
+    assert Harness().move(controller, generator) == MoveStatus.kInvalidArgumentRejected
+
+
+def test_async_motion_needs_a_maximum_velocity():
+    assert Harness().move(0, 0, use_async=True) == MoveStatus.kInvalidArgumentRejected
+
+
+def test_a_second_motion_is_refused_while_one_runs():
+    h = _running_velocity_motion()
+    assert h.move(0, 0) == MoveStatus.kCommandNotPossibleRejected
+
+
+def test_stop_move_preempts_the_motion_and_is_always_answered():
+    h = _running_velocity_motion()
+    replies = h.core.request_stop(8)
+    from harness import reply_status
+
+    assert [reply_status(r) for r in replies] == [
+        (Command.Move, 5, MoveStatus.kPreempted), (Command.StopMove, 8, 0)]
+    h.cycle()
+    assert h.state["robot_mode"] == RobotMode.kIdle
+    assert [reply_status(r) for r in h.core.request_stop(9)] == [(Command.StopMove, 9, 0)]
+
+
+def test_torque_commands_repeat_through_a_gap():
+    h = Harness()
+    assert h.move(2, 4) == MoveStatus.kMotionStarted
+    h.cycle()
+    h.send(tau_J_d=np.full(7, 0.5))
+    h.cycle()
+    h.cycle(3)
+    np.testing.assert_allclose(h.state["tau_J_d"], 0.5)
+
+
+def test_same_commands_from_the_same_start_give_bit_identical_states():
+    def run(idle_cycles):
+        h = Harness()
+        h.cycle(idle_cycles)  # how long the arm idled first must not matter
+        h.move(0, 1)
+        h.cycle()
+        for k in range(300):
+            h.send(dq_c=np.full(7, 0.3 * np.sin(k / 50.0)))
+            h.cycle()
+        return np.array(h.state["q"]), np.array(h.state["tau_J"])
+
+    a, b = run(3), run(250)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])

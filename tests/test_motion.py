@@ -1,0 +1,167 @@
+"""Motions through pylibfranka: modes, desired signals, finishing, stopping, lost clients."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pylibfranka
+import pytest
+
+from conftest import running_sim
+
+
+def _robot(host):
+    return pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+
+
+@pytest.fixture
+def lockstep():
+    with running_sim("--clock", "lockstep") as sim:
+        yield sim
+
+
+def test_joint_position_motion_tracks_and_reports_desired_signals(lockstep):
+    robot = _robot(lockstep.host)
+    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    state, _ = control.readOnce()
+    q0 = np.array(state.q_d)
+    worst = 0.0
+    for k in range(1, 1500):
+        state, _ = control.readOnce()
+        assert state.robot_mode == pylibfranka.RobotMode.Move
+        worst = max(worst, float(np.max(np.abs(np.array(state.q) - np.array(state.q_d)))))
+        t = k * 1e-3
+        q = q0.copy()
+        q[6] += 0.2 * (1 - np.cos(np.pi * t / 1.5)) / 2
+        command = pylibfranka.JointPositions(q.tolist())
+        command.motion_finished = k == 1499
+        control.writeOnce(command)
+    assert worst < 2e-3
+    final = robot.read_once()
+    assert final.robot_mode == pylibfranka.RobotMode.Idle
+    assert abs(final.q[6] - (q0[6] + 0.2)) < 1e-3
+    assert final.control_command_success_rate == 0.0
+
+
+def test_joint_velocity_motion_reports_commanded_velocity(lockstep):
+    robot = _robot(lockstep.host)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    control.readOnce()
+    seen = []
+    for k in range(1, 1000):
+        state, _ = control.readOnce()
+        seen.append((state.dq_d[3], state.dq[3]))
+        w = 0.3 * np.sin(np.pi * k / 999)
+        command = pylibfranka.JointVelocities([0, 0, 0, w, 0, 0, 0])
+        command.motion_finished = k == 999
+        control.writeOnce(command)
+    dq_d, dq = np.array(seen).T
+    assert dq_d.max() > 0.25  # the desired velocity follows the (filtered) command
+    assert np.max(np.abs(dq - dq_d)) < 0.05
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_zero_torque_floats_in_gravity_compensation(lockstep):
+    robot = _robot(lockstep.host)
+    control = robot.start_torque_control()
+    state, _ = control.readOnce()
+    q0 = np.array(state.q)
+    for k in range(500):
+        state, _ = control.readOnce()
+        command = pylibfranka.Torques([0.0] * 7)
+        command.motion_finished = k == 499
+        control.writeOnce(command)
+    assert np.max(np.abs(np.array(state.q) - q0)) < 1e-6
+    np.testing.assert_allclose(state.tau_J_d, 0.0)
+
+
+def test_torque_drives_the_arm(lockstep):
+    robot = _robot(lockstep.host)
+    control = robot.start_torque_control()
+    state, _ = control.readOnce()
+    q0 = np.array(state.q)
+    for k in range(300):
+        state, _ = control.readOnce()
+        command = pylibfranka.Torques([0, 0, 0, 0, 0, 0, 0.5 if k < 150 else -0.5])
+        command.motion_finished = k == 299
+        control.writeOnce(command)
+        if k == 100:
+            np.testing.assert_allclose(state.tau_J_d[6], 0.5)
+    assert state.q[6] - q0[6] > 0.01  # +0.5 Nm on the wrist turned it positively
+
+
+def test_stop_is_answered_when_idle(robot):
+    robot.stop()
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_communication_violation_aborts_and_needs_recovery():
+    with running_sim("--enforce-comm-constraints") as sim:
+        robot = _robot(sim.host)
+        control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        with pytest.raises(pylibfranka.ControlException, match="communication_constraints_violation"):
+            for k in range(2000):
+                control.readOnce()
+                if k == 50:
+                    time.sleep(0.1)  # the client stalls: 100 cycles unanswered
+                control.writeOnce(pylibfranka.JointVelocities([0.0] * 7))
+        del control
+        state = robot.read_once()
+        assert state.robot_mode == pylibfranka.RobotMode.Reflex
+        assert "communication_constraints_violation" in str(state.last_motion_errors)
+        with pytest.raises(pylibfranka.CommandException, match="rejected"):
+            robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        robot.automatic_error_recovery()
+        state = robot.read_once()
+        assert state.robot_mode == pylibfranka.RobotMode.Idle
+        assert not bool(state.current_errors)
+        control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        control.readOnce()
+        finish = pylibfranka.JointVelocities([0.0] * 7)
+        finish.motion_finished = True
+        control.writeOnce(finish)
+
+
+def test_without_enforcement_a_stall_only_lowers_the_success_rate(sim):
+    robot = _robot(sim.host)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    rates = []
+    for k in range(400):
+        state, _ = control.readOnce()
+        rates.append(state.control_command_success_rate)
+        if k == 100:
+            time.sleep(0.05)
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == 399
+        control.writeOnce(command)
+    assert min(rates[101:]) < 0.8  # the stall shows in the reported rate
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+CRASHING_CLIENT = textwrap.dedent("""
+    import os, sys, pylibfranka
+    robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    control.readOnce()
+    for k in range(300):
+        control.readOnce()
+        control.writeOnce(pylibfranka.JointVelocities([0, 0, 0, 0, 0, 0, min(k, 200) * 0.002]))
+    os._exit(3)  # vanish mid-motion, moving at 0.4 rad/s
+""")
+
+
+def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
+    done = subprocess.run([sys.executable, "-c", CRASHING_CLIENT, sim.host], timeout=60)
+    assert done.returncode == 3
+    assert sim.wait_for_log("disconnected")
+    robot = _robot(sim.host)  # the next client gets in at once
+    state = robot.read_once()
+    assert state.robot_mode == pylibfranka.RobotMode.Idle
+    t0 = state.time.to_sec()
+    while state.time.to_sec() - t0 < 0.5:
+        state = robot.read_once()
+    assert np.max(np.abs(state.dq)) < 1e-3
