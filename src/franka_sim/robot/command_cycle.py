@@ -32,6 +32,7 @@ class CommandCycle:
         self._latest = None
         self._latest_id = -1
         self._history: deque[bool] = deque(maxlen=WINDOW)
+        self._answered_in_window = 0
         self.consecutive_lost = 0
         self.lost_total = 0
         self.answered_total = 0
@@ -56,7 +57,10 @@ class CommandCycle:
     def close(self) -> Closed:
         """The window of the open cycle ends (the next one is being released)."""
         on_time = self._answered
+        if len(self._history) == WINDOW:
+            self._answered_in_window -= self._history[0]
         self._history.append(on_time)
+        self._answered_in_window += on_time
         if on_time:
             self.answered_total += 1
             self.consecutive_lost = 0
@@ -71,4 +75,4 @@ class CommandCycle:
     def success_rate(self) -> float:
         if not self._history:
             return 0.0
-        return sum(self._history) / len(self._history)
+        return self._answered_in_window / len(self._history)

@@ -15,6 +15,7 @@ import logging
 import numpy as np
 
 from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
     AutomaticErrorRecoveryStatus,
     Command,
@@ -45,7 +46,6 @@ log = logging.getLogger(__name__)
 # answer time is bounded well inside libfranka's 1 s TCP timeout).
 RECOVERY_MAX_CYCLES = 700
 RECOVERY_REST_VELOCITY = 1e-3  # rad/s
-_COMMAND_FIELDS = ("q_c", "dq_c", "O_T_EE_c", "O_dP_EE_c", "elbow_c", "tau_J_d")
 
 class RobotCore:
     """The robot behind the FCI: settings, modes, errors, the running motion, the state."""
@@ -152,10 +152,11 @@ class RobotCore:
                 log.info("RobotCommand for message_id %d ignored: no motion is running (%d so far)",
                          message_id, self._stray_commands)
             return False
-        for name in _COMMAND_FIELDS:
-            if not np.all(np.isfinite(command[name])):
-                log.warning("RobotCommand for message_id %d dropped: non-finite %s", message_id, name)
-                return False
+        bad = non_finite_command_fields(command)
+        if bad:
+            log.warning("RobotCommand for message_id %d dropped: non-finite %s",
+                        message_id, ", ".join(bad))
+            return False
         return self.cycle.receive(message_id, command)
 
     # -- TCP requests ----------------------------------------------------------------------------

@@ -19,5 +19,6 @@ def column_major(T: np.ndarray) -> np.ndarray:
 
 def elbow_of(q: np.ndarray) -> tuple[float, float]:
     """The elbow configuration (joint-3 angle, flip sign) of a joint vector, as the robot reports it."""
-    d = q[3] - ELBOW_FLIP_Q4
-    return float(q[2]), float(np.sign(d))
+    q4 = float(q[3])
+    flip = 1.0 if q4 > ELBOW_FLIP_Q4 else (-1.0 if q4 < ELBOW_FLIP_Q4 else 0.0)
+    return float(q[2]), flip

@@ -47,20 +47,16 @@ class StatePublisher:
         self._O_dP_EE_c = np.zeros(6)
         self._elbow_c = np.zeros(2)
         self._delbow_c = np.zeros(2)
+        self._configured: tuple | None = None
+        self._idle_written = False
+        self._F_T_EE = np.eye(4)
 
     def pack(self, core: "RobotCore", m: Measured, desired_kinematics) -> bytes:
         s, settings = self.buffer, self.settings
         s.message_id[...] = core.message_id
-        F_T_EE = hand.F_T_NE_HAND @ settings.NE_T_EE
+        F_T_EE = self._configured_frames()
         O_T_EE = m.O_T_F @ F_T_EE
         s.O_T_EE[:] = column_major(O_T_EE)
-        s.F_T_EE[:] = column_major(F_T_EE)
-        s.NE_T_EE[:] = column_major(settings.NE_T_EE)
-        s.EE_T_K[:] = column_major(settings.EE_T_K)
-        load = settings.load
-        s.m_load[...] = load.mass
-        s.F_x_Cload[:] = load.F_x_C
-        s.I_load[:] = column_major(load.inertia)
 
         s.q[:] = m.q
         s.dq[:] = m.dq
@@ -72,35 +68,10 @@ class StatePublisher:
         s.accelerometer_bottom[:] = m.accelerometer_bottom.ravel()
 
         motion = core.motion if core.motion_running else None
-        q_d = core.desired_q
-        if q_d is None:
-            q_d, dq_d, ddq_d = m.q, (m.dq if motion is not None else np.zeros(7)), np.zeros(7)
-        else:
-            ref = motion.reference
-            dq_d, ddq_d = ref.dq_d, ref.ddq_d
-        s.q_d[:] = q_d
-        s.dq_d[:] = dq_d
-        s.ddq_d[:] = ddq_d
         if motion is None:
-            tau_J_d = np.zeros(7)
-        elif motion.spec.torque_controlled:
-            tau_J_d = motion.tau_J_d
-        else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d)
-            tau_J_d = impedance_torque(settings.K_theta, q_d, dq_d, m.q, m.dq)
-        s.tau_J_d[:] = tau_J_d
-
-        if desired_kinematics is not None:
-            O_T_F_d, J_F_d = desired_kinematics
-            O_T_EE_d = O_T_F_d @ F_T_EE
-            O_dP_EE_d = ee_twist(O_T_F_d, J_F_d, F_T_EE, dq_d)
+            self._idle_signals(m, O_T_EE)
         else:
-            O_T_EE_d, O_dP_EE_d = O_T_EE, np.zeros(6)
-        s.O_T_EE_d[:] = column_major(O_T_EE_d)
-        s.O_dP_EE_d[:] = O_dP_EE_d
-        self._commanded_cartesian(motion, O_T_EE_d, O_dP_EE_d, q_d)
-
-        s.elbow[:] = elbow_of(m.q)
-        s.elbow_d[:] = elbow_of(q_d)
+            self._motion_signals(core, motion, m, O_T_EE, F_T_EE, desired_kinematics)
         mg, ctrl = core.state_modes
         s.motion_generator_mode[...] = int(mg)
         s.controller_mode[...] = int(ctrl)
@@ -110,11 +81,75 @@ class StatePublisher:
         s.control_command_success_rate[...] = core.success_rate
         return s.pack()
 
+    def _idle_signals(self, m: Measured, O_T_EE: np.ndarray) -> None:
+        """Idle: desired and commanded signals follow the measurement; rates are zero."""
+        s = self.buffer
+        if not self._idle_written:  # the zeros need writing once per idle spell
+            for field in (s.dq_d, s.ddq_d, s.tau_J_d, s.O_dP_EE_d, s.O_dP_EE_c, s.O_ddP_EE_c,
+                          s.delbow_c, s.ddelbow_c):
+                field[:] = 0.0
+            self._O_dP_EE_c[:] = 0.0
+            self._idle_written = True
+        s.q_d[:] = m.q
+        pose = column_major(O_T_EE)
+        s.O_T_EE_d[:] = pose
+        s.O_T_EE_c[:] = pose
+        elbow = elbow_of(m.q)
+        s.elbow[:] = elbow
+        s.elbow_d[:] = elbow
+        s.elbow_c[:] = elbow
+        self._elbow_c[:] = elbow
+        self._delbow_c[:] = 0.0
+
+    def _motion_signals(self, core, motion, m: Measured, O_T_EE, F_T_EE, desired_kinematics):
+        """A motion runs: desired signals from its generator, commanded ones from the client."""
+        s, settings = self.buffer, self.settings
+        self._idle_written = False
+        q_d = core.desired_q
+        if q_d is None:  # torque only: nothing desired but what is measured
+            q_d, dq_d, ddq_d = m.q, m.dq, np.zeros(7)
+        else:
+            ref = motion.reference
+            dq_d, ddq_d = ref.dq_d, ref.ddq_d
+        s.q_d[:] = q_d
+        s.dq_d[:] = dq_d
+        s.ddq_d[:] = ddq_d
+        if motion.spec.torque_controlled:
+            s.tau_J_d[:] = motion.tau_J_d
+        else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d)
+            s.tau_J_d[:] = impedance_torque(settings.K_theta, q_d, dq_d, m.q, m.dq)
+        if desired_kinematics is not None:
+            O_T_F_d, J_F_d = desired_kinematics
+            O_T_EE_d = O_T_F_d @ F_T_EE
+            O_dP_EE_d = ee_twist(O_T_F_d, J_F_d, F_T_EE, dq_d)
+        else:
+            O_T_EE_d, O_dP_EE_d = O_T_EE, np.zeros(6)
+        s.O_T_EE_d[:] = column_major(O_T_EE_d)
+        s.O_dP_EE_d[:] = O_dP_EE_d
+        self._commanded_cartesian(motion, O_T_EE_d, O_dP_EE_d, q_d)
+        s.elbow[:] = elbow_of(m.q)
+        s.elbow_d[:] = elbow_of(q_d)
+
+    def _configured_frames(self) -> np.ndarray:
+        """F_T_EE; rewrites the client-configured fields only when a Set* command replaced them."""
+        settings, s = self.settings, self.buffer
+        key = (settings.NE_T_EE, settings.EE_T_K, settings.load)
+        if self._configured is None or any(a is not b for a, b in zip(key, self._configured)):
+            self._configured = key
+            self._F_T_EE = hand.F_T_NE_HAND @ settings.NE_T_EE
+            s.F_T_EE[:] = column_major(self._F_T_EE)
+            s.NE_T_EE[:] = column_major(settings.NE_T_EE)
+            s.EE_T_K[:] = column_major(settings.EE_T_K)
+            s.m_load[...] = settings.load.mass
+            s.F_x_Cload[:] = settings.load.F_x_C
+            s.I_load[:] = column_major(settings.load.inertia)
+        return self._F_T_EE
+
     def _commanded_cartesian(self, motion, O_T_EE_d, O_dP_EE_d, q_d) -> None:
         """The c-signals: the client's own Cartesian stream if it drives one, else the d-signals."""
         s = self.buffer
-        command = motion.last_command if motion is not None else None
-        generator = motion.spec.generator if motion is not None else None
+        command = motion.last_command
+        generator = motion.spec.generator
         if command is not None and generator is MoveMotionGeneratorMode.kCartesianPosition:
             s.O_T_EE_c[:] = command["O_T_EE_c"]
         else:
@@ -123,7 +158,7 @@ class StatePublisher:
             dP = np.asarray(command["O_dP_EE_c"], dtype=float)
         else:
             dP = O_dP_EE_d
-        s.O_ddP_EE_c[:] = (dP - self._O_dP_EE_c) / DT if motion is not None else 0.0
+        s.O_ddP_EE_c[:] = (dP - self._O_dP_EE_c) / DT
         s.O_dP_EE_c[:] = dP
         self._O_dP_EE_c = np.array(dP, dtype=float)
         if command is not None and generator in (
@@ -132,8 +167,8 @@ class StatePublisher:
             elbow_c = np.asarray(command["elbow_c"], dtype=float)
         else:
             elbow_c = np.asarray(elbow_of(q_d))
-        delbow = (elbow_c - self._elbow_c) / DT if motion is not None else np.zeros(2)
-        s.ddelbow_c[:] = (delbow - self._delbow_c) / DT if motion is not None else 0.0
+        delbow = (elbow_c - self._elbow_c) / DT
+        s.ddelbow_c[:] = (delbow - self._delbow_c) / DT
         s.delbow_c[:] = delbow
         s.elbow_c[:] = elbow_c
         self._elbow_c, self._delbow_c = elbow_c, delbow

@@ -34,6 +34,7 @@ class DeadlineTimer:
         self._deadline: float | None = None
         self._token = 0
         self._stopped = False
+        self._waiting = False  # blocked on the condition with nothing armed
         self._thread = threading.Thread(target=self._run, name="franka-sim-clock", daemon=True)
 
     def start(self) -> None:
@@ -42,7 +43,8 @@ class DeadlineTimer:
     def arm(self, deadline: float, token: int) -> None:
         with self._cond:
             self._deadline, self._token = deadline, token
-            self._cond.notify()
+            if self._waiting:  # a sleeping thread re-reads the arming when it wakes anyway
+                self._cond.notify()
 
     def stop(self) -> None:
         with self._cond:
@@ -56,7 +58,9 @@ class DeadlineTimer:
         while True:
             with self._cond:
                 while self._deadline is None and not self._stopped:
+                    self._waiting = True
                     self._cond.wait()
+                    self._waiting = False
                 if self._stopped:
                     return
                 deadline, token = self._deadline, self._token
