@@ -42,7 +42,7 @@ def reply_status(reply: bytes) -> tuple[int, int, int]:
 class Harness:
     def __init__(self, q0=READY_POSE, **core_kwargs) -> None:
         self.backend = MujocoBackend(_DESCRIPTION, np.array(q0))
-        self.core = RobotCore(np.array(q0), **core_kwargs)
+        self.core = RobotCore(_DESCRIPTION, np.array(q0), **core_kwargs)
         self.state = None
         self.replies: list[bytes] = []
         self.cycle()

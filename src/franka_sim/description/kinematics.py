@@ -65,3 +65,19 @@ def elbow(q) -> tuple[float, float]:
     q4 = float(q[3])
     flag = 0.0 if q4 == ELBOW_FLIP_Q4 else (1.0 if q4 > ELBOW_FLIP_Q4 else -1.0)
     return float(q[2]), flag
+
+
+def tip_jacobian(desc: ArmDescription, q, F_T_tip=None) -> np.ndarray:
+    """(6,7) base-frame Jacobian [linear; angular] of a point fixed to the flange (F_T_tip).
+
+    Geometric, from the joint frames: column i is (z_i × (p_tip − p_i), z_i) for a revolute
+    joint turning about its local axis. Used off the hot path (e.g. the singular-start check).
+    """
+    frames = fk_frames(desc, q)
+    tip = flange_pose(desc, q) @ (np.eye(4) if F_T_tip is None else F_T_tip)
+    J = np.zeros((6, len(frames)))
+    for i, (joint, T) in enumerate(zip(desc.joints, frames)):
+        z = T[:3, :3] @ joint.axis
+        J[:3, i] = np.cross(z, tip[:3, 3] - T[:3, 3])
+        J[3:, i] = z
+    return J

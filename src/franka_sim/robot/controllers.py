@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from franka_sim.robot.cartesian import pose_error
+
 # The joint-space inertia diagonal (rotors included) near the ready pose, kg·m², rounded; only
 # used to derive the impedance damping from the stiffness. Even at K = 14250 and the lightest
 # pose the explicit 1 kHz damping term stays inside its stability bound (D·dt/J < 2).
@@ -27,3 +29,34 @@ def impedance_damping(K: np.ndarray) -> np.ndarray:
 def impedance_torque(K: np.ndarray, q_d, dq_d, q, dq) -> np.ndarray:
     """The impedance's torque without gravity: what the robot reports as tau_J_d."""
     return K * (q_d - q) + impedance_damping(K) * (dq_d - dq)
+
+
+# Cartesian impedance: damping derived from the stiffness against a nominal apparent inertia
+# at the EE (translation kg, rotation kg·m²), critically damped like the joint law.
+NOMINAL_EE_INERTIA = np.array([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
+# A weak joint impedance in the Cartesian law's null space keeps the redundant joint from
+# drifting (the robot's own null-space behaviour is unpublished).
+NULLSPACE_STIFFNESS = 10.0  # Nm/rad
+
+
+def cartesian_impedance_torque(K_x, O_T_K_d, O_T_K, J_K, dq, q_d, q) -> np.ndarray:
+    """Joint torques of a Cartesian spring-damper in the stiffness frame K.
+
+    K_x (SetCartesianImpedance) acts along the axes of K: a push on K displaces it by F/K_x.
+    J_K is the base-frame Jacobian of K's origin; the error and the velocity are rotated into
+    K, scaled, and rotated back. Gravity is the physics' business (the robot adds it).
+    """
+    R = O_T_K[:3, :3]
+    error_O = pose_error(O_T_K_d, O_T_K)
+    velocity_O = J_K @ dq
+    D_x = 2.0 * np.sqrt(K_x * NOMINAL_EE_INERTIA)
+    error_K = np.concatenate([R.T @ error_O[:3], R.T @ error_O[3:]])
+    velocity_K = np.concatenate([R.T @ velocity_O[:3], R.T @ velocity_O[3:]])
+    wrench_K = K_x * error_K - D_x * velocity_K
+    wrench_O = np.concatenate([R @ wrench_K[:3], R @ wrench_K[3:]])
+    tau = J_K.T @ wrench_O
+    # Null space: J_K^T-consistent projector with the (damped) pseudo-inverse.
+    J_pinv = np.linalg.pinv(J_K, rcond=1e-3)
+    N = np.eye(len(q)) - J_K.T @ J_pinv.T
+    tau_ns = NULLSPACE_STIFFNESS * (q_d - q) - 2.0 * np.sqrt(NULLSPACE_STIFFNESS * 0.5) * dq
+    return tau + N @ tau_ns

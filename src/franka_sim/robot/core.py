@@ -14,6 +14,9 @@ import logging
 
 import numpy as np
 
+from franka_sim.description import hand
+from franka_sim.description.kinematics import flange_pose, tip_jacobian
+from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
@@ -21,6 +24,8 @@ from franka_sim.protocol.enums import (
     Command,
     ControllerMode,
     MotionGeneratorMode,
+    MoveControllerMode,
+    MoveMotionGeneratorMode,
     MoveStatus,
     RobotMode,
     StopMoveStatus,
@@ -28,9 +33,14 @@ from franka_sim.protocol.enums import (
 from franka_sim.protocol.errors import NUM_ERRORS, error_index
 from franka_sim.protocol.robot_messages import build_response
 from franka_sim.robot.command_cycle import CommandCycle
-from franka_sim.robot.controllers import impedance_damping
+from franka_sim.robot.cartesian import (
+    SINGULAR_POSE_MIN_SINGULAR_VALUE,
+    ee_jacobian,
+    smallest_singular_value,
+)
+from franka_sim.robot.controllers import cartesian_impedance_torque, impedance_damping
 from franka_sim.robot.motion import (
-    JOINT_GENERATORS,
+    CARTESIAN_GENERATORS,
     MAX_EXTRAPOLATED_CYCLES,
     Motion,
     MoveRejected,
@@ -50,8 +60,9 @@ RECOVERY_REST_VELOCITY = 1e-3  # rad/s
 class RobotCore:
     """The robot behind the FCI: settings, modes, errors, the running motion, the state."""
 
-    def __init__(self, q0: np.ndarray, *, enforce_comm_constraints: bool = False,
-                 first_message_id: int = 1) -> None:
+    def __init__(self, desc: ArmDescription, q0: np.ndarray, *,
+                 enforce_comm_constraints: bool = False, first_message_id: int = 1) -> None:
+        self.desc = desc
         self.settings = RobotSettings()
         self.enforce_comm_constraints = enforce_comm_constraints
         self.message_id = first_message_id - 1  # id of the last published state
@@ -83,7 +94,23 @@ class RobotCore:
         if motion.spec.torque_controlled:
             return JointCommand.torque(motion.tau_J_d)
         ref = motion.reference
+        if motion.spec.controller is MoveControllerMode.kCartesianImpedance:
+            return JointCommand.torque(self._cartesian_impedance(motion))
         return JointCommand.impedance(ref.q_d, K, impedance_damping(K), dq_d=ref.dq_d)
+
+    def _cartesian_impedance(self, motion: Motion) -> np.ndarray:
+        """kCartesianImpedance: a spring-damper at K about the desired EE pose (see controllers)."""
+        m, kin = self.measured, motion.kinematics
+        if m is None or kin is None:
+            return np.zeros(7)
+        O_T_F_d, J_F_d = kin
+        F_T_K = motion.F_T_EE @ self.settings.EE_T_K
+        # The Jacobian at q_d stands in for the one at q: they differ by the tracking error.
+        J_K = ee_jacobian(m.O_T_F, J_F_d, F_T_K)
+        return cartesian_impedance_torque(
+            self.settings.K_x, O_T_F_d @ F_T_K, m.O_T_F @ F_T_K, J_K, m.dq,
+            motion.reference.q_d, m.q,
+        )
 
     def publish(self, measured: Measured, desired_kinematics=None) -> bytes:
         """Close the cycle: take the measurement, advance the clock, pack the RobotState."""
@@ -96,6 +123,7 @@ class RobotCore:
             self.reflex_reason[:] = False
         if motion is not None:
             self.cycle.opened(self.message_id)
+            motion.kinematics = desired_kinematics
         self._advance_recovery(measured)
         return self.publisher.pack(self, measured, desired_kinematics)
 
@@ -107,7 +135,7 @@ class RobotCore:
     def desired_q(self) -> np.ndarray | None:
         """Joint positions whose kinematics the published state needs (None: the measured q)."""
         motion = self.motion
-        if motion is None or not motion.running or motion.spec.generator not in JOINT_GENERATORS:
+        if motion is None or motion.spec.generator is MoveMotionGeneratorMode.kNone:
             return None
         return motion.reference.q_d
 
@@ -167,8 +195,11 @@ class RobotCore:
         except MoveRejected as exc:
             log.warning("Move rejected (%s): %s", exc.status.name, exc)
             return [build_response(Command.Move, command_id, exc.status)]
-        start = self.measured.q if self.measured is not None else self.q_hold
-        self.motion = Motion(command_id, spec, start)
+        q = self.measured.q if self.measured is not None else self.q_hold
+        F_T_EE = hand.F_T_NE_HAND @ self.settings.NE_T_EE
+        O_T_EE = (self.measured.O_T_F if self.measured is not None
+                  else flange_pose(self.desc, q)) @ F_T_EE
+        self.motion = Motion(command_id, spec, q, O_T_EE, F_T_EE)
         self.cycle = CommandCycle()
         self._stalled_at = None
         return [build_response(Command.Move, command_id, MoveStatus.kMotionStarted)]
@@ -179,9 +210,16 @@ class RobotCore:
         if self.robot_mode is not RobotMode.kIdle:
             raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
                                f"robot is in {self.robot_mode.name}; recover first")
-        if spec.generator.name.startswith("kCartesian") and not spec.torque_controlled:
-            raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
-                               "Cartesian generators under an internal controller are not available yet")
+        if spec.generator in CARTESIAN_GENERATORS:
+            q = self.measured.q if self.measured is not None else self.q_hold
+            F_T_EE = hand.F_T_NE_HAND @ self.settings.NE_T_EE
+            sigma = smallest_singular_value(tip_jacobian(self.desc, q, F_T_EE))
+            if sigma < SINGULAR_POSE_MIN_SINGULAR_VALUE:
+                raise MoveRejected(
+                    MoveStatus.kStartAtSingularPoseRejected,
+                    f"EE Jacobian's smallest singular value {sigma:.4f} < "
+                    f"{SINGULAR_POSE_MIN_SINGULAR_VALUE}: cannot start at a singular pose",
+                )
 
     def request_stop(self, command_id: int) -> list[bytes]:
         replies = []

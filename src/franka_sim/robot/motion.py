@@ -13,6 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from franka_sim.robot.cartesian import (
+    CartesianTarget,
+    dls_step,
+    ee_jacobian,
+    pose_error,
+)
 from franka_sim.protocol.enums import (
     STATE_CONTROLLER_MODE,
     STATE_MOTION_GENERATOR_MODE,
@@ -149,13 +155,25 @@ class AsyncTarget:
 
 
 class Motion:
-    """One Move from kMotionStarted to its final status."""
+    """One Move from kMotionStarted to its final status.
 
-    def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray) -> None:
+    Cartesian generators keep a CartesianTarget and turn it into q_d by one IK step per cycle;
+    `kinematics` (the flange pose and Jacobian at the current q_d, computed by the physics with
+    each step) and `F_T_EE` (latched at the Move) are what that step needs.
+    """
+
+    def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
+                 O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
         self.reference = JointReference(q_start)
+        self.cartesian = (
+            CartesianTarget(O_T_EE_start) if spec.generator in CARTESIAN_GENERATORS else None
+        )
+        self.F_T_EE = np.eye(4) if F_T_EE is None else F_T_EE
+        self.kinematics: tuple[np.ndarray, np.ndarray] | None = None
+        self.elbow_target: float | None = None
         self.async_target = (
             AsyncTarget(self.reference, spec.maximum_velocity) if spec.use_async else None
         )
@@ -173,6 +191,13 @@ class Motion:
             self.reference.follow_position(np.asarray(command["q_c"], dtype=float))
         elif self.spec.generator is MoveMotionGeneratorMode.kJointVelocity:
             self.reference.follow_velocity(np.asarray(command["dq_c"], dtype=float))
+        elif self.cartesian is not None:
+            if self.spec.generator is MoveMotionGeneratorMode.kCartesianPosition:
+                self.cartesian.set_pose(np.reshape(command["O_T_EE_c"], (4, 4), order="F"))
+            else:
+                self.cartesian.set_twist(command["O_dP_EE_c"])
+            self.elbow_target = float(command["elbow_c"][0]) if command["valid_elbow"] else None
+            self._solve()
         if self.spec.torque_controlled:
             self.tau_J_d = np.array(command["tau_J_d"], dtype=float)
         if self.spec.generator is MoveMotionGeneratorMode.kNone:
@@ -189,9 +214,24 @@ class Motion:
                 self.reference.extrapolate()
             else:
                 self.reference.stand_still()
+        elif self.cartesian is not None:
+            self.cartesian.extrapolate(stand_still=consecutive > MAX_EXTRAPOLATED_CYCLES)
+            self._solve()
+
+    def _solve(self) -> None:
+        """One IK step from q_d toward the Cartesian target (kinematics evaluated at q_d)."""
+        if self.kinematics is None:
+            return
+        O_T_F_d, J_F_d = self.kinematics
+        O_T_EE_d = O_T_F_d @ self.F_T_EE
+        J = ee_jacobian(O_T_F_d, J_F_d, self.F_T_EE)
+        q_d = self.reference.q_d
+        elbow_error = None if self.elbow_target is None else self.elbow_target - q_d[2]
+        dq = dls_step(J, pose_error(self.cartesian.pose, O_T_EE_d), elbow_error)
+        self.reference.follow_position(q_d + dq)
 
     def still_moving(self) -> bool:
         """Whether a finishing command leaves the generator moving (the robot refuses that)."""
-        if self.spec.generator in JOINT_GENERATORS:
-            return bool(np.max(np.abs(self.reference.dq_d)) > FINISH_VELOCITY_TOLERANCE)
-        return False
+        if self.spec.generator is MoveMotionGeneratorMode.kNone:
+            return False
+        return bool(np.max(np.abs(self.reference.dq_d)) > FINISH_VELOCITY_TOLERANCE)

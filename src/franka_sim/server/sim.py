@@ -42,7 +42,9 @@ class FrankaSim:
         )
         self.description = load_arm_description(self.urdf_text)
         q0 = np.array(config.q0, dtype=float)
-        self.core = RobotCore(q0, enforce_comm_constraints=config.enforce_comm_constraints)
+        self.core = RobotCore(
+            self.description, q0, enforce_comm_constraints=config.enforce_comm_constraints
+        )
         self.worker = PhysicsWorker(lambda: MujocoBackend(self.description, q0))
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect)

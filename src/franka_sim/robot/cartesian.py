@@ -1,0 +1,119 @@
+"""Cartesian motion generators become joint motion: differential IK on the EE Jacobian.
+
+Each cycle the commanded EE pose (kCartesianPosition, or the pose integrated from the commanded
+twist for kCartesianVelocity) is solved to joint space with one damped-least-squares step from
+the current desired joints q_d, using the pose and Jacobian of the EE frame at q_d — the frame
+O_T_EE reports: flange ∘ F_T_EE. One step per 1 ms cycle suffices because consecutive commands
+differ by micrometres; the residual is corrected on the next cycle. The joint-3 redundancy angle
+(elbow_c[0]) is chased in the Jacobian's null space, so it moves the elbow without moving the EE.
+The resulting q_d then goes through the same joint controller as a joint motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DT = 1e-3
+# λ of the damped least squares: negligible against the ready pose's smallest singular value
+# (≈ 0.23) and keeps the step bounded near singularities.
+DLS_DAMPING = 1e-3
+# A Cartesian Move is refused from a configuration whose EE Jacobian's smallest singular value
+# is under this. Placed under the stretched-elbow pose at the joint-4 limit (σ_min ≈ 0.046),
+# which real robots do start from, and well above truly singular poses (σ_min → 0).
+SINGULAR_POSE_MIN_SINGULAR_VALUE = 0.02
+ELBOW_GAIN = 0.2  # fraction of the elbow error closed per cycle, in the null space
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """The axis·angle of a rotation matrix (log map), robust near 0 and π."""
+    cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.arccos(cos)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * w
+    if np.pi - angle < 1e-6:
+        axis = np.sqrt(np.maximum((np.diag(R) + 1.0) / 2.0, 0.0))
+        axis *= np.where(w >= 0, 1.0, -1.0)
+        return angle * axis / max(np.linalg.norm(axis), 1e-12)
+    return angle / (2.0 * np.sin(angle)) * w
+
+
+def exp_rotation(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a rotation vector (Rodrigues)."""
+    angle = np.linalg.norm(w)
+    if angle < 1e-12:
+        return np.eye(3) + skew(w)
+    K = skew(w / angle)
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """[translation; rotation vector] taking T to T_target, in the base frame."""
+    return np.concatenate([T_target[:3, 3] - T[:3, 3], rotation_vector(T_target[:3, :3] @ T[:3, :3].T)])
+
+
+def ee_jacobian(O_T_F: np.ndarray, J_F: np.ndarray, F_T_EE: np.ndarray) -> np.ndarray:
+    """The flange Jacobian moved to the EE point: v_EE = v_F + ω × r."""
+    r = O_T_F[:3, :3] @ F_T_EE[:3, 3]
+    J = J_F.copy()
+    J[:3] -= skew(r) @ J_F[3:]
+    return J
+
+
+def smallest_singular_value(J: np.ndarray) -> float:
+    return float(np.linalg.svd(J, compute_uv=False)[-1])
+
+
+def dls_step(J: np.ndarray, error: np.ndarray, elbow_error: float | None) -> np.ndarray:
+    """Joint step toward `error` (6,), plus an elbow (joint 3) correction in the null space."""
+    JJt = J @ J.T + DLS_DAMPING**2 * np.eye(6)
+    J_pinv = J.T @ np.linalg.solve(JJt, np.eye(6))
+    dq = J_pinv @ error
+    if elbow_error is not None:
+        z = np.zeros(J.shape[1])
+        z[2] = ELBOW_GAIN * elbow_error
+        dq += z - J_pinv @ (J @ z)
+    return dq
+
+
+class CartesianTarget:
+    """The commanded EE pose a Cartesian generator asks for, with the FCI's gap filling.
+
+    For the velocity interface the pose is the integral of the commanded twist, so that the
+    IK tracks a pose and never drifts; a missed cycle continues the twist at constant
+    acceleration, as the robot extrapolates every motion signal.
+    """
+
+    def __init__(self, O_T_EE_start: np.ndarray) -> None:
+        self.pose = np.array(O_T_EE_start, dtype=float)
+        self.twist = np.zeros(6)
+        self.twist_rate = np.zeros(6)
+
+    def set_pose(self, O_T_EE_c: np.ndarray) -> None:
+        twist = np.concatenate([(O_T_EE_c[:3, 3] - self.pose[:3, 3]) / DT,
+                                rotation_vector(O_T_EE_c[:3, :3] @ self.pose[:3, :3].T) / DT])
+        self.twist_rate = (twist - self.twist) / DT
+        self.twist = twist
+        self.pose = np.array(O_T_EE_c, dtype=float)
+
+    def set_twist(self, O_dP_EE_c: np.ndarray) -> None:
+        twist = np.asarray(O_dP_EE_c, dtype=float)
+        self.twist_rate = (twist - self.twist) / DT
+        self.twist = twist.copy()
+        self._integrate()
+
+    def extrapolate(self, stand_still: bool = False) -> None:
+        if stand_still:
+            self.twist = np.zeros(6)
+            self.twist_rate = np.zeros(6)
+            return
+        self.twist = self.twist + self.twist_rate * DT
+        self._integrate()
+
+    def _integrate(self) -> None:
+        self.pose[:3, 3] += self.twist[:3] * DT
+        self.pose[:3, :3] = exp_rotation(self.twist[3:] * DT) @ self.pose[:3, :3]
