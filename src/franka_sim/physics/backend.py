@@ -42,6 +42,28 @@ class JointCommand:
                    np.asarray(K, float), np.asarray(D, float))
 
 
+@dataclass(frozen=True)
+class FingerCommand:
+    """What the Hand's finger drive does during one step, in terms of the opening.
+
+    Both fingers track `width` (each half of it) with feed-forward `speed` (d width/dt), each
+    pushing with at most `force` N — the squeeze a grasped object feels.
+    """
+
+    width: float  # m
+    speed: float  # m/s
+    force: float  # N
+
+
+@dataclass(frozen=True)
+class FingerState:
+    """The Hand's finger sensors after a step."""
+
+    width: float  # m, between the pads
+    speed: float  # m/s, d width/dt
+    force: float  # N, mean drive force towards closing (the fingers' own weight excluded)
+
+
 @dataclass(eq=False)
 class Measured:
     """The robot's sensor readings after a step; arrays are fresh per step (safe to keep)."""
@@ -56,6 +78,7 @@ class Measured:
     O_T_F: np.ndarray  # (4,4) base → flange (link8)
     accelerometer_top: np.ndarray  # (6,3) specific force in each sensor frame, m/s²
     accelerometer_bottom: np.ndarray  # (6,3)
+    fingers: FingerState | None = None  # None: a backend without finger joints
 
 
 class Backend(Protocol):
@@ -63,8 +86,11 @@ class Backend(Protocol):
 
     timestep: float  # seconds per step(); the robot's clock requires 0.001
 
-    def step(self, cmd: JointCommand) -> Measured:
-        """Advance exactly one timestep with the given drive command."""
+    def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+        """Advance exactly one timestep with the given drive command.
+
+        `fingers` replaces the Hand's finger command from this step on; None keeps the last one.
+        """
 
     def measure(self) -> Measured:
         """The readings of the last step (or reset), without stepping."""

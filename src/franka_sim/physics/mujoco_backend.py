@@ -17,6 +17,11 @@ Sensors. tau_J is the link-side torque of an elastic joint whose motor carries t
 inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign). theta models the
 joint elasticity with the stiffness K = 7000 Nm/rad inferred from the robot's own θ − q ≈ τ_J/7000
 (fr3_facts §2); the elasticity is only reported, not simulated (the joints are rigid here).
+
+Fingers (optional, physics/fingers.py). Two finger joints on the hand, driven each step by the
+last FingerCommand with their own gravity load added (so resting fingers rest exactly, and an
+idle arm with idle fingers stays bit-exact). Whenever they move, the palm's inertial is rewritten
+so that palm + fingers is the end effector the state reports, at every opening.
 """
 
 from __future__ import annotations
@@ -25,7 +30,9 @@ import mujoco
 import numpy as np
 
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
-from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.description import hand
+from franka_sim.physics import fingers as fg
+from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand, Measured
 from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
 
 JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
@@ -35,9 +42,10 @@ class MujocoBackend:
     """Owns one MjModel/MjData pair; not thread-safe (the physics worker serialises access)."""
 
     def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | None = None,
-                 armature=ROTOR_INERTIA_FR3) -> None:
+                 armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:
         self.desc = desc
-        self.model = model = build_model(desc, armature=armature, scene_xml=scene_xml)
+        self.model = model = build_model(desc, armature=armature, scene_xml=scene_xml,
+                                         fingers=fingers)
         self.timestep = float(model.opt.timestep)
         self.data = data = mujoco.MjData(model)
         self._scratch = mujoco.MjData(model)  # for queries, so they never disturb the state
@@ -74,10 +82,23 @@ class MujocoBackend:
         self._tau_J_prev = np.zeros(7)
         self._theta_prev = np.zeros(7)
         self._last: Measured | None = None
+        self.has_fingers = fingers
+        if fingers:
+            self._init_fingers()
         self.reset(q0)
 
+    def _init_fingers(self) -> None:
+        m, d = self.model, self.data
+        jids = [m.joint(name).id for name in fg.FINGER_JOINTS]
+        self._fq = [int(a) for a in m.jnt_qposadr[jids]]
+        self._fv = [int(a) for a in m.jnt_dofadr[jids]]
+        self._palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+        self._palm_at: tuple[float, float] | None = None  # finger positions the palm is for
+        self._finger_cmd = FingerCommand(fg.OPEN_WIDTH, 0.0, fg.MAX_FINGER_FORCE)
+        self._finger_drive = (0.0, 0.0)
+
     # -- the hot path ---------------------------------------------------------------------------
-    def step(self, cmd: JointCommand) -> Measured:
+    def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
         m, d, tmp, applied = self.model, self.data, self._tmp, self._applied
         np.subtract(cmd.q_d, self._q, out=tmp)
         np.multiply(cmd.K, tmp, out=applied)
@@ -88,12 +109,46 @@ class MujocoBackend:
         self._gravity_at_rest()
         applied += self._gcomp
         self._motor[:] = applied
+        if self.has_fingers:
+            self._drive_fingers(fingers)
         self._dq_prev[:] = self._dq
         mujoco.mj_step2(m, d)
         np.subtract(self._dq, self._dq_prev, out=self._ddq)
         self._ddq /= self.timestep
+        if self.has_fingers:
+            self._update_palm()
         mujoco.mj_step1(m, d)
         return self._record(self._motor, self._ddq, first=False)
+
+    def _drive_fingers(self, command: FingerCommand | None) -> None:
+        """Finger forces for this step: a force-limited PD on each finger plus its gravity load."""
+        if command is not None:
+            self._finger_cmd = command
+        c, d = self._finger_cmd, self.data
+        target, velocity, limit = 0.5 * c.width, 0.5 * c.speed, min(c.force, fg.MAX_FINGER_FORCE)
+        drive = []
+        for qa, va in zip(self._fq, self._fv):
+            f = fg.FINGER_KP * (target - d.qpos[qa]) + fg.FINGER_KD * (velocity - d.qvel[va])
+            f = limit if f > limit else (-limit if f < -limit else f)
+            drive.append(f)
+            d.qfrc_applied[va] = f + self._rne[va]
+        self._finger_drive = (drive[0], drive[1])
+
+    def _update_palm(self) -> None:
+        """Rewrite the palm for the fingers' new positions, so the hand stays the reported body."""
+        x = (float(self.data.qpos[self._fq[0]]), float(self.data.qpos[self._fq[1]]))
+        if x != self._palm_at:
+            self._palm.write(self.model, self._hand, *x)
+            self._palm_at = x
+
+    def _finger_state(self) -> FingerState | None:
+        if not self.has_fingers:
+            return None
+        d = self.data
+        return FingerState(
+            width=float(d.qpos[self._fq[0]] + d.qpos[self._fq[1]]),
+            speed=float(d.qvel[self._fv[0]] + d.qvel[self._fv[1]]),
+            force=-0.5 * (self._finger_drive[0] + self._finger_drive[1]))
 
     def _gravity_at_rest(self) -> None:
         """g(q) at the current q into self._gcomp, bit-identical to MuJoCo's bias at dq = 0."""
@@ -125,7 +180,7 @@ class MujocoBackend:
         self._last = Measured(
             q=self._q.copy(), dq=self._dq.copy(), ddq=ddq.copy(), tau_J=tau_J, dtau_J=dtau_J,
             theta=theta, dtheta=dtheta, O_T_F=O_T_F, accelerometer_top=top,
-            accelerometer_bottom=bottom)
+            accelerometer_bottom=bottom, fingers=self._finger_state())
         return self._last
 
     def measure(self) -> Measured:
@@ -139,8 +194,18 @@ class MujocoBackend:
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
+        if self.has_fingers:  # open, at rest, the palm matching
+            for qa in self._fq:
+                d.qpos[qa] = 0.5 * fg.OPEN_WIDTH
+            self._finger_cmd = FingerCommand(fg.OPEN_WIDTH, 0.0, fg.MAX_FINGER_FORCE)
+            self._finger_drive = (0.0, 0.0)
+            self._palm_at = None
+            self._update_palm()
         self._gravity_at_rest()
         self._applied[:] = self._gcomp
+        if self.has_fingers:
+            for va in self._fv:
+                d.qfrc_applied[va] = self._rne[va]
         mujoco.mj_forward(m, d)  # qacc = 0 here: gravity compensation alone holds the arm
         self._record(self._gcomp.copy(), np.zeros(7), first=True)
 
@@ -210,6 +275,13 @@ class MujocoBackend:
         inertia = np.asarray(inertia, float).reshape(3, 3)
         if mass < 0 or not np.allclose(inertia, inertia.T):
             raise ValueError("mass must be ≥ 0 and inertia symmetric")
+        if self.has_fingers:  # the composite of palm + fingers becomes the given body
+            self._palm.set_composite(mass, com, 0.5 * (inertia + inertia.T))
+            self._palm_at = None
+            self._update_palm()
+            mujoco.mj_setConst(self.model, self._scratch)
+            mujoco.mj_step1(self.model, self.data)
+            return
         principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
         if np.linalg.det(axes) < 0:
             axes[:, 0] = -axes[:, 0]

@@ -18,6 +18,7 @@ import numpy as np
 from franka_sim.description import hand
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, FLANGE_LINK,
                                          ArmDescription)
+from franka_sim.physics import fingers as fg
 
 TIMESTEP = 0.001  # the robot's control cycle: one physics step per published state
 GRAVITY = (0.0, 0.0, -9.81)
@@ -67,6 +68,15 @@ _NO_CONTACT = {frozenset((a, b)) for a, b in zip(COLLISION_BODIES, COLLISION_BOD
 _NO_CONTACT.add(frozenset(("link6", HAND_BODY)))  # the hand sits over joint 7, next to link 6
 
 
+# The fingers touch the environment only (objects, the table), never the arm or each other: a
+# bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
+FINGER_COLLISION_BITS = (1 << (len(COLLISION_BODIES) + 1), 1)
+# Pad contacts: hard and grippy enough that a squeeze of tens of newtons neither sinks the pads
+# into the object (MuJoCo's default contact would, by centimetres) nor lets a held cube creep.
+PAD_SOLREF = (0.002, 1.0)
+PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
+
+
 def collision_bits(body: str) -> tuple[int, int]:
     """(contype, conaffinity) for an arm body; environment geoms keep MuJoCo's default 1/1."""
     contype = 1 << (COLLISION_BODIES.index(body) + 1)
@@ -101,8 +111,13 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
                         inertia[0, 1], inertia[0, 2], inertia[1, 2]]
 
 
-def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.MjSpec:
-    """The arm (+ rigid Hand) as an editable MjSpec; `build_model` compiles it."""
+def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
+               fingers: bool = False) -> mujoco.MjSpec:
+    """The arm + Hand as an editable MjSpec; `build_model` compiles it.
+
+    Without `fingers` the Hand is one rigid body; with them it is a palm and two driven finger
+    joints (physics/fingers.py) whose composite is still exactly the reported Hand.
+    """
     spec = mujoco.MjSpec()
     spec.modelname = desc.name
     spec.compiler.degree = False  # every angle below is in radians
@@ -153,8 +168,11 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.Mj
     flange = desc.frames[FLANGE_LINK]
     hand_body = holders[flange.body].add_body(name=HAND_BODY, pos=flange.offset[:3, 3],
                                               quat=_quat(flange.offset[:3, :3]))
-    _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
     _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY)
+    if fingers:
+        _add_fingers(hand_body)
+    else:
+        _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
 
     for name in ACCELEROMETER_TOP + ACCELEROMETER_BOTTOM:
         if name not in desc.frames:  # a description without them reports zeros
@@ -164,15 +182,35 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3) -> mujoco.Mj
     return spec
 
 
+def _add_fingers(hand_body: mujoco.MjsBody) -> None:
+    """Palm inertial (composite minus open fingers) and the two finger bodies with their joints."""
+    half = fg.OPEN_WIDTH / 2
+    palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+    _set_inertial(hand_body, palm.mass, *palm.inertial(half, half))
+    contype, conaffinity = FINGER_COLLISION_BITS
+    positions, rotations = fg.finger_frames()
+    for k, (body_name, joint_name) in enumerate(zip(fg.FINGER_BODIES, fg.FINGER_JOINTS)):
+        body = hand_body.add_body(name=body_name, pos=positions[k], quat=_quat(rotations[k]))
+        _set_inertial(body, fg.FINGER_MASS, fg.FINGER_COM, fg.FINGER_INERTIA)
+        body.add_joint(name=joint_name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
+                       range=[0.0, fg.FINGER_STROKE], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                       armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0)
+        for j, (centre, half_size) in enumerate(fg.FINGER_BOXES):
+            body.add_geom(name=f"{body_name}_collision{j}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                          pos=centre, size=half_size, contype=contype, conaffinity=conaffinity,
+                          condim=4, priority=1, friction=fg.PAD_FRICTION, solref=PAD_SOLREF,
+                          solimp=PAD_SOLIMP, rgba=[0.3, 0.3, 0.3, 1.0])
+
+
 def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
-                scene_xml: str | None = None) -> mujoco.MjModel:
+                scene_xml: str | None = None, fingers: bool = False) -> mujoco.MjModel:
     """Compile the arm, optionally inside a scene.
 
     `scene_xml` is an MJCF document whose worldbody contents (floor, lights, objects) are
     attached around the arm, with names prefixed "scene/" so they cannot clash with the arm's.
     The arm's options (1 ms step, integrator, gravity) win over the scene's.
     """
-    spec = build_spec(desc, armature=armature)
+    spec = build_spec(desc, armature=armature, fingers=fingers)
     if scene_xml is not None:
         scene = mujoco.MjSpec.from_string(scene_xml)
         spec.attach(scene, frame=spec.worldbody.add_frame(), prefix="scene/")

@@ -21,7 +21,7 @@ DLS_DAMPING = 1e-3
 # is under this. Placed under the stretched-elbow pose at the joint-4 limit (σ_min ≈ 0.046),
 # which real robots do start from, and well above truly singular poses (σ_min → 0).
 SINGULAR_POSE_MIN_SINGULAR_VALUE = 0.02
-ELBOW_GAIN = 0.2  # fraction of the elbow error closed per cycle, in the null space
+ELBOW_GAIN = 1.0  # the elbow is a position command: close its error each cycle (null space)
 
 
 def skew(v: np.ndarray) -> np.ndarray:

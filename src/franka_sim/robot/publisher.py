@@ -171,4 +171,4 @@ class StatePublisher:
         s.ddelbow_c[:] = (delbow - self._delbow_c) / DT
         s.delbow_c[:] = delbow
         s.elbow_c[:] = elbow_c
-        self._elbow_c, self._delbow_c = elbow_c, delbow
+        self._elbow_c, self._delbow_c = np.array(elbow_c, dtype=float), delbow

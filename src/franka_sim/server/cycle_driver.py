@@ -49,6 +49,7 @@ class CycleDriver:
         self._token = 0
         self._busy = False
         self._running = False
+        self._failures = 0
         self._idle = asyncio.Event()
 
     def start(self) -> None:
@@ -89,7 +90,13 @@ class CycleDriver:
             log.error("physics step failed; publishing stopped: %s", result)
             self._running = False
         else:
-            self.publish(self.core.publish(*result))
+            try:
+                self.publish(self.core.publish(*result))
+            except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+                self._failures += 1
+                if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
+                    log.exception("cycle %d failed to publish (%d so far)",
+                                  self.core.message_id, self._failures)
             if self.after_cycle is not None:
                 self.after_cycle()
         released_at = time.monotonic()

@@ -1,0 +1,106 @@
+"""The Franka Hand's two fingers: their geometry, their drive, and the palm that keeps the hand exact.
+
+Mechanics (fr3_facts §3). Two prismatic joints on the hand, 0.0584 m along the hand axis, each
+opening one finger along the hand's y axis (the NE frame's y, the flange's turned −45° about z).
+Finger 2 is finger 1 turned half a turn about the hand axis, so both share one local geometry and
+"+y opens". The datasheet stroke is 0–0.04 m per finger; our mechanical stop sits at 0.0405 m, so
+homing (which opens to the stops) measures a max_width of 0.081 m, inside the 0.080–0.082 m real
+hands report. At joint position 0 the pads' inner faces meet: width = x1 + x2 exactly.
+
+Drive. Each finger joint gets F = clip(K·(x_d − x) + D·(v_d − v), −F_max, F_max) plus its own
+gravity load (so a resting finger is exactly at rest, like the arm). Both joints get the same
+command: the real Hand couples them through one motor; two equally driven joints agree with it at
+rest and let an off-centre object push each finger separately. A finger blocked by an object
+saturates at F_max, so a grasp squeezes with the commanded force. Gains and the drive's reflected
+inertia along the stroke are our choice (not published): stiff enough to track 0.1 m/s of width
+within a fraction of a millimetre, critically damped, and well inside the explicit 1 kHz
+stability bound.
+
+Exact hand. The robot reports one rigid end effector (m_ee, F_x_Cee, I_ee); libfranka's Model uses
+it. With moving fingers the composite would change with the opening, so the palm's inertial is
+recomputed from the finger positions whenever they move: palm = reported composite − fingers. The
+hand's total mass, CoM and inertia are then the reported figures at every opening, to rounding.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from franka_sim.description import hand
+
+FINGER_JOINTS = ("finger_joint1", "finger_joint2")
+FINGER_BODIES = ("finger1", "finger2")
+FINGER_ORIGIN_Z = 0.0584  # m along the hand axis from the flange
+FINGER_STROKE = 0.0405  # m per finger: the mechanical stop (joint range [0, FINGER_STROKE])
+OPEN_WIDTH = 0.08  # m: the datasheet opening; the fingers start here
+
+# Our own finger: a knuckle box under the hand, then a pad whose centre is the TCP (0.1034 m).
+FINGER_MASS = 0.03  # kg (the CAD fingers weigh ~0.029 kg, fr3_facts §3)
+FINGER_COM = np.array([0.0, 0.012, 0.028])  # in the finger frame
+FINGER_INERTIA = np.diag([9.8e-6, 1.0e-5, 2.0e-6])  # about the CoM, finger axes (a box's)
+PAD_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
+# (centre, half-size) boxes in the finger frame; the pad's inner face is the plane y = 0.
+FINGER_BOXES = (((0.0, 0.0045, 0.045), (0.011, 0.0045, 0.0175)),  # pad
+                ((0.0, 0.0135, 0.0135), (0.011, 0.009, 0.0135)))  # knuckle
+
+FINGER_ARMATURE = 0.1  # kg along the stroke: the drive's reflected inertia (our choice)
+FINGER_KP = 3000.0  # N/m per finger
+FINGER_KD = 2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE))  # critical, N·s/m
+MAX_FINGER_FORCE = 100.0  # N per finger (the description's effort limit, fr3_facts §3)
+
+
+def finger_frames() -> tuple[np.ndarray, np.ndarray]:
+    """(positions (2,3), rotations (2,3,3)) of the finger frames in the hand body (flange) frame,
+    at joint position 0."""
+    ne = np.asarray(hand.F_T_NE_HAND)[:3, :3]
+    half_turn = np.diag([-1.0, -1.0, 1.0])
+    rotations = np.stack([ne, ne @ half_turn])
+    positions = np.tile([0.0, 0.0, FINGER_ORIGIN_Z], (2, 1))
+    return positions, rotations
+
+
+def _spread(d: np.ndarray) -> np.ndarray:
+    """Parallel-axis term S(d) = |d|²·1 − d·dᵀ."""
+    return float(d @ d) * np.eye(3) - np.outer(d, d)
+
+
+class Palm:
+    """The hand body's own inertial such that palm + fingers = a given rigid composite."""
+
+    def __init__(self, mass: float, com, inertia) -> None:
+        positions, rotations = finger_frames()
+        self._com_at_zero = positions + rotations @ FINGER_COM  # finger CoMs in F at x = 0
+        self._opening_dir = rotations[:, :, 1]  # each finger's +y (its opening) in F
+        self._finger_inertia = sum(R @ FINGER_INERTIA @ R.T for R in rotations)
+        self._eigval, self._eigvec = np.zeros(3), np.zeros(9)
+        self.set_composite(mass, com, inertia)
+
+    def set_composite(self, mass: float, com, inertia) -> None:
+        self.total_mass = float(mass)
+        self.total_com = np.asarray(com, float).copy()
+        self.total_inertia = np.asarray(inertia, float).reshape(3, 3).copy()
+        self.mass = self.total_mass - 2 * FINGER_MASS
+        if self.mass <= 0.0:
+            raise ValueError(f"an end effector of {mass} kg cannot carry the Hand's fingers")
+
+    def inertial(self, x1: float, x2: float) -> tuple[np.ndarray, np.ndarray]:
+        """(CoM in F, inertia about it in F axes) of the palm for finger positions x1, x2."""
+        c = self.total_com
+        r1 = self._com_at_zero[0] + x1 * self._opening_dir[0]
+        r2 = self._com_at_zero[1] + x2 * self._opening_dir[1]
+        com = (self.total_mass * c - FINGER_MASS * (r1 + r2)) / self.mass
+        inertia = (self.total_inertia - self._finger_inertia
+                   - FINGER_MASS * (_spread(r1 - c) + _spread(r2 - c))
+                   - self.mass * _spread(com - c))
+        return com, inertia
+
+    def write(self, model: mujoco.MjModel, body: int, x1: float, x2: float) -> None:
+        """Store the palm for finger positions x1, x2 into the model's hand body."""
+        com, inertia = self.inertial(x1, x2)
+        mujoco.mju_eig3(self._eigval, self._eigvec, model.body_iquat[body], inertia.ravel())
+        if self._eigval.min() <= 0.0:
+            raise ValueError("the fingers outweigh the end effector's inertia")
+        model.body_mass[body] = self.mass
+        model.body_ipos[body] = com
+        model.body_inertia[body] = self._eigval
