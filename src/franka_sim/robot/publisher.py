@@ -17,7 +17,8 @@ from franka_sim.physics.backend import Measured
 from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import MoveMotionGeneratorMode
 from franka_sim.robot.controllers import impedance_torque
-from franka_sim.robot.frames import column_major, elbow_of
+from franka_sim.description.kinematics import elbow as elbow_of
+from franka_sim.robot.frames import column_major
 from franka_sim.robot.settings import RobotSettings
 
 if TYPE_CHECKING:
