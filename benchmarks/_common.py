@@ -35,17 +35,22 @@ def serve_command(host: str) -> list[str]:
     return [exe, "serve", "--host", host]
 
 
+def reference_command(host: str) -> list[str]:
+    """benchmarks/reference_sender.py: a trivial 1 kHz sender, the platform's floor."""
+    return [sys.executable, str(Path(__file__).with_name("reference_sender.py")), "--host", host]
+
+
 class Server:
-    """A `franka-sim serve` subprocess whose stderr is drained by a thread (so it never blocks).
+    """A `franka-sim serve` subprocess (or another `command`); a thread drains its stderr.
 
     `serving_at` is the perf_counter() instant the "serving on" log line was read.
     """
 
-    def __init__(self, host: str = PRIVATE_HOST) -> None:
+    def __init__(self, host: str = PRIVATE_HOST, command: list[str] | None = None) -> None:
         self.host = host
         self.spawned_at = time.perf_counter()
         self.proc = subprocess.Popen(
-            serve_command(host), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            command or serve_command(host), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE, text=True, bufsize=1,
         )
         self.pid = self.proc.pid
@@ -71,18 +76,18 @@ class Server:
         return self.serving_at - self.spawned_at
 
     def stop(self, timeout: float = 10.0) -> float:
-        """SIGTERM, wait for exit; seconds it took (inf if it had to be killed)."""
+        """SIGTERM, wait for exit; seconds it took (inf if it had to be killed after `timeout`)."""
         if self.proc.poll() is not None:
             return 0.0
+        # A blocking wait: Popen.wait(timeout) polls with growing sleeps and would quantise this.
+        watchdog = threading.Timer(timeout, self.proc.kill)
+        watchdog.start()
         t0 = time.perf_counter()
         self.proc.send_signal(signal.SIGTERM)
-        try:
-            self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-            return float("inf")
-        return time.perf_counter() - t0
+        self.proc.wait()
+        took = time.perf_counter() - t0
+        watchdog.cancel()
+        return took if self.proc.returncode != -signal.SIGKILL else float("inf")
 
 
 class RawClient:
@@ -113,6 +118,8 @@ class RawClient:
         """(perf_counter_ns right after recv, message_id, kernel arrival ns) of the next state."""
         data, anc, _, _ = self.udp.recvmsg(2048, _CMSG_SPACE)
         t = time.perf_counter_ns()
+        if len(data) != STATE_SIZE:
+            raise ValueError(f"RobotState datagram of {len(data)} bytes, expected {STATE_SIZE}")
         sec, nsec = struct.unpack("<qq", anc[0][2]) if anc else (0, 0)
         return t, struct.unpack_from("<Q", data)[0], sec * 1_000_000_000 + nsec
 
@@ -143,17 +150,42 @@ def cpu_percent(pid: int, seconds: float) -> float:
     return 100 * (cpu_seconds(pid) - c0) / (time.perf_counter() - t0)
 
 
-def machine_jiffies() -> tuple[int, int]:
-    """(busy, total) jiffies over all CPUs from /proc/stat, to report how loaded the host was."""
-    with open("/proc/stat") as f:
-        v = [int(x) for x in f.readline().split()[1:]]
-    idle = v[3] + v[4]  # idle + iowait
-    return sum(v) - idle, sum(v)
+class Load:
+    """How busy the rest of the machine was over a window (a caveat for every timing figure).
+
+    `other` is the CPU time of all processes except `exclude`, in % of one core (exact per-task
+    times; processes that both start and exit inside the window are missed). `pressure` is the
+    share of the window in which some task waited for a CPU (PSI, /proc/pressure/cpu). The
+    aggregate /proc/stat counters are not used: on this VM they under-count a 1 kHz loop.
+    """
+
+    def __init__(self, exclude: set[int]) -> None:
+        self.exclude = exclude | {os.getpid()}
+        self.t0, self.cpu0, self.psi0 = time.perf_counter(), self._cpu(), _psi_some_us()
+
+    def _cpu(self) -> dict[int, float]:
+        out = {}
+        for name in os.listdir("/proc"):
+            if name.isdigit() and int(name) not in self.exclude:
+                try:
+                    out[int(name)] = cpu_seconds(int(name))
+                except (OSError, IndexError, ValueError):
+                    pass  # exited meanwhile
+        return out
+
+    def stop(self) -> tuple[float, float]:
+        """(other processes % of a core, CPU pressure % of the window)."""
+        cpu1, psi1, wall = self._cpu(), _psi_some_us(), time.perf_counter() - self.t0
+        used = sum(c - self.cpu0.get(pid, 0.0) for pid, c in cpu1.items())
+        return 100 * used / wall, 100 * (psi1 - self.psi0) / 1e6 / wall
 
 
-def machine_busy_percent(start: tuple[int, int], end: tuple[int, int]) -> float:
-    """% of all CPUs busy between two machine_jiffies() samples (100 = every core busy)."""
-    return 100 * (end[0] - start[0]) / max(1, end[1] - start[1])
+def _psi_some_us() -> float:
+    try:
+        with open("/proc/pressure/cpu") as f:
+            return float(f.readline().rsplit("total=", 1)[1])
+    except (OSError, IndexError):
+        return float("nan")
 
 
 def verdict(ok: bool) -> str:

@@ -2,6 +2,7 @@
 
     python benchmarks/stream.py --seconds 10
     python benchmarks/stream.py --host 127.0.0.1 --pid 1234   # an already-running server
+    python benchmarks/stream.py --reference   # same figures for reference_sender.py (the floor)
 """
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ import time
 
 import numpy as np
 
-from _common import (PRIVATE_HOST, RawClient, Server, cpu_percent, cpu_seconds, machine_busy_percent,
-                     machine_jiffies, rss_mib, verdict)
+from _common import (PRIVATE_HOST, Load, RawClient, Server, cpu_percent, cpu_seconds,
+                     reference_command, rss_mib, verdict)
 
 
 def main() -> None:
@@ -24,14 +25,17 @@ def main() -> None:
                     help="server CPU with no client, measured before connecting (0: skip)")
     ap.add_argument("--host", help="use an already-running server on this address")
     ap.add_argument("--pid", type=int, help="its pid, for CPU/RSS (with --host)")
+    ap.add_argument("--reference", action="store_true",
+                    help="measure reference_sender.py instead of franka-sim (platform floor)")
     args = ap.parse_args()
 
-    server = None if args.host else Server(PRIVATE_HOST)
+    command = reference_command(PRIVATE_HOST) if args.reference else None
+    server = None if args.host else Server(PRIVATE_HOST, command)
     host = args.host or PRIVATE_HOST
     pid = server.pid if server else args.pid
     try:
         if server:
-            server.wait_serving()
+            server.wait_serving()  # "serving on": franka-sim's log line, also printed by the reference
             time.sleep(1.0)  # let start-up work settle before the idle figure
         idle_cpu = cpu_percent(pid, args.idle_seconds) if pid and args.idle_seconds > 0 else None
 
@@ -41,7 +45,7 @@ def main() -> None:
             pass
         times, ids, ktimes = [], [], []
         cpu0 = cpu_seconds(pid) if pid else None
-        jiffies0 = machine_jiffies()
+        load = Load(exclude={pid} if pid else set())
         w0 = time.perf_counter_ns()
         t_end = w0 + int(args.seconds * 1e9)
         t = w0
@@ -51,7 +55,7 @@ def main() -> None:
             ids.append(mid)
             ktimes.append(kt)
         w1 = time.perf_counter_ns()
-        busy = machine_busy_percent(jiffies0, machine_jiffies())
+        other_cpu, pressure = load.stop()
         cpu = 100 * (cpu_seconds(pid) - cpu0) / ((w1 - w0) / 1e9) if pid else None
         rss = rss_mib(pid) if pid else None
         client.close()
@@ -67,10 +71,11 @@ def main() -> None:
     app = intervals(t)  # when this process got each state (what the brief's targets apply to)
     kern = intervals(np.array(ktimes, dtype=np.int64))  # when the kernel queued it
 
-    print(f"franka-sim stream, {args.seconds:g} s window after {args.warmup:g} s warm-up, "
+    what = "reference_sender.py" if args.reference else "franka-sim"
+    print(f"{what} stream, {args.seconds:g} s window after {args.warmup:g} s warm-up, "
           f"host {host}{'' if server else ' (external server)'}")
-    print(f"  machine: {os.cpu_count()} CPUs, {busy:.0f} % busy during the window "
-          f"(server + client + anything else), load average {os.getloadavg()[0]:.2f}")
+    print(f"  machine: {os.cpu_count()} CPUs; during the window other processes used "
+          f"{other_cpu:.0f} % of a core, tasks waited for a CPU {pressure:.0f} % of the time")
     print(f"  {'':<42} {'recv':>10}   {'target':<11} {'':4} {'kernel':>8}")
     rows = [
         ("states received", f"{len(t)}", "", None, ""),

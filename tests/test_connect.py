@@ -71,3 +71,15 @@ def test_port_taken_is_a_clear_one_line_error_and_nonzero_exit(sim):
     assert second.returncode != 0
     assert "already in use" in second.stderr
     assert second.stderr.strip().count("\n") == 0 or "Traceback" not in second.stderr
+
+
+def test_a_client_that_reconnects_at_once_is_never_taken_for_a_second_client(sim):
+    for _ in range(20):
+        s = socket.create_connection((sim.host, ROBOT_PORT), timeout=2)
+        s.sendall(struct.pack("<IIIHH", 0, 0, 16, 10, 40000))
+        assert struct.unpack("<IIIBH", s.recv(15))[3] == 0
+        s.close()
+        r = _connect(sim.host)  # right after the close: before the server has read the EOF
+        assert r.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del r
+    assert not sim.log_matching("refused FCI client")

@@ -49,6 +49,28 @@ def serve(
         help="Abort a motion with communication_constraints_violation after 20 consecutive "
         "lost command cycles, as the robot does. Off: losses are only counted and reported.",
     ),
+    enforce_motion_limits: bool = typer.Option(
+        False, "--enforce-motion-limits/--no-enforce-motion-limits",
+        envvar="FRANKA_SIM_ENFORCE_MOTION_LIMITS",
+        help="Abort a motion whose commands break the robot's limits (discontinuities, "
+        "velocity/acceleration/jerk, range, torque rate), as the robot does. Off: violations "
+        "are checked and logged only.",
+    ),
+    joint_discontinuity_scale: float = typer.Option(
+        1.0, envvar="FRANKA_SIM_JOINT_DISCONTINUITY_SCALE", min=1e-6,
+        help="Scale of the joint acceleration/jerk limits the joint side of Cartesian commands "
+        "(the IK output) is held to.",
+    ),
+    scene: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_SCENE", exists=True, dir_okay=False,
+        help="MJCF file whose bodies (a table, objects) are placed around the arm, named "
+        "scene/<name>. Default: the packaged table with a 5 cm cube in reach.",
+    ),
+    no_gripper: bool = typer.Option(
+        False, "--no-gripper", envvar="FRANKA_SIM_NO_GRIPPER",
+        help="Simulate no Franka Hand service: port 1338 is not served (connections are "
+        "refused, as on a robot without a Hand) and the hand is one rigid body.",
+    ),
     log_level: str = typer.Option(
         "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
     ),
@@ -58,7 +80,10 @@ def serve(
         level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s"
     )
     config = Config(
-        host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints
+        host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
+        enforce_motion_limits=enforce_motion_limits,
+        joint_discontinuity_scale=joint_discontinuity_scale,
+        scene=scene, gripper=not no_gripper,
     )
     try:
         import uvloop
@@ -75,12 +100,15 @@ class _Failed(Exception):
 
 async def _serve(config: Config) -> None:
     from franka_sim.description.urdf import DescriptionError
+    from franka_sim.physics.scene import SceneError
     from franka_sim.server.sim import AddressInUse, FrankaSim
 
     try:
         sim = FrankaSim(config)
     except DescriptionError as exc:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
+    except SceneError as exc:
+        raise _Failed(f"cannot load the scene {exc}") from None
     try:
         await sim.start()
     except AddressInUse as exc:

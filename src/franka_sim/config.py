@@ -25,4 +25,9 @@ class Config:
     urdf: Path | None = None  # None: the packaged FR3 description
     clock: ClockMode = ClockMode.realtime
     enforce_comm_constraints: bool = False  # abort after 20 lost cycles, as the robot does
+    enforce_motion_limits: bool = False  # abort on a limit violation, as the robot does
+    joint_discontinuity_scale: float = 1.0  # scales the joint envelope the IK output is held to
     q0: tuple[float, ...] = field(default=READY_POSE)
+    gripper: bool = True  # serve the Franka Hand (TCP 1338 + its state stream); False: no Hand
+    gripper_port: int = 1338  # libfranka pins it too
+    scene: Path | None = None  # MJCF whose bodies surround the arm; None: the packaged default

@@ -1,4 +1,4 @@
-"""The Franka Hand's two fingers: their geometry, their drive, and the palm that keeps the hand exact.
+"""The Franka Hand's two fingers: geometry, drive, and the palm that keeps the hand exact.
 
 Mechanics (fr3_facts §3). Two prismatic joints on the hand, 0.0584 m along the hand axis, each
 opening one finger along the hand's y axis (the NE frame's y, the flange's turned −45° about z).
@@ -7,11 +7,12 @@ Finger 2 is finger 1 turned half a turn about the hand axis, so both share one l
 homing (which opens to the stops) measures a max_width of 0.081 m, inside the 0.080–0.082 m real
 hands report. At joint position 0 the pads' inner faces meet: width = x1 + x2 exactly.
 
-Drive. Each finger joint gets F = clip(K·(x_d − x) + D·(v_d − v), −F_max, F_max) plus its own
-gravity load (so a resting finger is exactly at rest, like the arm). Both joints get the same
-command: the real Hand couples them through one motor; two equally driven joints agree with it at
-rest and let an off-centre object push each finger separately. A finger blocked by an object
-saturates at F_max, so a grasp squeezes with the commanded force. Gains and the drive's reflected
+Drive. Each finger joint gets F = clip(K·(x_d − x) + D·(v_d − v), −F_lim, F_lim) plus its own
+gravity load (so a resting finger is exactly at rest, like the arm), where F_lim is the command's
+force (at most MAX_FINGER_FORCE). Both joints get the same command: the real Hand couples them
+through one motor; two equally driven joints agree with it at rest and let an off-centre object
+push each finger separately. A finger blocked by an object saturates at F_lim, so a grasp
+squeezes with the commanded force. Gains and the drive's reflected
 inertia along the stroke are our choice (not published): stiff enough to track 0.1 m/s of width
 within a fraction of a millimetre, critically damped, and well inside the explicit 1 kHz
 stability bound.
@@ -66,7 +67,12 @@ def _spread(d: np.ndarray) -> np.ndarray:
 
 
 class Palm:
-    """The hand body's own inertial such that palm + fingers = a given rigid composite."""
+    """The hand body's own inertial such that palm + fingers = a given rigid composite.
+
+    The palm's CoM is linear and its inertia quadratic in the two finger positions, so both are
+    kept as polynomial coefficients (exact: a polynomial of degree 2 is fixed by its values on
+    {-1, 0, 1}²) and a rewrite per step costs two small dot products and one 3×3 eigensolve.
+    """
 
     def __init__(self, mass: float, com, inertia) -> None:
         positions, rotations = finger_frames()
@@ -74,15 +80,24 @@ class Palm:
         self._opening_dir = rotations[:, :, 1]  # each finger's +y (its opening) in F
         self._finger_inertia = sum(R @ FINGER_INERTIA @ R.T for R in rotations)
         self._eigval, self._eigvec = np.zeros(3), np.zeros(9)
+        self._monomials = np.ones(6)
         self.set_composite(mass, com, inertia)
 
     def set_composite(self, mass: float, com, inertia) -> None:
+        """The rigid body palm + fingers must be: mass, CoM in F, inertia about the CoM (F axes)."""
         self.total_mass = float(mass)
         self.total_com = np.asarray(com, float).copy()
         self.total_inertia = np.asarray(inertia, float).reshape(3, 3).copy()
         self.mass = self.total_mass - 2 * FINGER_MASS
         if self.mass <= 0.0:
             raise ValueError(f"an end effector of {mass} kg cannot carry the Hand's fingers")
+        # Coefficients of [1, x1, x2, x1², x2², x1·x2] from exact evaluations.
+        grid = [(a, b) for a in (-1.0, 0.0, 1.0) for b in (-1.0, 0.0, 1.0)]
+        basis = np.array([[1, a, b, a * a, b * b, a * b] for a, b in grid])
+        values = [self.inertial(a, b) for a, b in grid]
+        solve = np.linalg.pinv(basis)
+        self._com_coeffs = solve @ np.array([v[0] for v in values])  # (6, 3)
+        self._inertia_coeffs = solve @ np.array([v[1].ravel() for v in values])  # (6, 9)
 
     def inertial(self, x1: float, x2: float) -> tuple[np.ndarray, np.ndarray]:
         """(CoM in F, inertia about it in F axes) of the palm for finger positions x1, x2."""
@@ -97,10 +112,12 @@ class Palm:
 
     def write(self, model: mujoco.MjModel, body: int, x1: float, x2: float) -> None:
         """Store the palm for finger positions x1, x2 into the model's hand body."""
-        com, inertia = self.inertial(x1, x2)
-        mujoco.mju_eig3(self._eigval, self._eigvec, model.body_iquat[body], inertia.ravel())
+        k = self._monomials
+        k[1], k[2], k[3], k[4], k[5] = x1, x2, x1 * x1, x2 * x2, x1 * x2
+        inertia = k @ self._inertia_coeffs
+        mujoco.mju_eig3(self._eigval, self._eigvec, model.body_iquat[body], inertia)
         if self._eigval.min() <= 0.0:
             raise ValueError("the fingers outweigh the end effector's inertia")
         model.body_mass[body] = self.mass
-        model.body_ipos[body] = com
+        model.body_ipos[body] = k @ self._com_coeffs
         model.body_inertia[body] = self._eigval

@@ -26,11 +26,13 @@ so that palm + fingers is the end effector the state reports, at every opening.
 
 from __future__ import annotations
 
+import os
+
 import mujoco
 import numpy as np
 
-from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
 from franka_sim.description import hand
+from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
 from franka_sim.physics import fingers as fg
 from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand, Measured
 from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
@@ -41,7 +43,7 @@ JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
 class MujocoBackend:
     """Owns one MjModel/MjData pair; not thread-safe (the physics worker serialises access)."""
 
-    def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | None = None,
+    def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | os.PathLike | None = None,
                  armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:
         self.desc = desc
         self.model = model = build_model(desc, armature=armature, scene_xml=scene_xml,
@@ -125,10 +127,12 @@ class MujocoBackend:
         if command is not None:
             self._finger_cmd = command
         c, d = self._finger_cmd, self.data
-        target, velocity, limit = 0.5 * c.width, 0.5 * c.speed, min(c.force, fg.MAX_FINGER_FORCE)
+        target, velocity = 0.5 * c.width, 0.5 * c.speed
+        limit = max(0.0, min(c.force, fg.MAX_FINGER_FORCE))
         drive = []
         for qa, va in zip(self._fq, self._fv):
-            f = fg.FINGER_KP * (target - d.qpos[qa]) + fg.FINGER_KD * (velocity - d.qvel[va])
+            f = float(fg.FINGER_KP * (target - d.qpos[qa])
+                      + fg.FINGER_KD * (velocity - d.qvel[va]))
             f = limit if f > limit else (-limit if f < -limit else f)
             drive.append(f)
             d.qfrc_applied[va] = f + self._rne[va]

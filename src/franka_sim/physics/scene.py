@@ -7,10 +7,16 @@ verbatim (inertiafromgeom off, no balancing), and it stores each tensor in princ
 which is an exact change of basis.
 
 What the URDF does not say and the physics needs is added here, each as a named table:
-rotor inertia (armature), the Franka Hand, collision primitives and the sensor sites.
+rotor inertia (armature), the Franka Hand (one rigid body, or a palm and two driven fingers,
+physics/fingers.py), collision primitives and the sensor sites. A scene (MJCF: a table,
+objects) can be attached around the arm; the package ships one (scenes/default.xml).
 """
 
 from __future__ import annotations
+
+import importlib.resources
+import os
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -194,7 +200,8 @@ def _add_fingers(hand_body: mujoco.MjsBody) -> None:
         _set_inertial(body, fg.FINGER_MASS, fg.FINGER_COM, fg.FINGER_INERTIA)
         body.add_joint(name=joint_name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
                        range=[0.0, fg.FINGER_STROKE], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-                       armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0)
+                       armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0,
+                       solref_limit=PAD_SOLREF, solimp_limit=PAD_SOLIMP)  # a hard stop
         for j, (centre, half_size) in enumerate(fg.FINGER_BOXES):
             body.add_geom(name=f"{body_name}_collision{j}", type=mujoco.mjtGeom.mjGEOM_BOX,
                           pos=centre, size=half_size, contype=contype, conaffinity=conaffinity,
@@ -202,16 +209,40 @@ def _add_fingers(hand_body: mujoco.MjsBody) -> None:
                           solimp=PAD_SOLIMP, rgba=[0.3, 0.3, 0.3, 1.0])
 
 
+class SceneError(ValueError):
+    """An MJCF scene that cannot be loaded or attached around the arm."""
+
+
+def default_scene_path() -> Path:
+    """The packaged world: a table under the arm and a 5 cm cube within reach."""
+    packaged = importlib.resources.files("franka_sim").joinpath("scenes", "default.xml")
+    return Path(str(packaged))
+
+
 def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
-                scene_xml: str | None = None, fingers: bool = False) -> mujoco.MjModel:
+                scene_xml: str | os.PathLike | None = None,
+                fingers: bool = False) -> mujoco.MjModel:
     """Compile the arm, optionally inside a scene.
 
-    `scene_xml` is an MJCF document whose worldbody contents (floor, lights, objects) are
+    `scene_xml` is an MJCF document (its text, or a path to its file, which lets it refer to
+    meshes and includes next to it) whose worldbody contents (floor, table, objects) are
     attached around the arm, with names prefixed "scene/" so they cannot clash with the arm's.
     The arm's options (1 ms step, integrator, gravity) win over the scene's.
     """
     spec = build_spec(desc, armature=armature, fingers=fingers)
     if scene_xml is not None:
-        scene = mujoco.MjSpec.from_string(scene_xml)
+        if isinstance(scene_xml, str):
+            scene = mujoco.MjSpec.from_string(scene_xml)
+        else:
+            scene = mujoco.MjSpec.from_file(os.fspath(scene_xml))
         spec.attach(scene, frame=spec.worldbody.add_frame(), prefix="scene/")
     return spec.compile()
+
+
+def check_scene(desc: ArmDescription, path: os.PathLike, *, fingers: bool) -> None:
+    """Raise SceneError (one line) unless the arm compiles inside the scene at `path`."""
+    try:
+        build_model(desc, scene_xml=Path(path), fingers=fingers)
+    except ValueError as exc:  # MuJoCo's parse and compile errors
+        message = " ".join(str(exc).split())
+        raise SceneError(f"{path}: {message}") from None

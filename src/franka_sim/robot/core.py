@@ -39,6 +39,7 @@ from franka_sim.robot.cartesian import (
     smallest_singular_value,
 )
 from franka_sim.robot.controllers import cartesian_impedance_torque, impedance_damping
+from franka_sim.robot.motion_guard import MotionGuard, ViolationLog, error_names
 from franka_sim.robot.motion import (
     CARTESIAN_GENERATORS,
     MAX_EXTRAPOLATED_CYCLES,
@@ -61,8 +62,13 @@ class RobotCore:
     """The robot behind the FCI: settings, modes, errors, the running motion, the state."""
 
     def __init__(self, desc: ArmDescription, q0: np.ndarray, *,
-                 enforce_comm_constraints: bool = False, first_message_id: int = 1) -> None:
+                 enforce_comm_constraints: bool = False, enforce_motion_limits: bool = False,
+                 joint_discontinuity_scale: float = 1.0, first_message_id: int = 1) -> None:
         self.desc = desc
+        self.enforce_motion_limits = enforce_motion_limits
+        self.joint_discontinuity_scale = joint_discontinuity_scale
+        self.guard: MotionGuard | None = None
+        self.violations = ViolationLog()
         self.settings = RobotSettings()
         self.enforce_comm_constraints = enforce_comm_constraints
         self.message_id = first_message_id - 1  # id of the last published state
@@ -78,6 +84,7 @@ class RobotCore:
         self._recovery: tuple[int, int] | None = None  # (command_id, cycles waited)
         self._stray_commands = 0
         self._stalled_at: np.ndarray | None = None
+        self._hold: tuple | None = None
 
     # -- the cycle ---------------------------------------------------------------------------
     def joint_command(self) -> JointCommand:
@@ -88,7 +95,7 @@ class RobotCore:
         motion = self.motion  # closing may have ended it
         K = self.settings.K_theta
         if motion is None or not motion.running:
-            return JointCommand.impedance(self.q_hold, K, impedance_damping(K))
+            return self._hold_command()
         if self._stalled_at is not None:
             return JointCommand.impedance(self._stalled_at, K, impedance_damping(K))
         if motion.spec.torque_controlled:
@@ -97,6 +104,14 @@ class RobotCore:
         if motion.spec.controller is MoveControllerMode.kCartesianImpedance:
             return JointCommand.torque(self._cartesian_impedance(motion))
         return JointCommand.impedance(ref.q_d, K, impedance_damping(K), dq_d=ref.dq_d)
+
+    def _hold_command(self) -> JointCommand:
+        """Idle: the joint impedance about q_hold (rebuilt only when q_hold or K_theta change)."""
+        key = (self.q_hold, self.settings.K_theta)
+        if self._hold is None or any(a is not b for a, b in zip(key, self._hold[0])):
+            K = self.settings.K_theta
+            self._hold = key, JointCommand.impedance(self.q_hold, K, impedance_damping(K))
+        return self._hold[1]
 
     def _cartesian_impedance(self, motion: Motion) -> np.ndarray:
         """kCartesianImpedance: a spring-damper at K about the desired EE pose (see controllers)."""
@@ -124,6 +139,8 @@ class RobotCore:
         if motion is not None:
             self.cycle.opened(self.message_id)
             motion.kinematics = desired_kinematics
+            if motion.running:
+                self._enforce(self.guard.judge_measured(measured.q, measured.dq))
         self._advance_recovery(measured)
         return self.publisher.pack(self, measured, desired_kinematics)
 
@@ -151,11 +168,16 @@ class RobotCore:
 
     def _close_cycle(self, motion: Motion) -> None:
         closed = self.cycle.close()
+        self.guard.released()
         if closed.command is not None:
+            if self._enforce(self.guard.judge_command(closed.command)):
+                return  # a violating command never reaches the physics
             motion.apply(closed.command)
             self._stalled_at = None
         else:
             motion.miss(closed.consecutive_lost)
+        if motion.cartesian is not None and self._enforce(self.guard.judge_ik(motion.reference)):
+            return
         lost = closed.consecutive_lost
         if lost >= MAX_EXTRAPOLATED_CYCLES and not motion.spec.use_async:
             if self.enforce_comm_constraints:
@@ -168,6 +190,17 @@ class RobotCore:
                 self._stalled_at = self.measured.q.copy()
         if closed.command is not None and motion.finished:
             self._finish(motion)
+
+    def _enforce(self, violations) -> bool:
+        """Log violations; with enforcement, abort on any that the robot aborts on."""
+        if not violations:
+            return False
+        self.violations.report(violations, self.enforce_motion_limits)
+        names = error_names(violations)
+        if names and self.enforce_motion_limits:
+            self._reflex(names)
+            return True
+        return False
 
     # -- UDP commands ----------------------------------------------------------------------------
     def receive_command(self, command) -> bool:
@@ -200,6 +233,13 @@ class RobotCore:
         O_T_EE = (self.measured.O_T_F if self.measured is not None
                   else flange_pose(self.desc, q)) @ F_T_EE
         self.motion = Motion(command_id, spec, q, O_T_EE, F_T_EE)
+        seen = self.publisher.buffer  # the start the client saw (float32, as it will echo it)
+        self.guard = MotionGuard(
+            self.desc, spec, q_start=np.array(seen.q, dtype=float),
+            O_T_EE_start=np.array(seen.O_T_EE, dtype=float),
+            elbow_start=np.array(seen.elbow, dtype=float),
+            joint_discontinuity_scale=self.joint_discontinuity_scale,
+        )
         self.cycle = CommandCycle()
         self._stalled_at = None
         return [build_response(Command.Move, command_id, MoveStatus.kMotionStarted)]

@@ -20,9 +20,13 @@ from franka_sim.server.timer import DeadlineTimer
 log = logging.getLogger(__name__)
 
 
-def _step(backend, joint_command, q_desired):
-    """One physics step, plus the desired-side kinematics when a generator sets q_d."""
-    measured = backend.step(joint_command)
+def _step(backend, joint_command, q_desired, fingers=None):
+    """One physics step (with the Hand's finger command, if any), plus the desired-side
+    kinematics when a generator sets q_d."""
+    if fingers is None:  # no Hand command (or no Hand): the backend's step(cmd) as before
+        measured = backend.step(joint_command)
+    else:
+        measured = backend.step(joint_command, fingers)
     if q_desired is None:
         return measured, None
     return measured, backend.flange_pose_and_jacobian(q_desired)
@@ -37,12 +41,14 @@ class CycleDriver:
         *,
         lockstep: bool = False,
         after_cycle: Callable[[], None] | None = None,
+        finger_command: Callable[[], object] | None = None,
     ) -> None:
         self.core = core
         self.worker = worker
         self.publish = publish
         self.lockstep = lockstep
         self.after_cycle = after_cycle
+        self.finger_command = finger_command  # the gripper's drive command for the next step
         self.pacer = Pacer()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: DeadlineTimer | None = None
@@ -83,7 +89,8 @@ class CycleDriver:
         self._token += 1  # invalidates any armed deadline for this cycle
         joint_command = self.core.joint_command()
         q_desired = self.core.desired_q
-        self.worker.submit(_step, (joint_command, q_desired), self._on_stepped, self._loop)
+        fingers = None if self.finger_command is None else self.finger_command()
+        self.worker.submit(_step, (joint_command, q_desired, fingers), self._on_stepped, self._loop)
 
     def _on_stepped(self, result) -> None:
         if isinstance(result, BaseException):

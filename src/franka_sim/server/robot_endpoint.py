@@ -1,19 +1,39 @@
 """The TCP side of the robot (port 1337): one client at a time, as on the real FCI.
 
 A thin adapter: bytes go to the sans-IO `RobotSession`, replies come back out. A second client
-while one is connected is closed at once with one log line — the FR3 allows a single FCI
-connection (docs/deviations.md explains the choice).
+while one is connected is closed with one log line — the FR3 allows a single FCI connection
+(docs/deviations.md explains the choice), at once, so libfranka fails fast. A client that
+closes and reconnects at once (a program restarting, a test) may be accepted before the loop
+has read the old connection's EOF; the old socket is checked for that pending EOF first, so the
+returning client is not turned away by its own ghost.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+import os
+import socket
 from typing import Callable
 
 from franka_sim.robot.session import RobotSession, SessionError
 
 log = logging.getLogger(__name__)
+
+
+
+def _peer_has_left(transport: asyncio.Transport) -> bool:
+    """Whether the peer closed (EOF or reset pending) though the loop has not read it yet."""
+    sock = transport.get_extra_info("socket")
+    if sock is None:
+        return False
+    try:
+        with socket.socket(fileno=os.dup(sock.fileno())) as peek:
+            return peek.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b""
+    except BlockingIOError:
+        return False  # nothing pending: still there
+    except OSError:
+        return True  # reset
 
 
 class RobotConnection(asyncio.Protocol):
@@ -22,10 +42,13 @@ class RobotConnection(asyncio.Protocol):
         self.transport: asyncio.Transport | None = None
         self.session: RobotSession | None = None
         self.peer: tuple[str, int] | None = None
-
     def connection_made(self, transport) -> None:  # type: ignore[override]
         self.transport = transport
         self.peer = transport.get_extra_info("peername")[:2]
+        active = self.owner.active
+        if active is not None and _peer_has_left(active.transport):
+            active.transport.close()
+            active.connection_lost(None)  # its disconnect, now rather than next iteration
         if self.owner.active is not None:
             log.warning(
                 "refused FCI client %s:%s: the robot is already controlled by %s:%s",

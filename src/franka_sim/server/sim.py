@@ -1,8 +1,8 @@
 """FrankaSim: one simulated FR3 on one address, usable as `async with FrankaSim(...)`.
 
-It wires the pieces and nothing else: description → physics worker, robot core, the TCP and
-UDP endpoints, and the cycle driver. Works on any asyncio loop (uvloop is the CLI's choice,
-not a requirement here).
+It wires the pieces and nothing else: description + scene → physics worker, robot core, the TCP
+and UDP endpoints, the Hand (gripper state machine + its endpoint), and the cycle driver. Works
+on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
 """
 
 from __future__ import annotations
@@ -16,11 +16,15 @@ import numpy as np
 from franka_sim.config import ClockMode, Config
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.scene import check_scene, default_scene_path
 from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
+from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.gripper_session import GripperSession
 from franka_sim.robot.requests import RequestHandler
 from franka_sim.robot.session import RobotSession
 from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.gripper_endpoint import GripperEndpoint
 from franka_sim.server.robot_endpoint import RobotEndpoint
 from franka_sim.server.udp_endpoint import UdpEndpoint
 
@@ -43,14 +47,24 @@ class FrankaSim:
         self.description = load_arm_description(self.urdf_text)
         q0 = np.array(config.q0, dtype=float)
         self.core = RobotCore(
-            self.description, q0, enforce_comm_constraints=config.enforce_comm_constraints
+            self.description, q0, enforce_comm_constraints=config.enforce_comm_constraints,
+            enforce_motion_limits=config.enforce_motion_limits,
+            joint_discontinuity_scale=config.joint_discontinuity_scale,
         )
-        self.worker = PhysicsWorker(lambda: MujocoBackend(self.description, q0))
+        self.scene = config.scene if config.scene is not None else default_scene_path()
+        check_scene(self.description, self.scene, fingers=config.gripper)  # SceneError: say so now
+        self.worker = PhysicsWorker(lambda: MujocoBackend(
+            self.description, q0, scene_xml=self.scene, fingers=config.gripper))
+        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
+        self.gripper = Gripper() if config.gripper else None
+        self.gripper_endpoint = GripperEndpoint(
+            lambda: GripperSession(self.gripper), self._on_gripper_disconnect)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect)
         self.driver = CycleDriver(
             self.core, self.worker, self.udp.send_state,
-            lockstep=config.clock is ClockMode.lockstep, after_cycle=self._flush_replies,
+            lockstep=config.clock is ClockMode.lockstep, after_cycle=self._after_cycle,
+            finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
         )
         self._started = False
 
@@ -70,11 +84,26 @@ class FrankaSim:
                 ) from exc
             raise
         await loop.create_datagram_endpoint(lambda: self.udp, local_addr=(self.config.host, 0))
+        if self.gripper is not None:
+            try:
+                await self.gripper_endpoint.start(self.config.host, self.config.gripper_port)
+            except OSError as exc:
+                await self.robot.stop()
+                self.udp.transport.close()
+                await self.worker.stop()
+                if exc.errno == errno.EADDRINUSE:
+                    raise AddressInUse(
+                        exc.errno, f"{self.config.host}:{self.config.gripper_port} (gripper) is "
+                        "already in use (another franka-sim or robot bridge on this address?)",
+                    ) from exc
+                raise
         self.driver.start()
         self._started = True
         log.info(
-            "simulated FR3 serving on %s:%d (clock %s)",
+            "simulated FR3 serving on %s:%d (clock %s; %s; scene %s)",
             self.config.host, self.config.robot_port, self.config.clock.value,
+            f"Franka Hand on {self.config.gripper_port}" if self.gripper is not None
+            else "no gripper", self.scene,
         )
         return self
 
@@ -83,6 +112,8 @@ class FrankaSim:
             return
         self._started = False
         await self.robot.stop()
+        if self.gripper is not None:
+            await self.gripper_endpoint.stop()
         await self.driver.stop()
         if self.udp.transport is not None:
             self.udp.transport.close()
@@ -115,6 +146,21 @@ class FrankaSim:
         if self.core.receive_command(command):
             self.driver.release_early()
         self._flush_replies()
+
+    def _after_cycle(self) -> None:
+        self._flush_replies()
+        gripper = self.gripper
+        if gripper is None:
+            return
+        measured, cycle = self.core.measured, self.core.message_id
+        gripper.advance(cycle, None if measured is None else measured.fingers)
+        for reply in gripper.take_replies():
+            self.gripper_endpoint.send(reply)
+        if gripper.state_due(cycle):
+            self.gripper_endpoint.send_state(gripper.pack_state(cycle))
+
+    def _on_gripper_disconnect(self) -> None:
+        self.gripper.client_gone()
 
     def _flush_replies(self) -> None:
         for reply in self.core.take_replies():

@@ -1,0 +1,344 @@
+"""The Franka Hand behind gripper protocol v3: a state machine clocked by the robot's cycle number.
+
+No sockets, threads or wall time. Decoded requests come in through `request()`; after every
+physics step the server calls `advance(cycle, fingers)` with the finger sensors. The hand answers
+Homing, Move and Grasp when the action completes (libfranka blocks until then), says what the
+finger drive does next (`command`), and packs a GripperState whenever `state_due(cycle)`.
+
+Figures and choices (fr3_facts §3 where sourced, ours otherwise):
+- GripperState at 10 Hz, every 100th cycle: Franka's maintainers put the ~10 Hz read rate down to
+  the hand's internals, franky measured a new state every ~0.1 s, franka_ros2 says "maximally
+  15 Hz". Its time is the robot's cycle number (ms), the clock RobotState.time counts too.
+- Speeds are of the opening (m of width per s), at most 0.1 m/s (the clients' maximum and default);
+  faster requests are clamped. Move and Grasp ramp the opening at constant speed, so a Move takes
+  |Δwidth|/speed, to the cycle, and ends when the opening is within 0.5 mm of its goal.
+- Homing closes, then opens to the mechanical stops, both at 0.1 m/s, and measures max_width
+  there. Before any homing, max_width is the datasheet's 0.08 m.
+- Grasp closes at `speed` pushing with at most `force` per finger. When the fingers stop on
+  something (they trail the closing ramp by 2 mm) or the ramp has closed them, the hand squeezes
+  with `force` and, 50 ms later, tests width − ε_inner < d < width + ε_outer on the opening d:
+  kSuccess and is_grasped (it keeps squeezing), else kUnsuccessful and it stops squeezing where
+  it is (franka_ros#16: it does not keep squeezing a wrong width).
+- A Move that cannot reach its goal (something in the way) answers kUnsuccessful 0.5 s after its
+  ramp ended, and the fingers stay where they stopped.
+- Bad arguments (non-finite, width outside [0, max_width], speed below 1 mm/s, force ≤ 0,
+  ε < 0) answer kFail, libfranka's CommandException. Every request is answered, within the time
+  its ramp takes plus at most a few seconds.
+- Stop ends a running action (which answers kAborted) and releases a grasp; a new action preempts
+  a running one the same way.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+from franka_sim.physics.backend import FingerCommand, FingerState
+from franka_sim.protocol.codec import GripperStateBuffer
+from franka_sim.protocol.enums import GripperCommand, GripperStatus
+from franka_sim.protocol.gripper_messages import build_gripper_response
+
+log = logging.getLogger(__name__)
+
+DT = 1e-3  # s per robot cycle
+STATE_PERIOD = 100  # cycles between GripperStates: 10 Hz
+NOMINAL_MAX_WIDTH = 0.08  # m, the datasheet opening: max_width until a homing measures it
+MAX_SPEED = 0.1  # m/s of opening
+MIN_SPEED = 1e-3  # m/s: slower requests are refused, so none blocks its client for long
+HOMING_SPEED = 0.1  # m/s of opening
+HOMING_OPEN_TARGET = 0.1  # m: beyond any stop, so the fingers open until they are stopped
+HOMING_FORCE = 10.0  # N per finger against the stops
+MAX_FORCE = 100.0  # N per finger: the drive's limit (physics/fingers.py), also a Move's force
+MOVE_TOLERANCE = 5e-4  # m: a Move has arrived within this of its goal
+MOVE_TIMEOUT = 500  # cycles after its ramp a blocked Move gives up
+SETTLE_TIMEOUT = 1000  # cycles after a ramp: fingers still not at rest count as stopped
+BLOCKED_LAG = 2e-3  # m: fingers this far behind their ramp are stopped by something
+SQUEEZE_CYCLES = 50  # cycles a grasp squeezes before it judges the width
+AT_REST_SPEED = 1e-3  # m/s
+TEMPERATURE = 30  # °C, constant (no thermal model)
+
+
+def _finite(*values: float) -> bool:
+    return all(math.isfinite(v) for v in values)
+
+
+@dataclass
+class _Ramp:
+    """The opening going from `start` to `goal` at `speed`, one step per cycle from `first`."""
+
+    first: int
+    start: float
+    goal: float
+    speed: float
+
+    def at(self, cycle: int) -> tuple[float, float]:
+        """(target opening, its rate) commanded for `cycle`."""
+        distance = abs(self.goal - self.start)
+        travel = self.speed * DT * (cycle - self.first + 1)
+        if travel >= distance:
+            return self.goal, 0.0
+        sign = 1.0 if self.goal > self.start else -1.0
+        return self.start + sign * travel, sign * self.speed
+
+    def done(self, cycle: int) -> bool:
+        return self.at(cycle)[1] == 0.0
+
+    def overdue(self, cycle: int) -> bool:
+        """Ended SETTLE_TIMEOUT cycles ago: stop waiting for the fingers to come to rest."""
+        steps = math.ceil(abs(self.goal - self.start) / (self.speed * DT))
+        return cycle - self.first >= steps + SETTLE_TIMEOUT
+
+
+class _Move:
+    kind = GripperCommand.Move
+
+    def __init__(self, command_id: int, first: int, width: float, goal: float, speed: float):
+        self.command_id = command_id
+        self.ramp = _Ramp(first, width, goal, speed)
+        self.ended: int | None = None  # cycle the ramp reached the goal
+
+    def command(self, cycle: int) -> FingerCommand:
+        return FingerCommand(*self.ramp.at(cycle), MAX_FORCE)
+
+    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
+        if not self.ramp.done(cycle):
+            return None
+        if self.ended is None:
+            self.ended = cycle
+        if abs(fingers.width - self.ramp.goal) <= MOVE_TOLERANCE:
+            return GripperStatus.kSuccess
+        if cycle - self.ended >= MOVE_TIMEOUT:
+            log.info("gripper Move to %.4f m blocked at %.4f m", self.ramp.goal, fingers.width)
+            return GripperStatus.kUnsuccessful
+        return None
+
+
+@dataclass(frozen=True)
+class _GraspArgs:
+    width: float
+    epsilon_inner: float
+    epsilon_outer: float
+    speed: float
+    force: float
+
+    def holds(self, d: float) -> bool:
+        """libfranka's grasp rule: width − ε_inner < d < width + ε_outer."""
+        return self.width - self.epsilon_inner < d < self.width + self.epsilon_outer
+
+
+class _Grasp:
+    kind = GripperCommand.Grasp
+
+    def __init__(self, command_id: int, first: int, width: float, request: _GraspArgs):
+        self.command_id = command_id
+        self.args = request
+        self.ramp = _Ramp(first, width, 0.0, request.speed)
+        self.squeezing_since: int | None = None
+
+    def command(self, cycle: int) -> FingerCommand:
+        if self.squeezing_since is None:
+            return FingerCommand(*self.ramp.at(cycle), self.args.force)
+        return FingerCommand(0.0, 0.0, self.args.force)
+
+    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
+        if self.squeezing_since is None:
+            target = self.ramp.at(cycle)[0]
+            closed = self.ramp.done(cycle) and abs(fingers.speed) < AT_REST_SPEED
+            if fingers.width - target > BLOCKED_LAG or closed or self.ramp.overdue(cycle):
+                self.squeezing_since = cycle
+            return None
+        if cycle - self.squeezing_since < SQUEEZE_CYCLES:
+            return None
+        if self.args.holds(fingers.width):
+            return GripperStatus.kSuccess
+        return GripperStatus.kUnsuccessful
+
+
+class _Homing:
+    kind = GripperCommand.Homing
+
+    def __init__(self, command_id: int, first: int, width: float):
+        self.command_id = command_id
+        self.ramp = _Ramp(first, width, 0.0, HOMING_SPEED)
+        self.opening = False
+        self.max_width: float | None = None
+
+    def command(self, cycle: int) -> FingerCommand:
+        target, rate = self.ramp.at(cycle)
+        return FingerCommand(target, rate, HOMING_FORCE if self.opening else MAX_FORCE)
+
+    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
+        target = self.ramp.at(cycle)[0]
+        lag = abs(fingers.width - target)
+        stopped = abs(fingers.speed) < AT_REST_SPEED or self.ramp.overdue(cycle)
+        if not self.opening:
+            if (self.ramp.done(cycle) or lag > BLOCKED_LAG) and stopped:
+                self.opening = True
+                self.ramp = _Ramp(cycle + 1, fingers.width, HOMING_OPEN_TARGET, HOMING_SPEED)
+            return None
+        if (lag > BLOCKED_LAG or self.ramp.done(cycle)) and stopped:
+            self.max_width = fingers.width
+            return GripperStatus.kSuccess
+        return None
+
+
+class Gripper:
+    """The Hand: its calibration, the running action, the grasp, and what the fingers do next."""
+
+    def __init__(self, *, state_period: int = STATE_PERIOD,
+                 max_width: float = NOMINAL_MAX_WIDTH) -> None:
+        self.state_period = state_period
+        self.max_width = max_width
+        self.width = 0.0  # last measured opening
+        self.is_grasped = False
+        self.cycle = 0  # last advanced cycle
+        self._action: _Move | _Grasp | _Homing | None = None
+        self._grasp: _GraspArgs | None = None  # the object held, while squeezing it
+        self._idle: FingerCommand | None = None  # None: the drive keeps what it had
+        self._replies: list[bytes] = []
+        self._buffer = GripperStateBuffer()
+        self._buffer.temperature[...] = TEMPERATURE
+
+    # -- the cycle ---------------------------------------------------------------------------
+    @property
+    def command(self) -> FingerCommand | None:
+        """The finger drive's command for the next cycle (None: unchanged)."""
+        if self._action is not None:
+            return self._action.command(self.cycle + 1)
+        if self._grasp is not None:
+            return FingerCommand(0.0, 0.0, self._grasp.force)
+        return self._idle
+
+    def advance(self, cycle: int, fingers: FingerState | None) -> None:
+        """Cycle `cycle` was stepped and these are the fingers after it."""
+        self.cycle = cycle
+        if fingers is None:
+            return
+        self.width = max(0.0, fingers.width)
+        if self._grasp is not None:
+            self.is_grasped = self._grasp.holds(fingers.width)
+        action = self._action
+        if action is None:
+            return
+        status = action.update(cycle, fingers)
+        if status is None:
+            return
+        self._action = None
+        self._replies.append(build_gripper_response(action.kind, action.command_id, status))
+        if status is GripperStatus.kSuccess and isinstance(action, _Grasp):
+            self._grasp = action.args
+            self.is_grasped = True
+            return
+        if isinstance(action, _Homing) and action.max_width is not None:
+            self.max_width = action.max_width
+        if isinstance(action, _Move) and status is GripperStatus.kSuccess:
+            self._hold(action.ramp.goal)
+        else:  # stay where the fingers stopped (a missed grasp stops squeezing)
+            self._hold(fingers.width)
+
+    def state_due(self, cycle: int) -> bool:
+        return cycle % self.state_period == 0
+
+    def pack_state(self, cycle: int) -> bytes:
+        """The 23-byte GripperState for `cycle`."""
+        s = self._buffer
+        s.message_id[...] = cycle & 0xFFFFFFFF
+        s.width[...] = self.width
+        s.max_width[...] = self.max_width
+        s.is_grasped[...] = self.is_grasped
+        return s.pack()
+
+    def take_replies(self) -> list[bytes]:
+        """Answers to actions that completed, in order."""
+        replies, self._replies = self._replies, []
+        return replies
+
+    # -- requests ----------------------------------------------------------------------------
+    def request(self, command: GripperCommand, command_id: int, request) -> list[bytes]:
+        """A decoded Homing/Move/Grasp/Stop; returns what is answered at once."""
+        if command is GripperCommand.Stop:
+            return self._stop(command_id)
+        if command is GripperCommand.Homing:
+            return self._start(_Homing(command_id, self.cycle + 1, self.width))
+        if command is GripperCommand.Move:
+            width, speed = float(request.width), float(request.speed)
+            problem = self._check_width(width) or self._check_speed(speed)
+            if problem:
+                return self._fail(command, command_id, problem)
+            return self._start(_Move(command_id, self.cycle + 1, self.width, width,
+                                     min(speed, MAX_SPEED)))
+        if command is GripperCommand.Grasp:
+            args = _GraspArgs(float(request.width), float(request.epsilon_inner),
+                              float(request.epsilon_outer), float(request.speed),
+                              float(request.force))
+            problem = (self._check_width(args.width) or self._check_speed(args.speed)
+                       or self._check_grasp(args))
+            if problem:
+                return self._fail(command, command_id, problem)
+            args = _GraspArgs(args.width, args.epsilon_inner, args.epsilon_outer,
+                              min(args.speed, MAX_SPEED), min(args.force, MAX_FORCE))
+            return self._start(_Grasp(command_id, self.cycle + 1, self.width, args))
+        raise AssertionError(f"unhandled gripper command {command!r}")  # Connect: the session's
+
+    def client_gone(self) -> None:
+        """The client closed TCP: nobody waits for answers; the hand stops where it is.
+
+        A grasp survives (the hand keeps holding what it holds, as a real one does)."""
+        self._replies.clear()
+        if self._action is not None:
+            self._action = None
+            self._hold(self.width)
+
+    # -- transitions -------------------------------------------------------------------------
+    def _start(self, action) -> list[bytes]:
+        replies = self._abort_running()
+        self._grasp = None
+        self.is_grasped = False
+        self._action = action
+        return replies
+
+    def _stop(self, command_id: int) -> list[bytes]:
+        replies = self._abort_running()
+        self._grasp = None
+        self.is_grasped = False
+        self._hold(self.width)
+        replies.append(build_gripper_response(GripperCommand.Stop, command_id,
+                                              GripperStatus.kSuccess))
+        return replies
+
+    def _abort_running(self) -> list[bytes]:
+        action, self._action = self._action, None
+        if action is None:
+            return []
+        return [build_gripper_response(action.kind, action.command_id, GripperStatus.kAborted)]
+
+    def _hold(self, width: float) -> None:
+        self._idle = FingerCommand(max(0.0, width), 0.0, MAX_FORCE)
+
+    # -- argument checks: a reason string when the hand refuses ---------------------------------
+    def _fail(self, command: GripperCommand, command_id: int, problem: str) -> list[bytes]:
+        log.warning("gripper %s refused (kFail): %s", command.name, problem)
+        return [build_gripper_response(command, command_id, GripperStatus.kFail)]
+
+    def _check_width(self, width: float) -> str:
+        if not _finite(width):
+            return f"width {width} is not finite"
+        if not 0.0 <= width <= self.max_width:
+            return f"width {width} m outside [0, {self.max_width:.4f}] m"
+        return ""
+
+    @staticmethod
+    def _check_speed(speed: float) -> str:
+        if not _finite(speed) or speed < MIN_SPEED:
+            return f"speed {speed} m/s is not a number of at least {MIN_SPEED} m/s"
+        return ""
+
+    @staticmethod
+    def _check_grasp(args: _GraspArgs) -> str:
+        if not _finite(args.force) or args.force <= 0.0:
+            return f"force {args.force} N is not a positive number"
+        if not _finite(args.epsilon_inner, args.epsilon_outer) \
+                or args.epsilon_inner < 0.0 or args.epsilon_outer < 0.0:
+            return f"epsilons {args.epsilon_inner}, {args.epsilon_outer} m are not ≥ 0"
+        return ""

@@ -1,0 +1,49 @@
+"""The joint side of Cartesian commands: the IK's joint motion is held to the joint limits.
+
+A Cartesian stream well inside its own limits can still ask for violent joint motion (near a
+singularity the IK amplifies it); the robot judges the completed joint signal and names those
+errors cartesian_motion_generator_joint_*. Thresholds are the joint envelope times
+`--joint-discontinuity-scale` (1.0: the FR3's 10 rad/s² and 5000 rad/s³).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from franka_sim.description.urdf import ArmDescription
+from franka_sim.robot import limits as L
+from franka_sim.robot.limits import joint_limits
+from franka_sim.robot.motion import DT, JointReference
+from franka_sim.robot.safety import Violation
+
+_CMG = "cartesian_motion_generator_joint_"
+
+
+class IkJointSideChecker:
+    def __init__(self, desc: ArmDescription, scale: float = 1.0) -> None:
+        self._table = joint_limits(desc)
+        self._acceleration = L.JOINT_ACCELERATION * scale
+        self._jerk = L.JOINT_JERK * scale
+        self._ddq_prev = np.zeros(7)
+
+    def check(self, ref: JointReference) -> list[Violation]:
+        """Judge this cycle's IK output (q_d, dq_d, ddq_d of the Cartesian motion)."""
+        table, out = self._table, []
+        jerk = (ref.ddq_d - self._ddq_prev) / DT
+        self._ddq_prev = ref.ddq_d.copy()
+        for i, limit in table.ends_passed(table.signed(ref.q_d)):
+            out.append(Violation(_CMG + "position_limits_violation", f"joint {i + 1}",
+                                 float(ref.q_d[i]), limit, quantity="position", unit="rad"))
+        lower, upper = table.velocity_range(ref.q_d)
+        for i in np.flatnonzero((ref.dq_d > upper) | (ref.dq_d < lower)):
+            limit = float(upper[i] if ref.dq_d[i] > 0 else lower[i])
+            out.append(Violation(_CMG + "velocity_limits_violation", f"joint {i + 1}",
+                                 float(ref.dq_d[i]), limit, quantity="velocity", unit="rad/s"))
+        for i in np.flatnonzero(np.abs(ref.ddq_d) > self._acceleration):
+            out.append(Violation(_CMG + "velocity_discontinuity", f"joint {i + 1}",
+                                 float(abs(ref.ddq_d[i])), self._acceleration,
+                                 quantity="acceleration", unit="rad/s²"))
+        for i in np.flatnonzero(np.abs(jerk) > self._jerk):
+            out.append(Violation(_CMG + "acceleration_discontinuity", f"joint {i + 1}",
+                                 float(abs(jerk[i])), self._jerk, quantity="jerk", unit="rad/s³"))
+        return out
