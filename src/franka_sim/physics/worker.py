@@ -1,23 +1,38 @@
-"""The one thread that owns the MuJoCo data, fed through a queue.
+"""The one thread that owns the MuJoCo data, fed through a queue — and the robot's pacemaker.
 
 MuJoCo steps in this thread so the event loop never blocks on physics; every access to the
 backend (a step, a model query, a parameter change) is a job on the same queue, so the MjData
 is only ever touched by one thread and jobs run in the order they were submitted. Results come
 back to the loop with `call_soon_threadsafe` — a callback, not a coroutine, because this is on
 the 1 kHz path and a callback costs less than awaiting a future.
+
+The thread also keeps the 1 ms deadlines: after a step it can be told when to wake the loop
+for the next cycle, and its wait for the next job is that sleep (timer slack 1 µs, Linux
+`PR_SET_TIMERSLACK`). asyncio and uvloop timers have ~1 ms granularity, too coarse for a
+1 kHz stream, and a separate timer thread would cost a thread wake-up per cycle.
 """
 
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import logging
 import queue
 import threading
+import time
 from typing import Any, Callable
 
 log = logging.getLogger(__name__)
 
 _STOP = object()
+_PR_SET_TIMERSLACK = 29
+
+
+def _tighten_timer_slack() -> None:
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_TIMERSLACK, 1, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: default slack, coarser but correct
+        pass
 
 
 class PhysicsWorker:
@@ -26,6 +41,8 @@ class PhysicsWorker:
         self._jobs: queue.SimpleQueue = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._backend: Any = None
+        self._deadline: float | None = None  # only touched by the worker thread
+        self._wake: tuple[Callable[[], None], asyncio.AbstractEventLoop] | None = None
 
     async def start(self) -> None:
         """Build the backend inside the worker thread (MjData must live where it steps)."""
@@ -33,9 +50,16 @@ class PhysicsWorker:
         await self.call(lambda backend: None)
 
     def submit(self, fn: Callable, args: tuple, done: Callable[[Any], None],
-               loop: asyncio.AbstractEventLoop) -> None:
-        """Run fn(backend, *args) in the worker; call done(result) on the loop afterwards."""
-        self._jobs.put((fn, args, done, loop))
+               loop: asyncio.AbstractEventLoop, *,
+               wake_at: Callable[[float], float | None] | None = None,
+               wake: Callable[[], None] | None = None) -> None:
+        """Run fn(backend, *args) in the worker; call done(result) on the loop afterwards.
+
+        With `wake_at`, this job is a cycle release: it cancels any pending wake-up, and after
+        it the worker calls `wake_at(now)` (in its own thread) for the next deadline and, when
+        that comes without another release, calls `wake()` on the loop.
+        """
+        self._jobs.put((fn, args, done, loop, wake_at, wake))
 
     async def call(self, fn: Callable, *args) -> Any:
         """Run fn(backend, *args) in the worker and await its result (not for the hot path)."""
@@ -58,16 +82,35 @@ class PhysicsWorker:
             self._jobs.put(_STOP)
             await asyncio.get_running_loop().run_in_executor(None, self._thread.join, 2.0)
 
+    def _next_job(self):
+        """The next job, or None when the armed deadline came first (the loop has been woken)."""
+        while True:
+            if self._deadline is None:
+                return self._jobs.get()
+            remaining = self._deadline - time.monotonic()
+            try:
+                return self._jobs.get(timeout=remaining) if remaining > 0 else self._jobs.get_nowait()
+            except queue.Empty:
+                wake, loop = self._wake
+                self._deadline = self._wake = None
+                try:
+                    loop.call_soon_threadsafe(wake)
+                except RuntimeError:  # loop closed during shutdown
+                    return _STOP
+
     def _run(self) -> None:
+        _tighten_timer_slack()
         try:
             self._backend = self._make_backend()
         except BaseException as exc:  # reported to whoever awaits start()
             self._backend = exc
         while True:
-            job = self._jobs.get()
+            job = self._next_job()
             if job is _STOP:
                 return
-            fn, args, done, loop = job
+            fn, args, done, loop, wake_at, wake = job
+            if wake_at is not None:
+                self._deadline = self._wake = None  # this job is the release the wake was for
             if isinstance(self._backend, BaseException):
                 result: Any = self._backend
             else:
@@ -76,6 +119,10 @@ class PhysicsWorker:
                 except Exception as exc:  # noqa: BLE001 - handed back to the caller
                     log.exception("physics job failed")
                     result = exc
+            if wake_at is not None:
+                deadline = wake_at(time.monotonic())
+                if deadline is not None:
+                    self._deadline, self._wake = deadline, (wake, loop)
             try:
                 loop.call_soon_threadsafe(done, result)
             except RuntimeError:  # loop already closed during shutdown

@@ -2,22 +2,29 @@
 
 Callback-driven rather than a coroutine per cycle, because it runs 1000 times a second and a
 callback chain is the cheapest thing asyncio does. Exactly one physics step per published
-cycle; only the release instant depends on the wall clock (see pacing.py).
+cycle; only the release instant depends on the wall clock (see pacing.py). The physics worker
+keeps the deadline (its wait for the next job is the precise sleep), so a realtime cycle costs
+three thread hand-overs: deadline → loop (decide the joint command), loop → worker (step),
+worker → loop (publish).
+
+The clock pauses while nobody is connected and the arm has settled (PAUSE_AFTER cycles after
+the last client left): nothing can observe it, and an idle fleet of simulators then costs no
+CPU. The next client resumes it at once; message_id carries on from where it stopped.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-import time
 from typing import Callable
 
 from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
 from franka_sim.server.pacing import Pacer
-from franka_sim.server.timer import DeadlineTimer
 
 log = logging.getLogger(__name__)
+
+PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
 
 
 def _step(backend, joint_command, q_desired, fingers=None):
@@ -42,6 +49,7 @@ class CycleDriver:
         lockstep: bool = False,
         after_cycle: Callable[[], None] | None = None,
         finger_command: Callable[[], object] | None = None,
+        has_client: Callable[[], bool] = lambda: True,
     ) -> None:
         self.core = core
         self.worker = worker
@@ -49,10 +57,12 @@ class CycleDriver:
         self.lockstep = lockstep
         self.after_cycle = after_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
-        self.pacer = Pacer()
+        self.has_client = has_client
+        self.pacer = Pacer()  # used by the worker thread only (inside wake_at)
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._timer: DeadlineTimer | None = None
         self._token = 0
+        self._unwatched = 0  # cycles since a client was last connected
+        self.paused = False
         self._busy = False
         self._running = False
         self._failures = 0
@@ -60,17 +70,21 @@ class CycleDriver:
 
     def start(self) -> None:
         self._loop = asyncio.get_running_loop()
-        self._timer = DeadlineTimer(self._loop, self._on_deadline)
-        self._timer.start()
         self._running = True
         self._release()
 
     async def stop(self) -> None:
         self._running = False
-        if self._timer is not None:
-            self._timer.stop()
+        self._token += 1  # a wake-up already on its way finds nothing to do
         if self._busy:
             await self._idle.wait()
+
+    def resume(self) -> None:
+        """A client arrived: restart a paused clock at once."""
+        self._unwatched = 0
+        if self.paused and self._running and not self._busy:
+            self.paused = False
+            self._release()
 
     def release_early(self) -> None:
         """The command answering the open cycle arrived: in lockstep, go on at once."""
@@ -86,11 +100,21 @@ class CycleDriver:
     def _release(self) -> None:
         self._busy = True
         self._idle.clear()
-        self._token += 1  # invalidates any armed deadline for this cycle
+        self._token += 1  # invalidates any wake-up armed for this cycle
         joint_command = self.core.joint_command()
         q_desired = self.core.desired_q
         fingers = None if self.finger_command is None else self.finger_command()
-        self.worker.submit(_step, (joint_command, q_desired, fingers), self._on_stepped, self._loop)
+        self._unwatched = 0 if self.has_client() else self._unwatched + 1
+        keep_going = self._unwatched < PAUSE_AFTER or self.core.motion is not None
+        lockstep = self.lockstep and self.core.motion_running
+        pacer, token = self.pacer, self._token
+
+        def wake_at(now: float) -> float | None:  # runs in the worker thread
+            return pacer.next_deadline(now, lockstep=lockstep) if keep_going else None
+
+        self.paused = not keep_going
+        self.worker.submit(_step, (joint_command, q_desired, fingers), self._on_stepped,
+                           self._loop, wake_at=wake_at, wake=lambda: self._on_deadline(token))
 
     def _on_stepped(self, result) -> None:
         if isinstance(result, BaseException):
@@ -106,11 +130,7 @@ class CycleDriver:
                                   self.core.message_id, self._failures)
             if self.after_cycle is not None:
                 self.after_cycle()
-        released_at = time.monotonic()
         self._busy = False
         self._idle.set()
-        if not self._running:
-            return
-        lockstep = self.lockstep and self.core.motion_running
-        deadline = self.pacer.next_deadline(released_at, lockstep=lockstep)
-        self._timer.arm(deadline, self._token)
+        if self.paused and self._running and self.has_client():  # a client came meanwhile
+            self.resume()

@@ -58,13 +58,14 @@ class FrankaSim:
         # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
         self.gripper = Gripper() if config.gripper else None
         self.gripper_endpoint = GripperEndpoint(
-            lambda: GripperSession(self.gripper), self._on_gripper_disconnect)
+            self._make_gripper_session, self._on_gripper_disconnect)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect)
         self.driver = CycleDriver(
             self.core, self.worker, self.udp.send_state,
             lockstep=config.clock is ClockMode.lockstep, after_cycle=self._after_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
+            has_client=self._has_client,
         )
         self._started = False
 
@@ -132,7 +133,15 @@ class FrankaSim:
 
     # -- wiring --------------------------------------------------------------------------------
     def _make_session(self) -> RobotSession:
+        self.driver.resume()  # a paused clock starts again for the newcomer
         return RobotSession(RequestHandler(self.core, self.urdf_text.encode()))
+
+    def _make_gripper_session(self) -> GripperSession:
+        self.driver.resume()
+        return GripperSession(self.gripper)
+
+    def _has_client(self) -> bool:
+        return self.robot.active is not None or self.gripper_endpoint.active is not None
 
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
         self.udp.target = (peer_ip, udp_port)
