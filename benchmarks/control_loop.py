@@ -1,0 +1,84 @@
+"""An active-control loop through pylibfranka, as a controller would run it.
+
+Prints the robot-reported success rate, states/s seen by the client, the server's CPU % of one
+core, and (lockstep) simulated seconds per wall second. Targets on an idle 2-core machine:
+success ≥ 0.999 (realtime), lockstep ≥ 10× real time, server CPU ≤ 16 % while controlling.
+
+python benchmarks/control_loop.py [--seconds 10] [--clock realtime|lockstep] [--mode torque|joint]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+import pylibfranka
+
+from _common import Server, cpu_seconds, serve_command, verdict
+
+PRIVATE_HOST = "127.0.0.201"
+
+
+def control(host: str, seconds: float, mode: str) -> dict:
+    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+    if mode == "torque":
+        active = robot.start_torque_control()
+    else:
+        active = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    state, _ = active.readOnce()
+    q0 = np.array(state.q_d)
+    rates, n, t = [], 0, 0.0
+    wall0, sim0 = time.perf_counter(), state.time.to_sec()
+    while True:
+        state, period = active.readOnce()
+        t += period.to_sec()
+        n += 1
+        rates.append(state.control_command_success_rate)
+        finished = t >= seconds
+        if mode == "torque":
+            command = pylibfranka.Torques([0.0] * 7)
+        else:
+            q = q0.copy()
+            q[6] += 0.1 * (1 - math.cos(2 * math.pi * t / seconds)) / 2
+            command = pylibfranka.JointPositions(q.tolist())
+        command.motion_finished = finished
+        active.writeOnce(command)
+        if finished:
+            break
+    wall = time.perf_counter() - wall0
+    sim = state.time.to_sec() - sim0
+    after_warmup = rates[200:] or rates
+    return {"cycles": n, "wall": wall, "sim": sim, "mean_rate": float(np.mean(after_warmup)),
+            "min_rate": float(np.min(after_warmup))}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds of control")
+    parser.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
+    parser.add_argument("--mode", choices=["torque", "joint"], default="torque")
+    parser.add_argument("--host", default=PRIVATE_HOST)
+    args = parser.parse_args()
+    server = Server(args.host, serve_command(args.host) + ["--clock", args.clock])
+    server.wait_serving()
+    try:
+        cpu0 = cpu_seconds(server.pid)
+        result = control(args.host, args.seconds, args.mode)
+        cpu = (cpu_seconds(server.pid) - cpu0) / result["wall"] * 100
+    finally:
+        server.stop()
+    speed = result["sim"] / result["wall"]
+    print(f"franka-sim control loop: {args.mode}, {args.clock} clock, {result['cycles']} cycles")
+    print(f"  success rate (mean / min after 200 cycles)  {result['mean_rate']:.4f} / "
+          f"{result['min_rate']:.4f}   target ≥ 0.999 (realtime)  "
+          f"{verdict(result['mean_rate'] >= 0.999) if args.clock == 'realtime' else ''}")
+    print(f"  states/s seen by the client                 {result['cycles'] / result['wall']:.1f}")
+    print(f"  simulated s per wall s                      {speed:.2f}   "
+          f"{'target ≥ 10 ' + verdict(speed >= 10) if args.clock == 'lockstep' else ''}")
+    print(f"  server CPU % of a core                      {cpu:.1f}   target ≤ 16  {verdict(cpu <= 16)}")
+
+
+if __name__ == "__main__":
+    main()
