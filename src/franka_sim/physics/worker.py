@@ -6,10 +6,12 @@ is only ever touched by one thread and jobs run in the order they were submitted
 back to the loop with `call_soon_threadsafe` — a callback, not a coroutine, because this is on
 the 1 kHz path and a callback costs less than awaiting a future.
 
-The thread also keeps the 1 ms deadlines: after a step it can be told when to wake the loop
-for the next cycle, and its wait for the next job is that sleep (timer slack 1 µs, Linux
-`PR_SET_TIMERSLACK`). asyncio and uvloop timers have ~1 ms granularity, too coarse for a
-1 kHz stream, and a separate timer thread would cost a thread wake-up per cycle.
+The thread also keeps the 1 ms deadlines: after a step it can be told when the next cycle is
+due, and its wait for the next job is that sleep (timer slack 1 µs, Linux `PR_SET_TIMERSLACK`).
+asyncio and uvloop timers have ~1 ms granularity, too coarse for a 1 kHz stream. When the
+deadline comes, the worker runs the job the loop left in the *slot* for that cycle (the loop
+fills it as soon as it knows the cycle's command, usually long before the deadline), so a cycle
+costs one hand-over back to the loop; only with an empty slot does it wake the loop to decide.
 """
 
 from __future__ import annotations
@@ -43,6 +45,12 @@ class PhysicsWorker:
         self._backend: Any = None
         self._deadline: float | None = None  # only touched by the worker thread
         self._wake: tuple[Callable[[], None], asyncio.AbstractEventLoop] | None = None
+        self._slot: tuple[int, tuple] | None = None  # (cycle, job) the loop prepared
+        self._cycle = 0  # the last cycle a release job ran for
+
+    def fill_slot(self, cycle: int, job: tuple) -> None:
+        """The release job for `cycle`, to run at its deadline (a stale cycle is ignored)."""
+        self._slot = (cycle, job)  # one reference store: atomic, no lock or wake needed
 
     async def start(self) -> None:
         """Build the backend inside the worker thread (MjData must live where it steps)."""
@@ -52,14 +60,25 @@ class PhysicsWorker:
     def submit(self, fn: Callable, args: tuple, done: Callable[[Any], None],
                loop: asyncio.AbstractEventLoop, *,
                wake_at: Callable[[float], float | None] | None = None,
-               wake: Callable[[], None] | None = None) -> None:
+               wake: Callable[[], None] | None = None, cycle: int | None = None) -> None:
         """Run fn(backend, *args) in the worker; call done(result) on the loop afterwards.
 
-        With `wake_at`, this job is a cycle release: it cancels any pending wake-up, and after
-        it the worker calls `wake_at(now)` (in its own thread) for the next deadline and, when
-        that comes without another release, calls `wake()` on the loop.
+        With `wake_at`, this job is the release of `cycle`: it cancels any pending wake-up, and
+        after it the worker calls `wake_at(now)` (in its own thread) for the next deadline;
+        when that comes it runs the slot's job for the next cycle, or with none calls `wake()`
+        on the loop.
         """
-        self._jobs.put((fn, args, done, loop, wake_at, wake))
+        self._jobs.put((fn, args, done, loop, wake_at, wake, cycle))
+
+    def submit_job(self, job: tuple) -> None:
+        """Queue a job made by `release_job` (run as soon as the worker is free)."""
+        self._jobs.put(job)
+
+    @staticmethod
+    def release_job(fn: Callable, args: tuple, done: Callable[[Any], None],
+                    loop: asyncio.AbstractEventLoop, wake_at, wake, cycle: int) -> tuple:
+        """A job tuple for `fill_slot`, shaped as `submit` queues it."""
+        return (fn, args, done, loop, wake_at, wake, cycle)
 
     async def call(self, fn: Callable, *args) -> Any:
         """Run fn(backend, *args) in the worker and await its result (not for the hot path)."""
@@ -91,6 +110,9 @@ class PhysicsWorker:
             try:
                 return self._jobs.get(timeout=remaining) if remaining > 0 else self._jobs.get_nowait()
             except queue.Empty:
+                slot, self._slot = self._slot, None
+                if slot is not None and slot[0] == self._cycle + 1:
+                    return slot[1]  # the loop already decided this cycle
                 wake, loop = self._wake
                 self._deadline = self._wake = None
                 try:
@@ -108,9 +130,10 @@ class PhysicsWorker:
             job = self._next_job()
             if job is _STOP:
                 return
-            fn, args, done, loop, wake_at, wake = job
+            fn, args, done, loop, wake_at, wake, cycle = job
             if wake_at is not None:
                 self._deadline = self._wake = None  # this job is the release the wake was for
+                self._cycle = cycle
             if isinstance(self._backend, BaseException):
                 result: Any = self._backend
             else:

@@ -10,6 +10,7 @@ here, so it is testable in microseconds without a network.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -17,7 +18,7 @@ import numpy as np
 from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose, tip_jacobian
 from franka_sim.description.urdf import ArmDescription
-from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.backend import JointCommand, Measured, Payload
 from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
     AutomaticErrorRecoveryStatus,
@@ -39,6 +40,7 @@ from franka_sim.robot.cartesian import (
     smallest_singular_value,
 )
 from franka_sim.robot.controllers import cartesian_impedance_torque, impedance_damping
+from franka_sim.robot.external_forces import ExternalForces, accelerating, active_thresholds
 from franka_sim.robot.motion_guard import MotionGuard, ViolationLog, error_names
 from franka_sim.robot.motion import (
     CARTESIAN_GENERATORS,
@@ -85,12 +87,29 @@ class RobotCore:
         self._stray_commands = 0
         self._stalled_at: np.ndarray | None = None
         self._hold: tuple | None = None
+        self.external = ExternalForces()
+        self._payload: Payload | None = None  # the declared load, as the drives' model carries it
+        self._F_T_K: tuple | None = None  # ((NE_T_EE, EE_T_K), F_T_K), rebuilt when they change
+        self._window_closed = False  # the open cycle's command window was closed early
 
     # -- the cycle ---------------------------------------------------------------------------
+    @property
+    def decided(self) -> bool:
+        """Whether the next cycle's joint command is known now (idle, or its window closed)."""
+        return self.motion is None or not self.motion.running or self._window_closed
+
     def joint_command(self) -> JointCommand:
-        """Release the next cycle: close the open command window and decide the drives' task."""
+        """Release the next cycle: close the command window if still open, decide the drives'
+        task. Idempotent until the next publish (a second call only recomputes)."""
+        command = self._drives_task()
+        if self._payload is None:
+            return command
+        return dataclasses.replace(command, load=self._payload)  # in the gravity compensation
+
+    def _drives_task(self) -> JointCommand:
         motion = self.motion
-        if motion is not None and motion.running:
+        if motion is not None and motion.running and not self._window_closed:
+            self._window_closed = True
             self._close_cycle(motion)
         motion = self.motion  # closing may have ended it
         K = self.settings.K_theta
@@ -138,11 +157,35 @@ class RobotCore:
             self.reflex_reason[:] = False
         if motion is not None:
             self.cycle.opened(self.message_id)
+            self._window_closed = False
             motion.kinematics = desired_kinematics
             if motion.running:
                 self._enforce(self.guard.judge_measured(measured.q, measured.dq))
+        self._estimate_external_forces(measured)
         self._advance_recovery(measured)
         return self.publisher.pack(self, measured, desired_kinematics)
+
+    def _estimate_external_forces(self, measured: Measured) -> None:
+        """External torque, wrench and flags; a collision stops a running motion (always: the
+        robot's own safety, not something a client opts into)."""
+        motion = self.motion if self.motion_running else None
+        ddq_d = None
+        if motion is not None and motion.spec.generator is not MoveMotionGeneratorMode.kNone:
+            ddq_d = motion.reference.ddq_d
+        thresholds = active_thresholds(self.settings.collision, accelerating(ddq_d))
+        reflexes = self.external.update(measured.tau_ext, measured.O_T_F, measured.J_F,
+                                        self._flange_to_K(), thresholds)
+        if reflexes and motion is not None:
+            log.warning("collision (external force over the upper threshold): %s",
+                        ", ".join(reflexes))
+            self._reflex(reflexes)
+
+    def _flange_to_K(self) -> np.ndarray:
+        settings = self.settings
+        key = (settings.NE_T_EE, settings.EE_T_K)
+        if self._F_T_K is None or any(a is not b for a, b in zip(key, self._F_T_K[0])):
+            self._F_T_K = key, hand.F_T_NE_HAND @ settings.NE_T_EE @ settings.EE_T_K
+        return self._F_T_K[1]
 
     @property
     def motion_running(self) -> bool:
@@ -218,7 +261,13 @@ class RobotCore:
             log.warning("RobotCommand for message_id %d dropped: non-finite %s",
                         message_id, ", ".join(bad))
             return False
-        return self.cycle.receive(message_id, command)
+        on_time = self.cycle.receive(message_id, command)
+        if on_time and not self._window_closed:
+            # The answer is in: the window closes now, so the next cycle's command is known
+            # before its deadline (the server can release it without asking again).
+            self._window_closed = True
+            self._close_cycle(motion)
+        return on_time
 
     # -- TCP requests ----------------------------------------------------------------------------
     def request_move(self, command_id: int, request) -> list[bytes]:
@@ -274,6 +323,7 @@ class RobotCore:
             return [build_response(Command.AutomaticErrorRecovery, command_id,
                                    AutomaticErrorRecoveryStatus.kCommandNotPossibleRejected)]
         if not self.errors.any() and self.robot_mode is RobotMode.kIdle:
+            self.external.clear_collisions()
             return [build_response(Command.AutomaticErrorRecovery, command_id,
                                    AutomaticErrorRecoveryStatus.kSuccess)]
         self.robot_mode = RobotMode.kAutomaticErrorRecovery
@@ -281,7 +331,11 @@ class RobotCore:
         return []  # answered once the arm is at rest (see _advance_recovery)
 
     def set_load(self, load: Load) -> None:
+        """The load becomes part of the robot's model: gravity compensation and the estimate."""
         self.settings.load = load
+        declared = load.mass > 0.0 or bool(np.any(load.inertia))
+        self._payload = Payload(load.mass, np.array(load.F_x_C, float),
+                                np.array(load.inertia, float)) if declared else None
 
     # -- the session's view ----------------------------------------------------------------------
     def client_connected(self) -> None:
@@ -347,6 +401,7 @@ class RobotCore:
             return
         self._recovery = None
         self.errors[:] = False
+        self.external.clear_collisions()
         self.robot_mode = RobotMode.kIdle
         self.q_hold = measured.q.copy()
         self._replies.append(build_response(

@@ -76,6 +76,7 @@ class CycleDriver:
     async def stop(self) -> None:
         self._running = False
         self._token += 1  # a wake-up already on its way finds nothing to do
+        self.worker.fill_slot(-1, None)  # and the worker has nothing left to run
         if self._busy:
             await self._idle.wait()
 
@@ -87,34 +88,58 @@ class CycleDriver:
             self._release()
 
     def release_early(self) -> None:
-        """The command answering the open cycle arrived: in lockstep, go on at once."""
-        if not (self._running and self.lockstep and self.core.motion_running):
-            return  # realtime: the next cycle waits for its deadline
-        if not self._busy:
-            self._release()
+        """The command answering the open cycle arrived (the core closed its window)."""
+        if not self._running:
+            return
+        if self.lockstep and self.core.motion_running:
+            if not self._busy:
+                self._release()  # lockstep: go on at once
+        else:
+            self.refresh()  # realtime: the next cycle is decided; the worker runs it on time
+
+    def refresh(self) -> None:
+        """Give the worker the next cycle's job if the core can decide it now.
+
+        Called after each publish, each on-time answer and each TCP request (any of which may
+        change what the next cycle does). With the slot filled, the deadline costs no trip
+        through the loop; without it (a motion waiting for its answer), the worker asks.
+        """
+        if not self._running or self.paused or not self.core.decided:
+            return
+        if self.lockstep and self.core.motion_running:
+            return  # lockstep releases on the answer itself
+        cycle = self.core.message_id + 1
+        self.worker.fill_slot(cycle, self._job(cycle))
 
     def _on_deadline(self, token: int) -> None:
         if token == self._token and self._running and not self._busy:
             self._release()
 
     def _release(self) -> None:
+        """Release the next cycle now, from the loop."""
         self._busy = True
         self._idle.clear()
         self._token += 1  # invalidates any wake-up armed for this cycle
+        self.worker.submit_job(self._job(self.core.message_id + 1))
+
+    def _job(self, cycle: int) -> tuple:
+        """The release job of `cycle`: the core's joint command (closing its window if still
+        open), the physics step, and when the worker should expect the cycle after it."""
         joint_command = self.core.joint_command()
         q_desired = self.core.desired_q
         fingers = None if self.finger_command is None else self.finger_command()
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         keep_going = self._unwatched < PAUSE_AFTER or self.core.motion is not None
+        self.paused = not keep_going
         lockstep = self.lockstep and self.core.motion_running
         pacer, token = self.pacer, self._token
 
         def wake_at(now: float) -> float | None:  # runs in the worker thread
             return pacer.next_deadline(now, lockstep=lockstep) if keep_going else None
 
-        self.paused = not keep_going
-        self.worker.submit(_step, (joint_command, q_desired, fingers), self._on_stepped,
-                           self._loop, wake_at=wake_at, wake=lambda: self._on_deadline(token))
+        return PhysicsWorker.release_job(
+            _step, (joint_command, q_desired, fingers), self._on_stepped, self._loop,
+            wake_at, lambda: self._on_deadline(token), cycle)
 
     def _on_stepped(self, result) -> None:
         if isinstance(result, BaseException):
@@ -134,3 +159,5 @@ class CycleDriver:
         self._idle.set()
         if self.paused and self._running and self.has_client():  # a client came meanwhile
             self.resume()
+        else:
+            self.refresh()

@@ -74,6 +74,7 @@ class RobotConnection(asyncio.Protocol):
             self.transport.write(reply)
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
+        self.owner.after_request()
         if self.session.closed:
             self.transport.close()
 
@@ -96,8 +97,10 @@ class RobotEndpoint:
         make_session: Callable[[], RobotSession],
         on_handshake: Callable[[str, int], None],
         on_disconnect: Callable[[], None],
+        after_request: Callable[[], None] = lambda: None,
     ) -> None:
         self.make_session = make_session
+        self.after_request = after_request  # the robot's state may have changed
         self.on_handshake = on_handshake
         self.on_disconnect = on_disconnect
         self.active: RobotConnection | None = None

@@ -60,7 +60,8 @@ class FrankaSim:
         self.gripper_endpoint = GripperEndpoint(
             self._make_gripper_session, self._on_gripper_disconnect)
         self.udp = UdpEndpoint(self._on_command)
-        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect)
+        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
+                                   after_request=self._after_request)
         self.driver = CycleDriver(
             self.core, self.worker, self.udp.send_state,
             lockstep=config.clock is ClockMode.lockstep, after_cycle=self._after_cycle,
@@ -140,6 +141,9 @@ class FrankaSim:
         self.driver.resume()
         return GripperSession(self.gripper)
 
+    def _after_request(self) -> None:
+        self.driver.refresh()  # a Move, Stop or Set* may change what the next cycle does
+
     def _has_client(self) -> bool:
         return self.robot.active is not None or self.gripper_endpoint.active is not None
 
@@ -150,6 +154,7 @@ class FrankaSim:
     def _on_disconnect(self) -> None:
         self.udp.target = None
         self.core.client_gone()
+        self.driver.refresh()
 
     def _on_command(self, command) -> None:
         if self.core.receive_command(command):
