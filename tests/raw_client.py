@@ -38,8 +38,15 @@ class RawClient:
         body = self._recv_exact(size - 12)
         return command, command_id, body[0]
 
+    def settle(self, tolerance: float = 1e-4, cycles: int = 3000) -> None:
+        """Read states until the arm is at rest (a previous motion may still be braking)."""
+        for _ in range(cycles):
+            if max(abs(float(v)) for v in self.recv()["dq"]) < tolerance:
+                return
+
     def move(self, controller: int, generator: int) -> int:
         """Send Move; return its first status (1 = kMotionStarted), then wait for the mode flip."""
+        self.settle()
         self._next_id += 1
         self.tcp.sendall(msg.build_request(
             Command.Move, self._next_id, controller_mode=controller,

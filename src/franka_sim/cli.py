@@ -41,7 +41,8 @@ def serve(
     clock: ClockMode = typer.Option(
         ClockMode.realtime, envvar="FRANKA_SIM_CLOCK",
         help="realtime: one cycle per wall-clock ms. lockstep: while a motion runs, the next "
-        "cycle starts as soon as the client answered the last one.",
+        "cycle starts as soon as the client answered the last one (waiting up to 100 ms for it), "
+        "so runs are as fast as the client and independent of the host's timing.",
     ),
     enforce_comm_constraints: bool = typer.Option(
         False, "--enforce-comm-constraints/--no-enforce-comm-constraints",

@@ -87,11 +87,18 @@ class CycleDriver:
             self.paused = False
             self._release()
 
+    @property
+    def _lockstep_now(self) -> bool:
+        """Lockstep pacing applies: a motion streams commands (an async motion does not)."""
+        motion = self.core.motion
+        return (self.lockstep and motion is not None and motion.running
+                and not motion.spec.use_async)
+
     def release_early(self) -> None:
         """The command answering the open cycle arrived (the core closed its window)."""
         if not self._running:
             return
-        if self.lockstep and self.core.motion_running:
+        if self._lockstep_now:
             if not self._busy:
                 self._release()  # lockstep: go on at once
         else:
@@ -106,7 +113,7 @@ class CycleDriver:
         """
         if not self._running or self.paused or not self.core.decided:
             return
-        if self.lockstep and self.core.motion_running:
+        if self._lockstep_now:
             return  # lockstep releases on the answer itself
         cycle = self.core.message_id + 1
         self.worker.fill_slot(cycle, self._job(cycle))
@@ -131,7 +138,7 @@ class CycleDriver:
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         keep_going = self._unwatched < PAUSE_AFTER or self.core.motion is not None
         self.paused = not keep_going
-        lockstep = self.lockstep and self.core.motion_running
+        lockstep = self._lockstep_now
         pacer, token = self.pacer, self._token
 
         def wake_at(now: float) -> float | None:  # runs in the worker thread

@@ -5,8 +5,11 @@ next cycle is released. `realtime` keeps absolute 1 ms deadlines (t0 + k·1 ms) 
 no drift, but never releases two states closer than `min_spacing` — after an overrun it catches
 up at up to 2 kHz instead of bursting — and re-anchors after a stall too long to catch up (a
 frozen host), because no client benefits from a flood of stale cycles. `lockstep` (only while a
-motion runs) gives each cycle a 1 ms window from its release; the server releases the next
-cycle early as soon as the command answering the current one arrives.
+motion runs) releases the next cycle as soon as the command answering the current one arrives,
+and otherwise waits up to LOCKSTEP_WINDOW of wall time for it: long enough that a client
+descheduled on a loaded machine (CI) loses no cycle, so the outcome of a run does not depend on
+the host's timing; short enough that a client that went away is still noticed (20 lost cycles
+take 2 s).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PERIOD = 1e-3
+LOCKSTEP_WINDOW = 0.1  # s of wall time a lockstep cycle waits for its answer
 
 
 @dataclass
@@ -28,7 +32,7 @@ class Pacer:
         """The deadline of the cycle after the one released at `released_at`."""
         if lockstep:
             self._t0 = None  # realtime pacing re-anchors when lockstep ends
-            return released_at + self.period
+            return released_at + LOCKSTEP_WINDOW
         if self._t0 is None:
             self._t0, self._k = released_at, 0
         self._k += 1
