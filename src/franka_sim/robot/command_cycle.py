@@ -5,7 +5,11 @@ before the next cycle is released closes it on time. The release of the next cyc
 of the window (the robot's "< 1 ms" budget), so this module never looks at a clock: the server
 calls `opened` when it publishes and `close` when it releases the next cycle. Missed cycles,
 late answers and ids that were never published all count as lost, which is what
-control_command_success_rate reports (share of the last 100 cycles answered on time).
+control_command_success_rate reports (share of the last 100 cycles answered on time). The rate
+starts with the first command the motion receives: libfranka never answers the state on which
+the modes flip (it is how it learns the motion started), so counting the cycles before its
+first command would report every libfranka client as lossy. Consecutive losses still count
+from the start, so a client that never sends is aborted all the same.
 """
 
 from __future__ import annotations
@@ -57,10 +61,11 @@ class CommandCycle:
     def close(self) -> Closed:
         """The window of the open cycle ends (the next one is being released)."""
         on_time = self._answered
-        if len(self._history) == WINDOW:
-            self._answered_in_window -= self._history[0]
-        self._history.append(on_time)
-        self._answered_in_window += on_time
+        if self._latest is not None or self._history or on_time:  # from the first command on
+            if len(self._history) == WINDOW:
+                self._answered_in_window -= self._history[0]
+            self._history.append(on_time)
+            self._answered_in_window += on_time
         if on_time:
             self.answered_total += 1
             self.consecutive_lost = 0
