@@ -15,6 +15,7 @@ import pytest
 from clients import cartesian_pose_motion, connect, move_to, pose
 from conftest import running_sim
 from franka_sim.robot.cartesian import exp_rotation
+from franka_sim.robot.settings import CollisionThresholds
 from harness import Harness
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -98,6 +99,8 @@ def _push_response(K_x, force, EE_T_K=np.eye(4), controller=1):
     h = Harness()
     h.core.settings.set_cartesian_impedance(K_x)
     h.core.settings.EE_T_K = EE_T_K
+    # A 10 N push is right at the default collision threshold: raise it, as a client would.
+    h.core.settings.collision = CollisionThresholds(*(np.full(n, 100.0) for n in (7,) * 4 + (6,) * 4))
     h.move(controller, 0)
     h.cycle()
     q = np.array(h.state["q_d"], dtype=float)

@@ -14,11 +14,25 @@ import numpy as np
 
 
 @dataclass(frozen=True, eq=False)  # numpy fields: identity, not value, equality
+class Payload:
+    """A load the robot's model carries on the flange (SetLoad): not a body in the physics.
+
+    The robot compensates its gravity and subtracts its gravity and inertia from the external
+    torque estimate; whether anything is really carried is up to the world (a grasped object).
+    """
+
+    mass: float  # kg
+    F_x_C: np.ndarray  # (3,) m, centre of mass in the flange frame
+    inertia: np.ndarray  # (3,3) kg·m², about the centre of mass, in the flange frame's axes
+
+
+@dataclass(frozen=True, eq=False)  # numpy fields: identity, not value, equality
 class JointCommand:
     """What the joint drives are asked to do during one 1 ms step.
 
     The drive torque is tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q): the robot always adds its
-    own gravity compensation, and in torque mode K = D = 0 so tau_ff is the user torque.
+    own gravity compensation, and in torque mode K = D = 0 so tau_ff is the user torque. g(q)
+    is the robot's model: the arm, the end effector and the declared `load` (None: no load).
     """
 
     tau_ff: np.ndarray  # (7,) Nm
@@ -26,6 +40,7 @@ class JointCommand:
     dq_d: np.ndarray  # (7,) rad/s
     K: np.ndarray  # (7,) Nm/rad
     D: np.ndarray  # (7,) Nm·s/rad
+    load: Payload | None = None
 
     @classmethod
     def torque(cls, tau) -> "JointCommand":
@@ -79,6 +94,11 @@ class Measured:
     accelerometer_top: np.ndarray  # (6,3) specific force in each sensor frame, m/s²
     accelerometer_bottom: np.ndarray  # (6,3)
     fingers: FingerState | None = None  # None: a backend without finger joints
+    # External joint torque over the last step in the robot's sign: Jᵀ·(the wrench the robot
+    # exerts on its environment), i.e. −Jᵀ·(what the environment does to the arm). The
+    # declared load's model (gravity and inertia) is already subtracted. None: not measured.
+    tau_ext: np.ndarray | None = None  # (7,) Nm
+    J_F: np.ndarray | None = None  # (6,7) flange Jacobian at q, base frame, rows [linear; angular]
 
 
 class Backend(Protocol):

@@ -2,11 +2,23 @@
 
 Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
 at the start of the step, as the real drives do with one 1 kHz sample. g(q) is the gravity
-compensation the robot adds (whole chain, hand and declared load included). It is computed by
-the same recursive Newton–Euler pass MuJoCo uses for its own bias force, at zero velocity, so at
-rest the two cancel to the last bit: an idle arm stays exactly where it is, however long it
-idles, which is what makes runs reproducible from a given pose. There is no joint friction or
+compensation the robot adds (whole chain and hand). It is computed by the same recursive
+Newton–Euler pass MuJoCo uses for its own bias force, at zero velocity, so at rest the two
+cancel to the last bit: an idle arm stays exactly where it is, however long it idles, which is
+what makes runs reproducible from a given pose. A load declared with SetLoad (the command's
+`load`) is part of the robot's model, not of the world: its gravity torque J_Cᵀ·(−m·g) is added
+on top, so a load that is really carried (a grasped object) holds still, and one that is not
+pushes the arm up against the joint impedance, as on the robot. There is no joint friction or
 damping: the real robot compensates its own friction in every mode, so a client sees none.
+
+External torque. What the environment does to the arm is exactly MuJoCo's constraint force on
+the arm's dofs (contacts of any arm, hand or finger geom — a grasped object's weight reaches the
+arm through the finger pads — and any other constraint that acts on it) plus forces applied with
+xfrc_applied (a viewer's perturbation, a test's push), minus the arm's own joint-limit stops,
+which are the robot's, not the environment's. Finger-joint limits and the finger drive act on
+finger dofs only and never reach it. It is reported in the robot's sign (what the robot exerts
+on the environment: −that force), with the declared load's gravity and inertia subtracted, as
+the robot subtracts its model. Without contact it is exactly zero, at the cost of two checks.
 
 Step structure. `mj_step2` then `mj_step1`: the second half of step n followed by the first
 half of step n+1. After it, positions-dependent quantities (flange pose, g(q)) belong to the
@@ -34,10 +46,18 @@ import numpy as np
 from franka_sim.description import hand
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
 from franka_sim.physics import fingers as fg
-from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand, Measured
+from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand, Measured, Payload
 from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
 
 JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
+_LIMIT_JOINT = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for 3-vectors (np.cross costs ~10 µs; this ~1)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 class MujocoBackend:
@@ -58,6 +78,9 @@ class MujocoBackend:
             raise RuntimeError("arm joints must be contiguous in qpos/qvel")
         self._qs, self._vs = slice(qadr[0], qadr[0] + 7), slice(vadr[0], vadr[0] + 7)
         self._flange = model.site(FLANGE_SITE).id
+        self._flange_body = int(model.site_bodyid[self._flange])
+        self._arm_joint = np.zeros(model.njnt, dtype=bool)  # the arm's joints, by joint id
+        self._arm_joint[jids] = True
         self._hand = model.body(HAND_BODY).id
         # Accelerometer readings as one gather: (top, bottom) × joints 1..6 × xyz. A description
         # without some sensors points them one past the end, at a zero appended per read.
@@ -84,6 +107,15 @@ class MujocoBackend:
         self._tau_J_prev = np.zeros(7)
         self._theta_prev = np.zeros(7)
         self._last: Measured | None = None
+        # External torque and the flange Jacobian (views and buffers).
+        self._constraint = data.qfrc_constraint[self._vs]
+        self._xfrc = data.xfrc_applied
+        self._generalized = np.zeros(model.nv)
+        self._jac = np.zeros((6, model.nv))
+        self._gravity_vector = model.opt.gravity.copy()
+        self._load_gravity = np.zeros(7)  # the declared load's g(q), added this step
+        self._zero3 = np.zeros(3)
+        self._load_velocity: tuple[Payload, np.ndarray] | None = None  # (load, [v_C; ω]) last step
         self.has_fingers = fingers
         if fingers:
             self._init_fingers()
@@ -110,6 +142,10 @@ class MujocoBackend:
         applied += cmd.tau_ff
         self._gravity_at_rest()
         applied += self._gcomp
+        load = cmd.load
+        if load is not None:
+            self._declared_load_gravity(load)
+            applied += self._load_gravity
         self._motor[:] = applied
         if self.has_fingers:
             self._drive_fingers(fingers)
@@ -117,10 +153,83 @@ class MujocoBackend:
         mujoco.mj_step2(m, d)
         np.subtract(self._dq, self._dq_prev, out=self._ddq)
         self._ddq /= self.timestep
+        tau_ext = self._external_torque()  # before step1 rebuilds the constraint rows
         if self.has_fingers:
             self._update_palm()
         mujoco.mj_step1(m, d)
-        return self._record(self._motor, self._ddq, first=False)
+        J_F = self._flange_jacobian()
+        if load is not None:
+            tau_ext -= self._load_gravity
+            tau_ext -= self._declared_load_inertia(load, J_F)
+        else:
+            self._load_velocity = None
+        return self._record(self._motor, self._ddq, first=False, tau_ext=tau_ext, J_F=J_F)
+
+    def _external_torque(self) -> np.ndarray:
+        """(7,) torque the robot exerts on its environment over the step just integrated.
+
+        Called between mj_step2 and mj_step1, while the constraint rows (efc_*) and the
+        kinematics are still those the step used.
+        """
+        touched, pushed = self._constraint.any(), self._xfrc.any()
+        if not (touched or pushed):
+            return np.zeros(7)
+        m, d, gen = self.model, self.data, self._generalized
+        external = self._constraint.copy() if touched else np.zeros(7)
+        if touched:  # minus the arm's own joint-limit stops
+            n = d.nefc
+            rows = np.flatnonzero(d.efc_type[:n] == _LIMIT_JOINT)
+            rows = rows[self._arm_joint[d.efc_id[rows]]]  # efc_id of a limit row: its joint
+            if rows.size:
+                force = np.zeros(n)
+                force[rows] = d.efc_force[rows]
+                mujoco.mj_mulJacTVec(m, d, gen, force)
+                external -= gen[self._vs]
+        if pushed:  # each pushed body's force and torque act at its centre of mass
+            gen[:] = 0.0
+            for body in np.flatnonzero(self._xfrc.any(axis=1)):
+                wrench = self._xfrc[body]
+                mujoco.mj_applyFT(m, d, wrench[:3], wrench[3:], d.xipos[body], int(body), gen)
+            external += gen[self._vs]
+        return np.negative(external, out=external)
+
+    def _flange_jacobian(self) -> np.ndarray:
+        """(6,7) flange Jacobian at the current q (kinematics must be fresh)."""
+        jac = self._jac
+        mujoco.mj_jacSite(self.model, self.data, jac[:3], jac[3:], self._flange)
+        return jac[:, self._vs].copy()
+
+    def _declared_load_gravity(self, load: Payload) -> None:
+        """g(q) of the declared load into self._load_gravity, on the scratch kinematics at q."""
+        s, f, gen = self._scratch, self._flange, self._generalized
+        point = s.site_xpos[f] + s.site_xmat[f].reshape(3, 3) @ load.F_x_C
+        gen[:] = 0.0
+        mujoco.mj_applyFT(self.model, s, -load.mass * self._gravity_vector, self._zero3, point,
+                          self._flange_body, gen)  # Jᵀ·(the force that holds it up)
+        self._load_gravity[:] = gen[self._vs]
+
+    def _declared_load_inertia(self, load: Payload, J_F: np.ndarray) -> np.ndarray:
+        """(7,) torque that accelerates the declared load over the step just taken.
+
+        Its CoM velocity and angular velocity are differenced across steps, which is exactly the
+        mean acceleration over the step (the interval ddq and the constraint force refer to).
+        """
+        R = self._flange_mat.reshape(3, 3)
+        r = R @ load.F_x_C
+        twist = J_F @ self._dq  # flange [v; ω]
+        omega = twist[3:]
+        twist[:3] += _cross(omega, r)  # the CoM's velocity
+        previous, self._load_velocity = self._load_velocity, (load, twist)
+        if previous is None or previous[0] is not load:
+            return np.zeros(7)
+        acceleration = (twist - previous[1]) / self.timestep
+        I_world = R @ load.inertia @ R.T
+        torque = I_world @ acceleration[3:] + _cross(omega, I_world @ omega)
+        gen = self._generalized
+        gen[:] = 0.0
+        mujoco.mj_applyFT(self.model, self.data, load.mass * acceleration[:3], torque,
+                          self._flange_pos + r, self._flange_body, gen)
+        return gen[self._vs]
 
     def _drive_fingers(self, command: FingerCommand | None) -> None:
         """Finger forces for this step: a force-limited PD on each finger plus its gravity load."""
@@ -165,7 +274,8 @@ class MujocoBackend:
         mujoco.mj_rne(self.model, s, 0, self._rne)
         self._gcomp[:] = self._rne[self._vs]
 
-    def _record(self, motor: np.ndarray, ddq: np.ndarray, *, first: bool) -> Measured:
+    def _record(self, motor: np.ndarray, ddq: np.ndarray, *, first: bool,
+                tau_ext: np.ndarray, J_F: np.ndarray) -> Measured:
         tau_J = motor - self._armature * ddq
         theta = self._q + tau_J / JOINT_STIFFNESS
         if first:
@@ -184,7 +294,7 @@ class MujocoBackend:
         self._last = Measured(
             q=self._q.copy(), dq=self._dq.copy(), ddq=ddq.copy(), tau_J=tau_J, dtau_J=dtau_J,
             theta=theta, dtheta=dtheta, O_T_F=O_T_F, accelerometer_top=top,
-            accelerometer_bottom=bottom, fingers=self._finger_state())
+            accelerometer_bottom=bottom, fingers=self._finger_state(), tau_ext=tau_ext, J_F=J_F)
         return self._last
 
     def measure(self) -> Measured:
@@ -211,7 +321,9 @@ class MujocoBackend:
             for va in self._fv:
                 d.qfrc_applied[va] = self._rne[va]
         mujoco.mj_forward(m, d)  # qacc = 0 here: gravity compensation alone holds the arm
-        self._record(self._gcomp.copy(), np.zeros(7), first=True)
+        self._load_velocity = None
+        self._record(self._gcomp.copy(), np.zeros(7), first=True, tau_ext=np.zeros(7),
+                     J_F=self._flange_jacobian())
 
     # -- queries (scratch data, state untouched) --------------------------------------------------
     def _at(self, q, dq=None) -> mujoco.MjData:
@@ -274,7 +386,9 @@ class MujocoBackend:
         """Replace the rigid body on the flange (Hand + load): mass, CoM in F, inertia about CoM.
 
         Gravity compensation follows automatically (gravcomp reads the body's mass), and it is
-        refreshed for the current q at once so the very next step is consistent.
+        refreshed for the current q at once so the very next step is consistent. What is put on
+        the flange this way is part of the arm, as the Hand is: it is compensated and never reads
+        as external, so it is not the way to carry a load a client declares with SetLoad.
         """
         inertia = np.asarray(inertia, float).reshape(3, 3)
         if mass < 0 or not np.allclose(inertia, inertia.T):

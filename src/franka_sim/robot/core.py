@@ -168,6 +168,8 @@ class RobotCore:
     def _estimate_external_forces(self, measured: Measured) -> None:
         """External torque, wrench and flags; a collision stops a running motion (always: the
         robot's own safety, not something a client opts into)."""
+        if self.external.untouched(measured.tau_ext):
+            return
         motion = self.motion if self.motion_running else None
         ddq_d = None
         if motion is not None and motion.spec.generator is not MoveMotionGeneratorMode.kNone:

@@ -54,6 +54,7 @@ class StatePublisher:
         self._configured: tuple | None = None
         self._idle_written = False
         self._F_T_EE = np.eye(4)
+        self._external_version = 0  # ExternalForces.version last written (0: all zero)
 
     def pack(self, core: "RobotCore", m: Measured, desired_kinematics) -> bytes:
         s, settings = self.buffer, self.settings
@@ -83,7 +84,22 @@ class StatePublisher:
         s.errors[:] = core.errors
         s.reflex_reason[:] = core.reflex_reason
         s.control_command_success_rate[...] = core.success_rate
+        self._external_forces(core.external)
         return s.pack()
+
+    def _external_forces(self, external) -> None:
+        """The estimate and the contact/collision flags, rewritten only when they changed."""
+        if external.version == self._external_version:
+            return
+        self._external_version = external.version
+        s = self.buffer
+        s.tau_ext_hat_filtered[:] = external.tau_ext_hat_filtered
+        s.O_F_ext_hat_K[:] = external.O_F_ext_hat_K
+        s.K_F_ext_hat_K[:] = external.K_F_ext_hat_K
+        s.joint_contact[:] = external.joint_contact
+        s.cartesian_contact[:] = external.cartesian_contact
+        s.joint_collision[:] = external.joint_collision
+        s.cartesian_collision[:] = external.cartesian_collision
 
     def _idle_signals(self, m: Measured, O_T_EE: np.ndarray) -> None:
         """Idle: desired and commanded signals follow the measurement; rates are zero."""

@@ -46,7 +46,11 @@ def homogeneous_from_column_major(name: str, values) -> np.ndarray:
 
 @dataclass
 class CollisionThresholds:
-    """SetCollisionBehavior's eight arrays: contact below 'upper', collision (reflex) above it."""
+    """SetCollisionBehavior's eight arrays: over 'lower' a contact, over 'upper' a collision.
+
+    The acceleration set applies while the motion generator accelerates, the nominal set
+    otherwise (robot/external_forces.py). Defaults: libfranka's setDefaultBehavior values.
+    """
 
     lower_torque_acceleration: np.ndarray = field(default_factory=lambda: np.full(7, 20.0))
     upper_torque_acceleration: np.ndarray = field(default_factory=lambda: np.full(7, 20.0))
@@ -78,7 +82,11 @@ class CollisionThresholds:
 
 @dataclass
 class Load:
-    """A payload declared with SetLoad: mass, CoM in the flange frame, inertia about the CoM."""
+    """A payload declared with SetLoad: mass, CoM in the flange frame, inertia about the CoM.
+
+    It joins the robot's model (gravity compensation, the external-force estimate), not the
+    world: what the arm really carries is whatever the scene puts in the Hand.
+    """
 
     mass: float = 0.0
     F_x_C: np.ndarray = field(default_factory=lambda: np.zeros(3))
