@@ -148,3 +148,15 @@ def test_the_press_on_table_example_prints_the_estimate_next_to_the_spring():
     assert spring < -5.0 and F_z == pytest.approx(spring, rel=0.05)
     assert "contact=[0, 0, 1" in pressing[0]
     assert "lifted off: cartesian_contact [0, 0, 0, 0, 0, 0]" in done.stdout
+
+
+def test_a_collision_over_lowered_joint_thresholds_aborts_with_joint_reflex(over_the_table):
+    robot = over_the_table
+    robot.set_collision_behavior([1.0] * 7, [2.0] * 7, [100.0] * 6, [100.0] * 6)
+    assert "joint_reflex" in _aborted(robot, depth=0.03)
+    state = robot.read_once()
+    assert "joint_reflex" in str(state.last_motion_errors) and any(state.joint_collision)
+    robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [100.0] * 6, [100.0] * 6)
+    robot.automatic_error_recovery()
+    robot.read_once()
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle

@@ -208,3 +208,4 @@ def test_torque_over_the_urdf_effort_is_logged_not_aborted(sim):
         command.motion_finished = k == 39
         control.writeOnce(command)
     assert sim.wait_for_log("tau_J_range_violation: joint 7")
+
