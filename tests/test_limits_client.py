@@ -209,3 +209,18 @@ def test_torque_over_the_urdf_effort_is_logged_not_aborted(sim):
         control.writeOnce(command)
     assert sim.wait_for_log("tau_J_range_violation: joint 7")
 
+
+
+def test_a_jerk_in_the_ik_output_is_a_joint_acceleration_discontinuity():
+    with running_sim("--enforce-motion-limits", "--clock", "lockstep",
+                     "--joint-discontinuity-scale", "0.03") as sim:
+        robot = connect(sim.host)
+
+        def accelerate(k, state, first):  # 0.1 m/s² from rest: a jerk spike at the start
+            T = pose(first.O_T_EE_c)
+            T[0, 3] += 0.5 * 0.1 * (k * 1e-3) ** 2
+            return _cartesian(T)
+
+        text = _provoke(robot, lambda: robot.start_cartesian_pose_control(JI), accelerate)
+        _assert_named_and_recover(robot, text,
+                                  "cartesian_motion_generator_joint_acceleration_discontinuity")

@@ -110,3 +110,15 @@ def test_first_elbow_away_from_the_robot_is_an_invalid_start(enforcing):
     assert status == REFLEX_ABORTED
     assert "cartesian_motion_generator_start_elbow_invalid" in _errors(state)
     _recover(enforcing.host)
+
+
+def test_first_elbow_with_the_other_sign_is_a_start_elbow_sign_inconsistency(enforcing):
+    c = RawClient(enforcing.host)
+    try:
+        q3, sign = (float(x) for x in c.state["elbow"])
+        status, state = _cartesian_stream(c, [(q3, -sign)] * 5, enforce_host=True)
+    finally:
+        c.close()
+    assert status == REFLEX_ABORTED
+    assert "start_elbow_sign_inconsistent" in _errors(state)
+    _recover(enforcing.host)
