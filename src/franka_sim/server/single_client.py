@@ -1,0 +1,132 @@
+"""A TCP endpoint that serves one client at a time, feeding a sans-IO session.
+
+Both the robot (1337) and the Hand (1338) work this way: bytes go to the session, replies come
+back out, a malformed message closes that connection with one log line, and a second client
+while one is connected is closed at once, so libfranka fails fast. A client that closes and
+reconnects at once (a program restarting, a test) may be accepted before the loop has read the
+old connection's EOF; the old socket is checked for that pending EOF first, so the returning
+client is not turned away by its own ghost.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+import socket
+from typing import Callable, Protocol
+
+from franka_sim.robot.session import SessionError
+
+log = logging.getLogger(__name__)
+
+
+class Session(Protocol):
+    handshake: object | None  # has .udp_port once Connect succeeded
+    closed: bool
+
+    def receive(self, data: bytes) -> list[bytes]: ...
+
+
+def _peer_has_left(transport: asyncio.Transport) -> bool:
+    """Whether the peer closed (EOF or reset pending) though the loop has not read it yet."""
+    sock = transport.get_extra_info("socket")
+    if sock is None:
+        return False
+    try:
+        with socket.socket(fileno=os.dup(sock.fileno())) as peek:
+            return peek.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b""
+    except BlockingIOError:
+        return False  # nothing pending: still there
+    except OSError:
+        return True  # reset
+
+
+class ClientConnection(asyncio.Protocol):
+    def __init__(self, owner: "SingleClientEndpoint") -> None:
+        self.owner = owner
+        self.transport: asyncio.Transport | None = None
+        self.session: Session | None = None
+        self.peer: tuple[str, int] | None = None
+
+    def connection_made(self, transport) -> None:  # type: ignore[override]
+        self.transport = transport
+        self.peer = transport.get_extra_info("peername")[:2]
+        owner, active = self.owner, self.owner.active
+        if active is not None and _peer_has_left(active.transport):
+            active.transport.close()
+            active.connection_lost(None)  # its disconnect, now rather than next iteration
+        if owner.active is not None:
+            log.warning("refused %s client %s:%s: already used by %s:%s",
+                        owner.what, *self.peer, *owner.active.peer)
+            transport.close()
+            return
+        owner.active = self
+        self.session = owner.make_session()
+        log.info("%s client %s:%s connected", owner.what, *self.peer)
+
+    def data_received(self, data: bytes) -> None:  # type: ignore[override]
+        if self.session is None:
+            return
+        was_connected = self.session.handshake is not None
+        try:
+            replies = self.session.receive(data)
+        except SessionError as exc:
+            log.warning("closing %s connection from %s:%s: %s", self.owner.what, *self.peer, exc)
+            self.transport.close()
+            return
+        for reply in replies:
+            self.transport.write(reply)
+        if not was_connected and self.session.handshake is not None:
+            self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
+        self.owner.after_request()
+        if self.session.closed:
+            self.transport.close()
+
+    def write(self, data: bytes) -> None:
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.write(data)
+
+    def connection_lost(self, exc) -> None:  # type: ignore[override]
+        if self.owner.active is self:
+            self.owner.active = None
+            log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
+            self.owner.on_disconnect()
+
+
+class SingleClientEndpoint:
+    """Accepts clients of one service and routes the active one's traffic."""
+
+    def __init__(
+        self,
+        what: str,
+        make_session: Callable[[], Session],
+        on_handshake: Callable[[str, int], None],
+        on_disconnect: Callable[[], None],
+        after_request: Callable[[], None] = lambda: None,
+    ) -> None:
+        self.what = what  # "FCI", "gripper": names the service in log lines
+        self.make_session = make_session
+        self.on_handshake = on_handshake
+        self.on_disconnect = on_disconnect
+        self.after_request = after_request  # what the session did may change the next cycle
+        self.active: ClientConnection | None = None
+        self.server: asyncio.AbstractServer | None = None
+
+    async def start(self, host: str, port: int) -> None:
+        loop = asyncio.get_running_loop()
+        self.server = await loop.create_server(
+            lambda: ClientConnection(self), host, port, reuse_address=True)
+
+    def send(self, data: bytes) -> None:
+        """An asynchronous reply (a Move's final status, a gripper action's) to the client."""
+        if self.active is not None:
+            self.active.write(data)
+
+    async def stop(self) -> None:
+        if self.server is not None:
+            self.server.close()
+        if self.active is not None and self.active.transport is not None:
+            self.active.transport.close()
+        if self.server is not None:
+            await self.server.wait_closed()
