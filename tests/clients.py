@@ -12,6 +12,13 @@ def connect(host: str) -> pylibfranka.Robot:
     return pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
 
 
+def recover(host: str) -> None:
+    """automatic_error_recovery() from a short-lived pylibfranka client (after a raw client's reflex)."""
+    robot = connect(host)
+    robot.automatic_error_recovery()
+    del robot
+
+
 def move_to(robot: pylibfranka.Robot, q_target, seconds: float = 2.0) -> np.ndarray:
     """A smooth joint-position motion to q_target (cosine blend), as examples_common does."""
     control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)

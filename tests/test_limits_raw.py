@@ -10,6 +10,7 @@ import pytest
 
 from conftest import running_sim
 from franka_sim.protocol.errors import ERROR_NAMES
+from clients import recover
 from raw_client import RawClient
 
 MOVE, MOTION_STARTED, SUCCESS, REFLEX_ABORTED = 1, 1, 0, 8
@@ -76,15 +77,7 @@ def test_resuming_from_a_stale_waypoint_after_a_gap_is_a_discontinuity(enforcing
     (command, _, status), errors = _run(enforcing.host, 500, 15, stale_resume=True)
     assert (command, status) == (MOVE, REFLEX_ABORTED)
     assert "joint_motion_generator_velocity_discontinuity" in errors
-    _recover(enforcing.host)
-
-
-def _recover(host):
-    import pylibfranka
-
-    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-    robot.automatic_error_recovery()
-    del robot
+    recover(enforcing.host)
 
 
 def test_an_invalid_frame_is_refused_by_name(enforcing):
@@ -98,7 +91,7 @@ def test_an_invalid_frame_is_refused_by_name(enforcing):
         assert "cartesian_position_motion_generator_invalid_frame" in _errors(c.recv())
     finally:
         c.close()
-    _recover(enforcing.host)
+    recover(enforcing.host)
 
 
 @pytest.mark.parametrize("flags", [(), ("--enforce-motion-limits",)])

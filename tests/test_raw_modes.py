@@ -11,6 +11,7 @@ import pytest
 
 from conftest import running_sim
 from franka_sim.protocol.errors import ERROR_NAMES
+from clients import recover
 from raw_client import RawClient
 
 MOVE, MOTION_STARTED, SUCCESS, REFLEX_ABORTED = 1, 1, 0, 8
@@ -66,14 +67,6 @@ def _cartesian_stream(c, elbows, *, enforce_host):
     return c.reply()[2], c.recv()
 
 
-def _recover(host):
-    import pylibfranka
-
-    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-    robot.automatic_error_recovery()
-    del robot
-
-
 def test_elbow_sign_flip_mid_motion_is_refused(enforcing):
     c = RawClient(enforcing.host)
     try:
@@ -84,7 +77,7 @@ def test_elbow_sign_flip_mid_motion_is_refused(enforcing):
         c.close()
     assert status == REFLEX_ABORTED
     assert "cartesian_motion_generator_elbow_sign_inconsistent" in _errors(state)
-    _recover(enforcing.host)
+    recover(enforcing.host)
 
 
 def test_elbow_step_is_an_elbow_limit_violation(enforcing):
@@ -97,7 +90,7 @@ def test_elbow_step_is_an_elbow_limit_violation(enforcing):
         c.close()
     assert status == REFLEX_ABORTED
     assert "cartesian_motion_generator_elbow_limit_violation" in _errors(state)
-    _recover(enforcing.host)
+    recover(enforcing.host)
 
 
 def test_first_elbow_away_from_the_robot_is_an_invalid_start(enforcing):
@@ -109,7 +102,7 @@ def test_first_elbow_away_from_the_robot_is_an_invalid_start(enforcing):
         c.close()
     assert status == REFLEX_ABORTED
     assert "cartesian_motion_generator_start_elbow_invalid" in _errors(state)
-    _recover(enforcing.host)
+    recover(enforcing.host)
 
 
 def test_first_elbow_with_the_other_sign_is_a_start_elbow_sign_inconsistency(enforcing):
@@ -121,4 +114,4 @@ def test_first_elbow_with_the_other_sign_is_a_start_elbow_sign_inconsistency(enf
         c.close()
     assert status == REFLEX_ABORTED
     assert "start_elbow_sign_inconsistent" in _errors(state)
-    _recover(enforcing.host)
+    recover(enforcing.host)
