@@ -58,20 +58,17 @@ class PhysicsWorker:
         await self.call(lambda backend: None)
 
     def submit(self, fn: Callable, args: tuple, done: Callable[[Any], None],
-               loop: asyncio.AbstractEventLoop, *,
-               wake_at: Callable[[float], float | None] | None = None,
-               wake: Callable[[], None] | None = None, cycle: int | None = None) -> None:
-        """Run fn(backend, *args) in the worker; call done(result) on the loop afterwards.
-
-        With `wake_at`, this job is the release of `cycle`: it cancels any pending wake-up, and
-        after it the worker calls `wake_at(now)` (in its own thread) for the next deadline;
-        when that comes it runs the slot's job for the next cycle, or with none calls `wake()`
-        on the loop.
-        """
-        self._jobs.put((fn, args, done, loop, wake_at, wake, cycle))
+               loop: asyncio.AbstractEventLoop) -> None:
+        """Run fn(backend, *args) in the worker; call done(result) on the loop afterwards."""
+        self._jobs.put((fn, args, done, loop, None, None, None))
 
     def submit_job(self, job: tuple) -> None:
-        """Queue a job made by `release_job` (run as soon as the worker is free)."""
+        """Queue a cycle release made by `release_job`, to run as soon as the worker is free.
+
+        A release cancels any pending wake-up; after it the worker calls `wake_at(now)` (in its
+        own thread) for the next deadline, and when that comes runs the slot's job for the next
+        cycle, or with none calls `wake()` on the loop.
+        """
         self._jobs.put(job)
 
     @staticmethod
