@@ -22,7 +22,7 @@ from franka_sim.protocol.enums import GRIPPER_VERSION, GripperCommand, GripperSt
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
 from franka_sim.robot.gripper import (MAX_SPEED, NOMINAL_MAX_WIDTH, STATE_PERIOD, Gripper)
-from franka_sim.robot.gripper_session import GripperSession
+from franka_sim.robot.session import GripperSession
 from franka_sim.robot.session import SessionError
 
 DESC = load_arm_description(default_urdf_text())

@@ -1,24 +1,35 @@
-"""One client's TCP conversation with the robot (sans-IO).
+"""One client's TCP conversation with a service of the robot (sans-IO).
 
-Bytes in, reply bytes out. The session enforces the handshake (Connect first, version 10),
-splits frames, and dispatches each decoded request to the robot core. Malformed input raises
-`SessionError` — the adapter logs its one-line message and closes the connection, which is the
-only rejection the FCI protocol has for a frame it cannot parse.
+Bytes in, reply bytes out. The robot (port 1337, protocol v10) and the Hand (1338, v3) hold the
+same conversation: Connect first with the right version (another version is answered
+kIncompatibleLibraryVersion with ours, then the connection closes), frames cut by the shared
+FrameReader, every later request handed to the service's handler. Only the wire tables differ,
+and they are a `Service`. Malformed input raises `SessionError` — the adapter logs its one-line
+message and closes the connection, which is the only rejection either protocol has for a frame
+it cannot parse.
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import Callable
 
-from franka_sim.protocol import robot_messages as msg
-from franka_sim.protocol.enums import ROBOT_VERSION, Command, ConnectStatus
+from construct import Struct
+
+from franka_sim.protocol import gripper_messages as gm
+from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol.enums import (
+    GRIPPER_VERSION,
+    ROBOT_VERSION,
+    Command,
+    ConnectStatus,
+    GripperCommand,
+    GripperConnectStatus,
+)
 from franka_sim.protocol.framing import FrameReader, ProtocolError, decode_request
-from franka_sim.robot.requests import RequestHandler
 
 log = logging.getLogger(__name__)
-
-MAX_MESSAGE_SIZE = 64 * 1024
 
 
 class SessionError(Exception):
@@ -32,12 +43,38 @@ class Handshake:
     udp_port: int
 
 
-class RobotSession:
-    def __init__(self, handler: RequestHandler) -> None:
-        self.handler = handler
+@dataclass(frozen=True)
+class Service:
+    """The wire tables of one TCP service: what tells the robot's conversation from the Hand's."""
+
+    name: str  # "robot", "gripper": names the service in errors and log lines
+    version: int
+    command: type  # the Command enum (its member Connect opens the conversation)
+    connect_status: type
+    header: Struct
+    request_sizes: dict
+    request_structs: dict
+    build_response: Callable[..., bytes]
+    max_size: int
+
+
+ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader,
+                rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024)
+GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
+                  gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
+                  gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes
+
+
+class Session:
+    """The handshake and framing of one client; `handle(command, command_id, request)` does
+    the rest and returns the replies to send now."""
+
+    def __init__(self, service: Service, handle: Callable[..., list[bytes]]) -> None:
+        self.service = service
+        self.handle = handle
         self.handshake: Handshake | None = None
         self.closed = False
-        self._reader = FrameReader(msg.CommandHeader, msg.REQUEST_SIZES, MAX_MESSAGE_SIZE)
+        self._reader = FrameReader(service.header, service.request_sizes, service.max_size)
 
     def receive(self, data: bytes) -> list[bytes]:
         """Feed received bytes; return the replies to send, in order."""
@@ -47,7 +84,7 @@ class RobotSession:
             frames = self._reader.feed(data)
         except ProtocolError as exc:
             self.closed = True
-            raise SessionError(f"malformed message: {exc}") from exc
+            raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
         replies: list[bytes] = []
         for frame in frames:
             replies.extend(self._dispatch(frame))
@@ -56,31 +93,39 @@ class RobotSession:
         return replies
 
     def _dispatch(self, frame) -> list[bytes]:
-        command = Command(frame.command)
-        request = decode_request(frame)
+        service = self.service
+        command = service.command(frame.command)
+        request = decode_request(frame, service.request_structs)
         if self.handshake is None:
-            if command is not Command.Connect:
+            if command is not service.command.Connect:
                 self.closed = True
-                raise SessionError(f"{command.name} sent before Connect")
+                raise SessionError(f"{service.name} {command.name} sent before Connect")
             return [self._connect(frame.command_id, request)]
-        if command is Command.Connect:
+        if command is service.command.Connect:
             self.closed = True
-            raise SessionError("a second Connect on an established session")
-        return self.handler.handle(command, frame.command_id, request)
+            raise SessionError(f"a second {service.name} Connect on an established session")
+        return self.handle(command, frame.command_id, request)
 
     def _connect(self, command_id: int, request) -> bytes:
+        service = self.service
         version = int(request.version)
-        if version != ROBOT_VERSION:
-            log.warning(
-                "client speaks robot protocol version %d, we speak %d: rejected",
-                version, ROBOT_VERSION,
-            )
+        if version != service.version:
+            log.warning("client speaks %s protocol version %d, we speak %d: rejected",
+                        service.name, version, service.version)
             self.closed = True
-            return msg.build_response(
-                Command.Connect, command_id, ConnectStatus.kIncompatibleLibraryVersion,
-                version=ROBOT_VERSION,
-            )
-        self.handshake = Handshake(udp_port=int(request.udp_port))
-        return msg.build_response(
-            Command.Connect, command_id, ConnectStatus.kSuccess, version=ROBOT_VERSION
-        )
+            status = service.connect_status.kIncompatibleLibraryVersion
+        else:
+            self.handshake = Handshake(udp_port=int(request.udp_port))
+            status = service.connect_status.kSuccess
+        return service.build_response(service.command.Connect, command_id, status,
+                                      version=service.version)
+
+
+def RobotSession(handler) -> Session:  # noqa: N802 - reads as the class it stands for
+    """The robot's conversation: requests go to a RequestHandler."""
+    return Session(ROBOT, handler.handle)
+
+
+def GripperSession(gripper) -> Session:  # noqa: N802
+    """The Hand's conversation: requests go to the Gripper state machine."""
+    return Session(GRIPPER, gripper.request)

@@ -9,14 +9,14 @@ from __future__ import annotations
 import asyncio
 from typing import Callable
 
-from franka_sim.robot.gripper_session import GripperSession
+from franka_sim.robot.session import Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
 class GripperEndpoint(SingleClientEndpoint):
     """Accepts gripper clients, routes the active one's traffic and sends it GripperStates."""
 
-    def __init__(self, make_session: Callable[[], GripperSession],
+    def __init__(self, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None]) -> None:
         super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect)
         self._client_gone = on_disconnect

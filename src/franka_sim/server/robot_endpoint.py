@@ -8,12 +8,12 @@ from __future__ import annotations
 
 from typing import Callable
 
-from franka_sim.robot.session import RobotSession
+from franka_sim.robot.session import Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
 class RobotEndpoint(SingleClientEndpoint):
-    def __init__(self, make_session: Callable[[], RobotSession],
+    def __init__(self, make_session: Callable[[], Session],
                  on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
                  after_request: Callable[[], None] = lambda: None) -> None:
         super().__init__("FCI", make_session, on_handshake, on_disconnect, after_request)

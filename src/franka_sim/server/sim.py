@@ -20,9 +20,8 @@ from franka_sim.physics.scene import check_scene, default_scene_path
 from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
 from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.gripper_session import GripperSession
 from franka_sim.robot.requests import RequestHandler
-from franka_sim.robot.session import RobotSession
+from franka_sim.robot.session import GripperSession, RobotSession, Session
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.gripper_endpoint import GripperEndpoint
 from franka_sim.server.robot_endpoint import RobotEndpoint
@@ -133,11 +132,11 @@ class FrankaSim:
         return self.config.host, self.config.robot_port
 
     # -- wiring --------------------------------------------------------------------------------
-    def _make_session(self) -> RobotSession:
+    def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
         return RobotSession(RequestHandler(self.core, self.urdf_text.encode()))
 
-    def _make_gripper_session(self) -> GripperSession:
+    def _make_gripper_session(self) -> Session:
         self.driver.resume()
         return GripperSession(self.gripper)
 

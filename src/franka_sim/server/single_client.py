@@ -14,18 +14,11 @@ import asyncio
 import logging
 import os
 import socket
-from typing import Callable, Protocol
+from typing import Callable
 
-from franka_sim.robot.session import SessionError
+from franka_sim.robot.session import Session, SessionError
 
 log = logging.getLogger(__name__)
-
-
-class Session(Protocol):
-    handshake: object | None  # has .udp_port once Connect succeeded
-    closed: bool
-
-    def receive(self, data: bytes) -> list[bytes]: ...
 
 
 def _peer_has_left(transport: asyncio.Transport) -> bool:
