@@ -113,7 +113,8 @@ def test_fingers_touch_the_world_but_not_the_arm_or_each_other():
     model, data = backend.model, backend.data
     touching = {frozenset((model.geom(c.geom1).name, model.geom(c.geom2).name))
                 for c in data.contact[:data.ncon]}
-    assert touching == {frozenset(("scene/top", "scene/cube"))}  # only the cube on the table
+    # At most the cube on the table (resting, the cube sleeps and its contact is not listed).
+    assert touching <= {frozenset(("scene/top", "scene/cube"))}
     model = backend.model
     finger = model.geom("finger1_collision0")
     for geom in range(model.ngeom):

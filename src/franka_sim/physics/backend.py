@@ -41,6 +41,7 @@ class JointCommand:
     K: np.ndarray  # (7,) Nm/rad
     D: np.ndarray  # (7,) Nm·s/rad
     load: Payload | None = None
+    hold: bool = False  # the idle hold: standing still at q_d is the goal (see Rest in the backend)
 
     @classmethod
     def torque(cls, tau) -> "JointCommand":
@@ -49,12 +50,12 @@ class JointCommand:
         return cls(np.asarray(tau, float), zero, zero, zero, zero)
 
     @classmethod
-    def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None) -> "JointCommand":
+    def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None, *, hold=False) -> "JointCommand":
         """Joint impedance about q_d (e.g. idle holding), optionally with a feed-forward torque."""
         zero = np.zeros(7)
         return cls(zero if tau_ff is None else np.asarray(tau_ff, float), np.asarray(q_d, float),
                    zero if dq_d is None else np.asarray(dq_d, float),
-                   np.asarray(K, float), np.asarray(D, float))
+                   np.asarray(K, float), np.asarray(D, float), hold=hold)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,17 @@ inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign)
 joint elasticity with the stiffness K = 7000 Nm/rad inferred from the robot's own θ − q ≈ τ_J/7000
 (fr3_facts §2); the elasticity is only reported, not simulated (the joints are rigid here).
 
+Rest. When two consecutive steps changed nothing (state, warm start and inputs bit-identical
+before and after, the scene's resting objects asleep), and the next step gets the same command
+and finds the data untouched, its result is known exactly: the same state and the same
+Measured. It is not recomputed; only the clock advances. An idle arm then costs a comparison
+per cycle instead of a step, and every published bit is what stepping would have given.
+An arm that has moved comes back to rest under the idle hold only asymptotically: float
+round-off keeps it trembling at ~1e-13 rad/s for ever. So, as a drive's standstill control
+does, the hold puts a joint (and a finger at its commanded opening) that is within SETTLE of
+its set-point, and slower than SETTLE, exactly there and at rest: a change far below any
+encoder's resolution, made the same way every run.
+
 Fingers (optional, physics/fingers.py). Two finger joints on the hand, driven each step by the
 last FingerCommand with their own gravity load added (so resting fingers rest exactly, and an
 idle arm with idle fingers stays bit-exact). Whenever they move, the palm's inertial is rewritten
@@ -50,7 +61,10 @@ from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand,
 from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
 
 JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
+SETTLE = 1e-9  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
 _LIMIT_JOINT = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)
+# What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
+_REST_STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION) & ~int(mujoco.mjtState.mjSTATE_TIME)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -116,6 +130,12 @@ class MujocoBackend:
         self._load_gravity = np.zeros(7)  # the declared load's g(q), added this step
         self._zero3 = np.zeros(3)
         self._load_velocity: tuple[Payload, np.ndarray] | None = None  # (load, [v_C; ω]) last step
+        # Rest detection: the data as a step found and left it (see the module docstring).
+        size = mujoco.mj_stateSize(model, _REST_STATE)
+        self._before, self._after, self._now = np.empty(size), np.empty(size), np.empty(size)
+        self._asleep = data.tree_asleep.copy()
+        self._last_cmd: JointCommand | None = None
+        self._still = 0  # consecutive steps that changed nothing
         self.has_fingers = fingers
         if fingers:
             self._init_fingers()
@@ -133,7 +153,43 @@ class MujocoBackend:
 
     # -- the hot path ---------------------------------------------------------------------------
     def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+        same = self._same_inputs(cmd, fingers)
+        if same and self._still >= 2 and self._untouched():
+            self.data.time += self.timestep  # the step mj_step would take, to the bit
+            return self._last
+        if same:
+            mujoco.mj_getState(self.model, self.data, self._before, _REST_STATE)
+            self._asleep[:] = self.data.tree_asleep
+        measured = self._step(cmd, fingers)
+        self._last_cmd = cmd
+        if same:
+            mujoco.mj_getState(self.model, self.data, self._after, _REST_STATE)
+            still = (np.array_equal(self._before, self._after)
+                     and np.array_equal(self._asleep, self.data.tree_asleep))
+            self._still = self._still + 1 if still else 0
+        else:
+            self._still = 0
+        return measured
+
+    def _same_inputs(self, cmd: JointCommand, fingers: FingerCommand | None) -> bool:
+        """The command is the last step's (the same arrays: the core replaces, never mutates)."""
+        last = self._last_cmd
+        if last is None or not (fingers is None or fingers == self._finger_cmd):
+            return False
+        return cmd is last or (
+            cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
+            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load)
+
+    def _untouched(self) -> bool:
+        """Nothing wrote into the data since the last step (a test's push, a reset)."""
+        mujoco.mj_getState(self.model, self.data, self._now, _REST_STATE)
+        return bool(np.array_equal(self._now, self._after)
+                    and np.array_equal(self._asleep, self.data.tree_asleep))
+
+    def _step(self, cmd: JointCommand, fingers: FingerCommand | None) -> Measured:
         m, d, tmp, applied = self.model, self.data, self._tmp, self._applied
+        if cmd.hold:
+            self._standstill(cmd.q_d, fingers)
         np.subtract(cmd.q_d, self._q, out=tmp)
         np.multiply(cmd.K, tmp, out=applied)
         np.subtract(cmd.dq_d, self._dq, out=tmp)
@@ -164,6 +220,23 @@ class MujocoBackend:
         else:
             self._load_velocity = None
         return self._record(self._motor, self._ddq, first=False, tau_ext=tau_ext, J_F=J_F)
+
+    def _standstill(self, q_d: np.ndarray, fingers: FingerCommand | None) -> None:
+        """Within SETTLE of the hold: exactly there, at rest (see Rest in the module docstring)."""
+        tmp, q, dq = self._tmp, self._q, self._dq
+        if (np.abs(dq, out=tmp).max() < SETTLE
+                and np.abs(np.subtract(q, q_d, out=tmp), out=tmp).max() < SETTLE):
+            q[:] = q_d
+            dq[:] = 0.0
+        if not self.has_fingers:
+            return
+        c, d = fingers or self._finger_cmd, self.data
+        if c.speed != 0.0:
+            return
+        target = 0.5 * c.width
+        for qa, va in zip(self._fq, self._fv):
+            if abs(d.qpos[qa] - target) < SETTLE and abs(d.qvel[va]) < SETTLE:
+                d.qpos[qa], d.qvel[va] = target, 0.0
 
     def _external_torque(self) -> np.ndarray:
         """(7,) torque the robot exerts on its environment over the step just integrated.
@@ -306,6 +379,7 @@ class MujocoBackend:
         if q0.shape != (7,):
             raise ValueError(f"q0 must have shape (7,), got {q0.shape}")
         m, d = self.model, self.data
+        self._still, self._last_cmd = 0, None
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
         if self.has_fingers:  # open, at rest, the palm matching
@@ -391,6 +465,7 @@ class MujocoBackend:
         as external, so it is not the way to carry a load a client declares with SetLoad.
         """
         inertia = np.asarray(inertia, float).reshape(3, 3)
+        self._still = 0  # the model changes: the next step is a new one
         if mass < 0 or not np.allclose(inertia, inertia.T):
             raise ValueError("mass must be ≥ 0 and inertia symmetric")
         if self.has_fingers:  # the composite of palm + fingers becomes the given body

@@ -132,6 +132,9 @@ def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.gravity = GRAVITY
+    # Resting scene objects sleep (exactly still until something touches them) rather than
+    # trembling at 1e-9 m/s in their contacts: an idle scene is then truly at rest.
+    spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 
     # One MuJoCo body per moving link; links fixed to a body ride on it as an offset.
     holders: dict[int, mujoco.MjsBody] = {0: spec.worldbody}

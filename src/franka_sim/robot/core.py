@@ -129,7 +129,8 @@ class RobotCore:
         key = (self.q_hold, self.settings.K_theta)
         if self._hold is None or any(a is not b for a, b in zip(key, self._hold[0])):
             K = self.settings.K_theta
-            self._hold = key, JointCommand.impedance(self.q_hold, K, impedance_damping(K))
+            self._hold = key, JointCommand.impedance(self.q_hold, K, impedance_damping(K),
+                                                     hold=True)
         return self._hold[1]
 
     def _cartesian_impedance(self, motion: Motion) -> np.ndarray:

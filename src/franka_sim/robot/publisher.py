@@ -1,7 +1,8 @@
 """Fills the RobotState from the robot's decisions and the measurement, once per cycle.
 
 Only fields that change are written each cycle (each write costs ~0.3 µs); constant ones
-(hand inertials, gravity) once. The desired-side kinematics (O_T_EE_d and the Jacobian at q_d)
+(hand inertials, gravity) once, and the measured ones only when the physics measured anew (an
+arm at rest hands over the same Measured each cycle, see physics/mujoco_backend.py § Rest). The desired-side kinematics (O_T_EE_d and the Jacobian at q_d)
 come from the physics thread with the step, because MuJoCo computes them ~6× faster than
 numpy would here.
 """
@@ -55,22 +56,29 @@ class StatePublisher:
         self._idle_written = False
         self._F_T_EE = np.eye(4)
         self._external_version = 0  # ExternalForces.version last written (0: all zero)
+        self._written: tuple | None = None  # (Measured, F_T_EE) whose fields the buffer holds
+        self._O_T_EE = np.eye(4)
+        self._idle_for: Measured | None = None  # the Measured the idle signals were written for
 
     def pack(self, core: "RobotCore", m: Measured, desired_kinematics) -> bytes:
         s, settings = self.buffer, self.settings
         s.message_id[...] = core.message_id
         F_T_EE = self._configured_frames()
-        O_T_EE = m.O_T_F @ F_T_EE
-        s.O_T_EE[:] = column_major(O_T_EE)
-
-        s.q[:] = m.q
-        s.dq[:] = m.dq
-        s.tau_J[:] = m.tau_J
-        s.dtau_J[:] = m.dtau_J
-        s.theta[:] = m.theta
-        s.dtheta[:] = m.dtheta
-        s.accelerometer_top[:] = m.accelerometer_top.ravel()
-        s.accelerometer_bottom[:] = m.accelerometer_bottom.ravel()
+        written = self._written
+        if written is None or written[0] is not m or written[1] is not F_T_EE:
+            self._written = (m, F_T_EE)
+            self._O_T_EE = O_T_EE = m.O_T_F @ F_T_EE
+            s.O_T_EE[:] = column_major(O_T_EE)
+            s.q[:] = m.q
+            s.dq[:] = m.dq
+            s.tau_J[:] = m.tau_J
+            s.dtau_J[:] = m.dtau_J
+            s.theta[:] = m.theta
+            s.dtheta[:] = m.dtheta
+            s.accelerometer_top[:] = m.accelerometer_top.ravel()
+            s.accelerometer_bottom[:] = m.accelerometer_bottom.ravel()
+            self._idle_for = None
+        O_T_EE = self._O_T_EE
 
         motion = core.motion if core.motion_running else None
         if motion is None:
@@ -104,6 +112,8 @@ class StatePublisher:
     def _idle_signals(self, m: Measured, O_T_EE: np.ndarray) -> None:
         """Idle: desired and commanded signals follow the measurement; rates are zero."""
         s = self.buffer
+        if m is self._idle_for:  # written last cycle, for this very measurement
+            return
         if not self._idle_written:  # the zeros need writing once per idle spell
             for field in (s.dq_d, s.ddq_d, s.tau_J_d, s.O_dP_EE_d, s.O_dP_EE_c, s.O_ddP_EE_c,
                           s.delbow_c, s.ddelbow_c):
@@ -120,11 +130,13 @@ class StatePublisher:
         s.elbow_c[:] = elbow
         self._elbow_c[:] = elbow
         self._delbow_c[:] = 0.0
+        self._idle_for = m
 
     def _motion_signals(self, core, motion, m: Measured, O_T_EE, F_T_EE, desired_kinematics):
         """A motion runs: desired signals from its generator, commanded ones from the client."""
         s, settings = self.buffer, self.settings
         self._idle_written = False
+        self._idle_for = None
         q_d = core.desired_q
         if q_d is None:  # torque only: nothing desired but what is measured
             q_d, dq_d, ddq_d = m.q, m.dq, np.zeros(7)
