@@ -21,7 +21,8 @@ def test_help_names_every_flag_and_its_environment_variable():
                          capture_output=True, text=True, env={"COLUMNS": "200"}, timeout=60).stdout
     for flag, env in [("--host", "FRANKA_SIM_HOST"), ("--urdf", "FRANKA_SIM_URDF"),
                       ("--clock", "FRANKA_SIM_CLOCK"), ("--log-level", "FRANKA_SIM_LOG_LEVEL"),
-                      ("--enforce-comm-constraints", "FRANKA_SIM_ENFORCE_COMM_CONSTRAINTS")]:
+                      ("--enforce-comm-constraints", "FRANKA_SIM_ENFORCE_COMM_CONSTRAINTS"),
+                      ("--rt-priority", "FRANKA_SIM_RT_PRIORITY")]:
         assert flag in out and env in out
 
 
@@ -68,3 +69,30 @@ def test_a_description_libfranka_would_reject_is_refused_on_one_line(tmp_path):
     assert done.returncode != 0
     assert "position_based_velocity_limits" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
+    """--rt-priority: every server thread under SCHED_FIFO (the physics worker inherits it),
+    or, where the OS refuses, one warning and a server that still serves."""
+    import os
+
+    from conftest import running_sim
+
+    with running_sim("--rt-priority", "7", env={"FRANKA_SIM_LOG_LEVEL": "info"}) as sim:
+        pid = sim.proc.pid
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        applied = sim.log_matching("running under SCHED_FIFO priority 7")
+        refused = sim.log_matching("--rt-priority 7 not applied")
+        assert len(applied) + len(refused) == 1
+        names = {int(tid): Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
+                 for tid in os.listdir(f"/proc/{pid}/task")}
+        worker = [tid for tid, name in names.items() if name == "fsim-physics"]
+        assert len(worker) == 1
+        for tid in (pid, worker[0]):  # the event loop's thread and the physics worker
+            policy, param = os.sched_getscheduler(tid), os.sched_getparam(tid)
+            if applied:
+                assert (policy, param.sched_priority) == (os.SCHED_FIFO, 7)
+            else:
+                assert policy == os.SCHED_OTHER
+        del robot

@@ -190,7 +190,7 @@ class Gripper:
                  max_width: float = NOMINAL_MAX_WIDTH) -> None:
         self.state_period = state_period
         self.max_width = max_width
-        self.width = 0.0  # last measured opening
+        self.width = max_width  # last measured opening (the fingers start open)
         self.is_grasped = False
         self.cycle = 0  # last advanced cycle
         self._action: _Move | _Grasp | _Homing | None = None

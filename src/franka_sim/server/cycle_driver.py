@@ -3,9 +3,13 @@
 Callback-driven rather than a coroutine per cycle, because it runs 1000 times a second and a
 callback chain is the cheapest thing asyncio does. Exactly one physics step per published
 cycle; only the release instant depends on the wall clock (see pacing.py). The physics worker
-keeps the deadline (its wait for the next job is the precise sleep), so a realtime cycle costs
-three thread hand-overs: deadline → loop (decide the joint command), loop → worker (step),
-worker → loop (publish).
+keeps the deadline (its wait for the next job is the precise sleep) and runs the job the loop
+left in its slot, so a realtime cycle costs two hand-overs: worker (step) → loop (publish),
+and the loop fills the slot for the next one. While the arm is idle the next cycle's command
+is known at once, so the worker steps it ahead and sends the state the loop posts back on the
+deadline (physics/worker.py, "Ahead of time"); during a motion the command comes from the
+client, so the step waits for the deadline and the loop sends the state as soon as it is
+packed.
 
 The clock pauses while nobody is connected and the arm has settled (PAUSE_AFTER cycles after
 the last client left): nothing can observe it, and an idle fleet of simulators then costs no
@@ -46,6 +50,7 @@ class CycleDriver:
         worker: PhysicsWorker,
         publish: Callable[[bytes], None],
         *,
+        send_from_worker: Callable[[bytes], None] | None = None,
         lockstep: bool = False,
         after_cycle: Callable[[], None] | None = None,
         finger_command: Callable[[], object] | None = None,
@@ -54,6 +59,8 @@ class CycleDriver:
         self.core = core
         self.worker = worker
         self.publish = publish
+        self.send_from_worker = send_from_worker  # thread-safe send for states stepped ahead
+        self._posted = 0  # the last cycle whose state the worker holds to send on its deadline
         self.lockstep = lockstep
         self.after_cycle = after_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
@@ -104,6 +111,14 @@ class CycleDriver:
         else:
             self.refresh()  # realtime: the next cycle is decided; the worker runs it on time
 
+    def after_request(self) -> None:
+        """A TCP request was handled: the state waiting for its deadline is packed again (it
+        must read as if published now, as it would have been without stepping ahead), and
+        the next cycle's job decided anew."""
+        if self._posted and self._posted == self.core.message_id:
+            self.worker.repost(self._posted, self.core.repack())
+        self.refresh()
+
     def refresh(self) -> None:
         """Give the worker the next cycle's job if the core can decide it now.
 
@@ -116,7 +131,8 @@ class CycleDriver:
         if self._lockstep_now:
             return  # lockstep releases on the answer itself
         cycle = self.core.message_id + 1
-        self.worker.fill_slot(cycle, self._job(cycle))
+        ahead = self.send_from_worker is not None and self.core.motion is None
+        self.worker.fill_slot(cycle, self._job(cycle), ahead=ahead)
 
     def _on_deadline(self, token: int) -> None:
         if token == self._token and self._running and not self._busy:
@@ -145,22 +161,51 @@ class CycleDriver:
             return pacer.next_deadline(now, lockstep=lockstep) if keep_going else None
 
         return PhysicsWorker.release_job(
-            _step, (joint_command, q_desired, fingers), self._on_stepped, self._loop,
+            _step, (joint_command, q_desired, fingers),
+            lambda result: self._on_stepped(result, cycle), self._loop,
             wake_at, lambda: self._on_deadline(token), cycle)
 
-    def _on_stepped(self, result) -> None:
+    def _send_then(self, send: Callable[[bytes], None], then: Callable[[], None]):
+        loop = self._loop
+
+        def send_and_tell(data: bytes) -> None:  # runs in the worker thread
+            send(data)
+            try:
+                loop.call_soon_threadsafe(then)
+            except RuntimeError:  # loop closed during shutdown
+                pass
+        return send_and_tell
+
+    def _after_sent(self) -> None:
+        if self._running and self.after_cycle is not None:
+            self.after_cycle()
+
+    def _on_stepped(self, result, cycle: int) -> None:
         if isinstance(result, BaseException):
             log.error("physics step failed; publishing stopped: %s", result)
             self._running = False
         else:
+            send = self.send_from_worker
+            deferred = False
             try:
-                self.publish(self.core.publish(*result))
+                data = self.core.publish(*result)
+                if send is not None and self.core.has_replies:
+                    # A reply (a Move's end, a recovery) must not overtake the state that
+                    # shows its effect: it follows once the worker has sent that state.
+                    send = self._send_then(send, self._after_sent)
+                if send is None or not self.worker.post(cycle, data, send):
+                    self.publish(data)
+                else:
+                    self._posted = cycle
+                    deferred = send is not self.send_from_worker
             except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+                if send is not None:
+                    self.worker.post(cycle, None, send)  # the worker goes on
                 self._failures += 1
                 if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
                     log.exception("cycle %d failed to publish (%d so far)",
                                   self.core.message_id, self._failures)
-            if self.after_cycle is not None:
+            if self.after_cycle is not None and not deferred:
                 self.after_cycle()
         self._busy = False
         self._idle.set()

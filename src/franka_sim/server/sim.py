@@ -63,6 +63,7 @@ class FrankaSim:
                                    after_request=self._after_request)
         self.driver = CycleDriver(
             self.core, self.worker, self.udp.send_state,
+            send_from_worker=self.udp.send_state_from_any_thread,
             lockstep=config.clock is ClockMode.lockstep, after_cycle=self._after_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
             has_client=self._has_client,
@@ -141,7 +142,7 @@ class FrankaSim:
         return GripperSession(self.gripper)
 
     def _after_request(self) -> None:
-        self.driver.refresh()  # a Move, Stop or Set* may change what the next cycle does
+        self.driver.after_request()  # a Move, Stop or Set* may change the next cycles
 
     def _has_client(self) -> bool:
         return self.robot.active is not None or self.gripper_endpoint.active is not None

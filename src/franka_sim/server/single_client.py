@@ -68,11 +68,11 @@ class ClientConnection(asyncio.Protocol):
             log.warning("closing %s connection from %s:%s: %s", self.owner.what, *self.peer, exc)
             self.transport.close()
             return
-        for reply in replies:
-            self.transport.write(reply)
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
-        self.owner.after_request()
+        self.owner.after_request()  # first: the next state must show the request when the
+        for reply in replies:  # client, having read the reply, waits for that state
+            self.transport.write(reply)
         if self.session.closed:
             self.transport.close()
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
+import socket
 from typing import Callable
 
 from franka_sim.protocol.codec import decode_command
@@ -21,11 +23,21 @@ class UdpEndpoint(asyncio.DatagramProtocol):
         self.on_command = on_command
         self.target: tuple[str, int] | None = None
         self.transport: asyncio.DatagramTransport | None = None
+        self._raw: socket.socket | None = None  # the same socket, for the physics thread
         self.dropped_foreign = 0
         self.dropped_malformed = 0
 
     def connection_made(self, transport) -> None:  # type: ignore[override]
         self.transport = transport
+        sock = transport.get_extra_info("socket")
+        # A duplicate descriptor of the endpoint's own socket (same port, non-blocking): states
+        # leave from the port libfranka answers to, sent without going through the loop.
+        self._raw = socket.socket(sock.family, sock.type, fileno=os.dup(sock.fileno()))
+
+    def connection_lost(self, exc) -> None:  # type: ignore[override]
+        if self._raw is not None:
+            self._raw.close()
+            self._raw = None
 
     @property
     def address(self) -> tuple[str, int]:
@@ -34,6 +46,16 @@ class UdpEndpoint(asyncio.DatagramProtocol):
     def send_state(self, data: bytes) -> None:
         if self.target is not None and self.transport is not None:
             self.transport.sendto(data, self.target)
+
+    def send_state_from_any_thread(self, data: bytes) -> None:
+        """send_state for the physics thread: a plain sendto on the duplicate descriptor."""
+        target, raw = self.target, self._raw
+        if target is None or raw is None:
+            return
+        try:
+            raw.sendto(data, target)
+        except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
+            log.debug("state not sent: %s", exc)
 
     def datagram_received(self, data: bytes, addr) -> None:  # type: ignore[override]
         if self.target is None or tuple(addr[:2]) != self.target:
