@@ -99,3 +99,18 @@ def test_message_id_advances_one_per_cycle(sim):
         udp.close()
     assert np.all(np.diff(ids) == 1)
 
+
+
+def test_the_first_state_after_a_reply_shows_the_request(robot):
+    """libfranka's read_once drops what is queued and waits for the next state: that state
+    must already show a Set* the client has just had answered, every time (the idle stream
+    is packed ahead of its deadline and packed again when a request comes in)."""
+    for k in range(40):
+        NE_T_EE = np.eye(4)
+        NE_T_EE[2, 3] = 0.001 * (k + 1)
+        robot.set_EE(NE_T_EE.ravel(order="F").tolist())
+        state = robot.read_once()
+        assert np.asarray(state.NE_T_EE)[14] == pytest.approx(0.001 * (k + 1), rel=1e-6)  # float32
+    load = robot.read_once().m_load
+    robot.set_load(0.3, [0.0, 0.0, 0.02], [1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 1e-3])
+    assert load == 0.0 and robot.read_once().m_load == pytest.approx(0.3)

@@ -135,15 +135,6 @@ class PhysicsWorker:
             self._jobs.put(_STOP)
             await asyncio.get_running_loop().run_in_executor(None, self._thread.join, 2.0)
 
-    def repost(self, cycle: int, data: bytes) -> bool:
-        """Replace the posted state of `cycle` (repacked after a request); False: gone already."""
-        with self._box:
-            box = self._outbox
-            if box is None or box[0] != cycle:
-                return False
-            self._outbox = (cycle, data, box[2])
-            return True
-
     def _next_job(self) -> tuple[Any, bool]:
         """The next job and whether it runs ahead of its deadline."""
         while True:
@@ -206,8 +197,8 @@ class PhysicsWorker:
                 return None
             self._outbox = self._ahead = None
             self._overdue = False
-            if box[1] is not None:  # sent under the lock: a repost either replaces the
-                box[2](box[1])  # state before it leaves or finds it gone
+            if box[1] is not None:
+                box[2](box[1])
         _cycle, wake_at, wake, loop = ahead
         self._deadline = self._wake = None
         self._arm(wake_at, wake, loop)

@@ -79,7 +79,6 @@ class RobotCore:
         self.reflex_reason = np.zeros(NUM_ERRORS, dtype=bool)
         self.q_hold = np.array(q0, dtype=float)
         self.measured: Measured | None = None
-        self._kinematics = None  # the desired-side kinematics the last state was packed with
         self.motion: Motion | None = None
         self.cycle = CommandCycle()
         self.publisher = StatePublisher(self.settings)
@@ -165,13 +164,7 @@ class RobotCore:
                 self._enforce(self.guard.judge_measured(measured.q, measured.dq))
         self._estimate_external_forces(measured)
         self._advance_recovery(measured)
-        self._kinematics = desired_kinematics
         return self.publisher.pack(self, measured, desired_kinematics)
-
-    def repack(self) -> bytes:
-        """The last published state again, as it reads after a request handled since (a new
-        end effector, load or mode): same cycle, same measurement."""
-        return self.publisher.pack(self, self.measured, self._kinematics)
 
     def _estimate_external_forces(self, measured: Measured) -> None:
         """External torque, wrench and flags; a collision stops a running motion (always: the

@@ -60,7 +60,7 @@ class CycleDriver:
         self.worker = worker
         self.publish = publish
         self.send_from_worker = send_from_worker  # thread-safe send for states stepped ahead
-        self._posted = 0  # the last cycle whose state the worker holds to send on its deadline
+        self._awaiting: list[tuple[int, Callable[[], None]]] = []  # (cycle, deliver) replies
         self.lockstep = lockstep
         self.after_cycle = after_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
@@ -111,13 +111,36 @@ class CycleDriver:
         else:
             self.refresh()  # realtime: the next cycle is decided; the worker runs it on time
 
-    def after_request(self) -> None:
-        """A TCP request was handled: the state waiting for its deadline is packed again (it
-        must read as if published now, as it would have been without stepping ahead), and
-        the next cycle's job decided anew."""
-        if self._posted and self._posted == self.core.message_id:
-            self.worker.repost(self._posted, self.core.repack())
-        self.refresh()
+    def after_next_state(self, deliver: Callable[[], None]) -> bool:
+        """Call `deliver` (a request's replies) once the first state published after now
+        has been sent; False while no state is coming (stopped, paused): deliver now.
+
+        A client that reads the state after a reply (libfranka takes the newest one queued)
+        then always sees what its request did, wherever the reply fell between two states.
+        """
+        if not self._running or self.paused:
+            return False
+        self._awaiting.append((self.core.message_id + 1, deliver))
+        return True
+
+    def _state_sent(self, cycle: int) -> None:
+        """The state of `cycle` has left: deliver the replies that waited for it."""
+        awaiting = self._awaiting
+        while awaiting and awaiting[0][0] <= cycle:
+            awaiting.pop(0)[1]()
+
+    def _sender(self, cycle: int) -> Callable[[bytes], None]:
+        """The worker's send for `cycle`, telling the loop when replies wait for it."""
+        send, loop = self.send_from_worker, self._loop
+
+        def send_state(data: bytes) -> None:  # runs in the worker thread
+            send(data)
+            if self._awaiting:
+                try:
+                    loop.call_soon_threadsafe(self._state_sent, cycle)
+                except RuntimeError:  # loop closed during shutdown
+                    pass
+        return send_state
 
     def refresh(self) -> None:
         """Give the worker the next cycle's job if the core can decide it now.
@@ -185,7 +208,7 @@ class CycleDriver:
             log.error("physics step failed; publishing stopped: %s", result)
             self._running = False
         else:
-            send = self.send_from_worker
+            send = None if self.send_from_worker is None else self._sender(cycle)
             deferred = False
             try:
                 data = self.core.publish(*result)
@@ -193,11 +216,11 @@ class CycleDriver:
                     # A reply (a Move's end, a recovery) must not overtake the state that
                     # shows its effect: it follows once the worker has sent that state.
                     send = self._send_then(send, self._after_sent)
+                    deferred = True
                 if send is None or not self.worker.post(cycle, data, send):
+                    deferred = False
                     self.publish(data)
-                else:
-                    self._posted = cycle
-                    deferred = send is not self.send_from_worker
+                    self._state_sent(cycle)
             except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
                 if send is not None:
                     self.worker.post(cycle, None, send)  # the worker goes on

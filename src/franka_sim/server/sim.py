@@ -60,7 +60,8 @@ class FrankaSim:
             self._make_gripper_session, self._on_gripper_disconnect)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
-                                   after_request=self._after_request)
+                                   after_request=self._after_request,
+                                   defer_replies=self._defer_replies)
         self.driver = CycleDriver(
             self.core, self.worker, self.udp.send_state,
             send_from_worker=self.udp.send_state_from_any_thread,
@@ -141,8 +142,11 @@ class FrankaSim:
         self.driver.resume()
         return GripperSession(self.gripper)
 
+    def _defer_replies(self, deliver) -> bool:
+        return self.driver.after_next_state(deliver)  # see CycleDriver.after_next_state
+
     def _after_request(self) -> None:
-        self.driver.after_request()  # a Move, Stop or Set* may change the next cycles
+        self.driver.refresh()  # a Move, Stop or Set* may change what the next cycle does
 
     def _has_client(self) -> bool:
         return self.robot.active is not None or self.gripper_endpoint.active is not None

@@ -70,11 +70,16 @@ class ClientConnection(asyncio.Protocol):
             return
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
-        self.owner.after_request()  # first: the next state must show the request when the
-        for reply in replies:  # client, having read the reply, waits for that state
-            self.transport.write(reply)
-        if self.session.closed:
-            self.transport.close()
+        self.owner.after_request()
+        closed = self.session.closed
+
+        def deliver() -> None:
+            for reply in replies:
+                self.write(reply)
+            if closed and self.transport is not None:
+                self.transport.close()
+        if not self.owner.defer_replies(deliver):
+            deliver()
 
     def write(self, data: bytes) -> None:
         if self.transport is not None and not self.transport.is_closing():
@@ -97,12 +102,15 @@ class SingleClientEndpoint:
         on_handshake: Callable[[str, int], None],
         on_disconnect: Callable[[], None],
         after_request: Callable[[], None] = lambda: None,
+        defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
         self.on_handshake = on_handshake
         self.on_disconnect = on_disconnect
         self.after_request = after_request  # what the session did may change the next cycle
+        # defer_replies(deliver) → True: the owner calls deliver() later (after the next state).
+        self.defer_replies = defer_replies
         self.active: ClientConnection | None = None
         self.server: asyncio.AbstractServer | None = None
 
