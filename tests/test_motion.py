@@ -165,3 +165,25 @@ def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
     while state.time.to_sec() - t0 < 0.5:
         state = robot.read_once()
     assert np.max(np.abs(state.dq)) < 1e-3
+
+
+def test_after_a_motion_the_idle_arm_comes_exactly_to_rest(lockstep):
+    """The idle hold's standstill band: an arm that has moved stops trembling (at ~1e-13 rad/s
+    of round-off) and holds bit-exactly still, as an arm that never moved does."""
+    from clients import move_to
+
+    robot = _robot(lockstep.host)
+    target = np.array([0.1, -0.6, 0.1, -2.2, 0.05, 1.7, 0.9])
+    move_to(robot, target, 1.0)
+    start = robot.read_once().time.to_sec()
+    state = robot.read_once()
+    while state.time.to_sec() - start < 3.0:  # 3 s of robot time to settle
+        time.sleep(0.2)
+        state = robot.read_once()
+    later = robot.read_once()
+    while later.time.to_sec() - state.time.to_sec() < 0.05:
+        later = robot.read_once()
+    assert np.array_equal(np.asarray(later.q), np.asarray(state.q))
+    assert np.array_equal(np.asarray(later.tau_J), np.asarray(state.tau_J))
+    assert not np.asarray(later.dq).any() and not np.asarray(later.dtau_J).any()
+    assert np.abs(np.asarray(later.q) - target).max() < 2e-3
