@@ -96,3 +96,20 @@ def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
             else:
                 assert policy == os.SCHED_OTHER
         del robot
+
+
+def test_the_server_runs_without_the_cli_machinery():
+    """`serve` parses its flags, then becomes franka_sim.serving in the same process: the
+    flag parser's libraries (typer, click, rich, pydantic) are not resident in the server."""
+    from conftest import running_sim
+
+    with running_sim("--clock", "lockstep") as sim:
+        pid = sim.proc.pid
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        assert b"franka_sim.serving" in cmdline
+        assert b'"clock": "lockstep"' in b" ".join(cmdline)
+        maps = Path(f"/proc/{pid}/maps").read_text()
+        assert "pydantic_core" not in maps and "mujoco" in maps
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del robot

@@ -2,11 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
-import gc
-import logging
-import os
-import signal
 from pathlib import Path
 
 import typer
@@ -20,8 +15,6 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
-
-log = logging.getLogger("franka_sim")
 
 
 @app.callback()
@@ -85,69 +78,18 @@ def serve(
     ),
 ) -> None:
     """Run the simulated robot until Ctrl-C or SIGTERM."""
-    logging.basicConfig(
-        level=log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s"
-    )
+    from franka_sim.serving import exec_serving
+
+    if log_level.lower() not in ("debug", "info", "warning", "error"):
+        raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
+                                 param_hint="--log-level")
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
         scene=scene, gripper=not no_gripper,
     )
-    if rt_priority:
-        _realtime_scheduling(rt_priority)
-    try:
-        import uvloop
-
-        uvloop.run(_serve(config))
-    except _Failed as exc:
-        typer.echo(f"franka-sim: {exc}", err=True)
-        raise typer.Exit(1) from None
-
-
-def _realtime_scheduling(priority: int) -> None:
-    """SCHED_FIFO for this thread and every thread it starts later (the physics worker)."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-    except (OSError, AttributeError) as exc:  # no permission, or not Linux
-        log.warning("--rt-priority %d not applied (%s): running at normal priority",
-                    priority, getattr(exc, "strerror", None) or exc)
-    else:
-        log.info("running under SCHED_FIFO priority %d", priority)
-
-
-class _Failed(Exception):
-    pass
-
-
-async def _serve(config: Config) -> None:
-    from franka_sim.description.urdf import DescriptionError
-    from franka_sim.physics.scene import SceneError
-    from franka_sim.server.sim import AddressInUse, FrankaSim
-
-    try:
-        sim = FrankaSim(config)
-    except DescriptionError as exc:
-        raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
-    except SceneError as exc:
-        raise _Failed(f"cannot load the scene {exc}") from None
-    # Everything built so far lives as long as the server: keep it out of the collector's
-    # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
-    gc.collect()
-    gc.freeze()
-    try:
-        await sim.start()
-    except AddressInUse as exc:
-        raise _Failed(exc.strerror) from None
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    try:
-        await stop.wait()
-    finally:
-        log.info("stopping")
-        await sim.stop()
+    exec_serving(config, rt_priority=rt_priority, log_level=log_level)
 
 
 def main() -> None:
