@@ -41,7 +41,8 @@ _PR_SET_TIMERSLACK = 29
 OS_THREAD_NAME = b"fsim-physics"  # what top, ps -L and /proc show for this thread
 
 
-def _tighten_timer_slack() -> None:
+def _tune_this_thread() -> None:
+    """1 µs timer slack (precise deadlines) and a name ps and top show."""
     try:
         prctl = ctypes.CDLL(None, use_errno=True).prctl
         prctl(_PR_SET_TIMERSLACK, 1, 0, 0, 0)
@@ -210,7 +211,7 @@ class PhysicsWorker:
             self._deadline, self._wake = deadline, (wake, loop)
 
     def _run(self) -> None:
-        _tighten_timer_slack()
+        _tune_this_thread()
         try:
             self._backend = self._make_backend()
         except BaseException as exc:  # reported to whoever awaits start()
