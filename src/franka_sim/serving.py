@@ -2,7 +2,7 @@
 
 The CLI (typer, which brings click, rich and pydantic) parses and checks the flags, then
 replaces itself with this module (`os.execv`: same process, same pid, so signals and exit
-codes are the caller's as before). The ~15 MiB the parsing machinery occupies stay out of a
+codes are the caller's as before). The ~10 MiB the parsing machinery occupies stay out of a
 server that runs for hours, possibly dozens of them side by side. The parsed flags travel as
 one JSON argument; this module takes no flags of its own.
 """
