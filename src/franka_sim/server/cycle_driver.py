@@ -129,18 +129,24 @@ class CycleDriver:
         while awaiting and awaiting[0][0] <= cycle:
             awaiting.pop(0)[1]()
 
-    def _sender(self, cycle: int) -> Callable[[bytes], None]:
-        """The worker's send for `cycle`, telling the loop when replies wait for it."""
+    def _sender(self, cycle: int, *, then_after_cycle: bool) -> Callable[[bytes], None]:
+        """The worker's send for `cycle`; it tells the loop when that state has left if
+        replies wait for it (or `then_after_cycle`: run after_cycle only then)."""
         send, loop = self.send_from_worker, self._loop
 
         def send_state(data: bytes) -> None:  # runs in the worker thread
             send(data)
-            if self._awaiting:
+            if then_after_cycle or self._awaiting:
                 try:
-                    loop.call_soon_threadsafe(self._state_sent, cycle)
+                    loop.call_soon_threadsafe(self._sent, cycle, then_after_cycle)
                 except RuntimeError:  # loop closed during shutdown
                     pass
         return send_state
+
+    def _sent(self, cycle: int, then_after_cycle: bool) -> None:
+        self._state_sent(cycle)
+        if then_after_cycle and self._running and self.after_cycle is not None:
+            self.after_cycle()
 
     def refresh(self) -> None:
         """Give the worker the next cycle's job if the core can decide it now.
@@ -188,42 +194,26 @@ class CycleDriver:
             lambda result: self._on_stepped(result, cycle), self._loop,
             wake_at, lambda: self._on_deadline(token), cycle)
 
-    def _send_then(self, send: Callable[[bytes], None], then: Callable[[], None]):
-        loop = self._loop
-
-        def send_and_tell(data: bytes) -> None:  # runs in the worker thread
-            send(data)
-            try:
-                loop.call_soon_threadsafe(then)
-            except RuntimeError:  # loop closed during shutdown
-                pass
-        return send_and_tell
-
-    def _after_sent(self) -> None:
-        if self._running and self.after_cycle is not None:
-            self.after_cycle()
-
     def _on_stepped(self, result, cycle: int) -> None:
         if isinstance(result, BaseException):
             log.error("physics step failed; publishing stopped: %s", result)
             self._running = False
         else:
-            send = None if self.send_from_worker is None else self._sender(cycle)
+            ahead = self.send_from_worker is not None
             deferred = False
             try:
                 data = self.core.publish(*result)
-                if send is not None and self.core.has_replies:
-                    # A reply (a Move's end, a recovery) must not overtake the state that
-                    # shows its effect: it follows once the worker has sent that state.
-                    send = self._send_then(send, self._after_sent)
-                    deferred = True
-                if send is None or not self.worker.post(cycle, data, send):
+                # A reply the cycle produced (a Move's end, a recovery) must not overtake the
+                # state that shows its effect: after_cycle (which sends it) follows that state.
+                deferred = ahead and self.core.has_replies
+                if not ahead or not self.worker.post(
+                        cycle, data, self._sender(cycle, then_after_cycle=deferred)):
                     deferred = False
                     self.publish(data)
                     self._state_sent(cycle)
             except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
-                if send is not None:
-                    self.worker.post(cycle, None, send)  # the worker goes on
+                if ahead:
+                    self.worker.post(cycle, None, self.send_from_worker)  # the worker goes on
                 self._failures += 1
                 if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
                     log.exception("cycle %d failed to publish (%d so far)",
