@@ -1,14 +1,15 @@
-"""The physics worker's hand-over with the loop: cycles stepped ahead, states sent on the deadline.
+"""The physics worker as the robot's pacemaker: ticks on their deadlines, wakes, jobs between.
 
-A stand-in backend (no MuJoCo) and a real event loop; margins are hundreds of ms so the outcome
-does not depend on how busy the machine is. What the tests pin down is ordering: a state
-stepped ahead never leaves before its deadline, an overdue one leaves when it is posted, and
-the next deadline counts from when a state really left.
+A stand-in backend (no MuJoCo) and a real event loop; the deadlines are a second or more away
+so the outcome does not depend on how busy the machine is. What the tests pin down is when the
+tick runs: never before the deadline it asked for (unless woken), at once when woken, not at
+all once the clock is stopped — and that jobs are still served around it.
 """
 
 from __future__ import annotations
 
 import asyncio
+import threading
 import time
 
 from franka_sim.physics.worker import PhysicsWorker
@@ -16,113 +17,110 @@ from franka_sim.physics.worker import PhysicsWorker
 MARGIN = 1.0  # s between "now" and a deadline in these tests (a busy CI machine)
 
 
-class Recorder:
-    def __init__(self) -> None:
-        self.events: list[tuple[str, int, float]] = []
+class Ticks:
+    """A tick that records (due, time, thread) and returns what `plan` says."""
 
-    def mark(self, what: str, cycle: int) -> None:
-        self.events.append((what, cycle, time.monotonic()))
+    def __init__(self, plan) -> None:
+        self.plan = plan  # plan(n, now) -> next deadline or None
+        self.calls: list[tuple[bool, float, str]] = []
+        self.changed = threading.Event()
 
-    def when(self, what: str, cycle: int) -> float:
-        return next(t for w, c, t in self.events if (w, c) == (what, cycle))
+    def __call__(self, backend, due: bool):
+        assert backend == "backend"
+        now = time.monotonic()
+        self.calls.append((due, now, threading.current_thread().name))
+        self.changed.set()
+        return self.plan(len(self.calls), now)
+
+    async def wait_for(self, n: int, timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while len(self.calls) < n:
+            assert time.monotonic() < deadline, f"only {len(self.calls)} ticks"
+            await asyncio.sleep(0.01)
 
 
-async def _started() -> tuple[PhysicsWorker, Recorder, asyncio.AbstractEventLoop]:
-    worker = PhysicsWorker(lambda: "backend")
+async def _worker() -> PhysicsWorker:
+    worker = PhysicsWorker(lambda: "backend", name="test-physics")
     await worker.start()
-    return worker, Recorder(), asyncio.get_running_loop()
+    return worker
 
 
-def _job(worker, rec, loop, cycle, *, deadline_after, done, wake=lambda: None):
-    """A release job for `cycle`; the next deadline comes `deadline_after` s after it is due."""
-    def step(backend):
-        rec.mark("step", cycle)
-        return cycle
-
-    def wake_at(now):
-        rec.mark("released", cycle)
-        return now + deadline_after
-
-    return PhysicsWorker.release_job(step, (), done, loop, wake_at, wake, cycle)
-
-
-def test_a_cycle_stepped_ahead_is_sent_on_its_deadline_not_before():
+def test_ticks_run_in_the_worker_on_the_deadline_they_asked_for_not_before():
     async def run():
-        worker, rec, loop = await _started()
-        posted = asyncio.Event()
-
-        def send(data: bytes) -> None:
-            rec.mark("sent", int(data))
-
-        def stepped_ahead(cycle):
-            assert worker.post(cycle, str(cycle).encode(), send)  # accepted: due later
-            posted.set()
-
-        first = asyncio.Event()
-        worker.submit_job(_job(worker, rec, loop, 1, deadline_after=MARGIN,
-                               done=lambda _: first.set()))
-        await first.wait()
-        worker.fill_slot(2, _job(worker, rec, loop, 2, deadline_after=MARGIN,
-                                 done=stepped_ahead), ahead=True)
-        await posted.wait()
-        assert rec.when("step", 2) < rec.when("released", 1) + MARGIN  # stepped at once
-        while not any(e[:2] == ("released", 2) for e in rec.events):
-            await asyncio.sleep(0.01)  # sent, then the next deadline armed
-        assert rec.when("sent", 2) >= rec.when("released", 1) + MARGIN  # not before its time
-        assert rec.when("released", 2) >= rec.when("sent", 2)  # next deadline from the send
-        assert not worker.post(3, b"3", send)  # never stepped ahead: the caller sends it
+        worker = await _worker()
+        ticks = Ticks(lambda n, now: now + MARGIN if n < 3 else None)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(3)
+        (due1, t1, thread), (due2, t2, _), (due3, t3, _) = ticks.calls
+        assert due1 and due2 and due3 and thread == "test-physics"
+        assert t2 >= t1 + MARGIN and t3 >= t2 + MARGIN
         await worker.stop()
 
     asyncio.run(run())
 
 
-def test_an_overdue_state_leaves_when_posted_and_the_next_deadline_counts_from_then():
+def test_a_wake_runs_the_tick_at_once_and_not_due():
     async def run():
-        worker, rec, loop = await _started()
-        sent = asyncio.Event()
-
-        def send(data: bytes) -> None:
-            rec.mark("sent", int(data))
-            loop.call_soon_threadsafe(sent.set)
-
-        stepped = asyncio.Event()
-        first = asyncio.Event()
-        worker.submit_job(_job(worker, rec, loop, 1, deadline_after=0.05,
-                               done=lambda _: first.set()))
-        await first.wait()
-        worker.fill_slot(2, _job(worker, rec, loop, 2, deadline_after=MARGIN,
-                                 done=lambda _: stepped.set()), ahead=True)
-        await stepped.wait()
-        await asyncio.sleep(0.05 + MARGIN)  # the loop is "late": cycle 2's deadline passes
-        assert not any(w == "sent" for w, _, _ in rec.events)  # nothing to send yet
-        posted_at = time.monotonic()
-        assert worker.post(2, b"2", send)
-        await sent.wait()
-        while not any(e[:2] == ("released", 2) for e in rec.events):
-            await asyncio.sleep(0.01)  # the worker arms the next deadline after sending
-        assert rec.when("sent", 2) >= posted_at
-        assert rec.when("released", 2) >= rec.when("sent", 2)  # no catch-up burst after it
+        worker = await _worker()
+        far = 30 * MARGIN
+        ticks = Ticks(lambda n, now: now + far if n == 1 else ticks.calls[0][1] + far)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(1)
+        worker.wake()
+        await ticks.wait_for(2)
+        (_, t1, _), (due2, t2, _) = ticks.calls
+        assert not due2 and t2 < t1 + far
         await worker.stop()
 
     asyncio.run(run())
 
 
-def test_a_failed_publish_posts_nothing_and_the_worker_goes_on():
+def test_a_clock_without_a_deadline_waits_for_a_wake():
     async def run():
-        worker, rec, loop = await _started()
-        first, stepped = asyncio.Event(), asyncio.Event()
-        worker.submit_job(_job(worker, rec, loop, 1, deadline_after=0.02,
-                               done=lambda _: first.set()))
-        await first.wait()
-        worker.fill_slot(2, _job(worker, rec, loop, 2, deadline_after=0.02,
-                                 done=lambda _: stepped.set()), ahead=True)
-        await stepped.wait()
-        assert worker.post(2, None, lambda data: rec.mark("sent", 2))
-        third = asyncio.Event()
-        worker.fill_slot(3, _job(worker, rec, loop, 3, deadline_after=0.02,
-                                 done=lambda _: third.set()))
-        await asyncio.wait_for(third.wait(), 10)  # cycle 3 still runs
-        assert not any(w == "sent" for w, _, _ in rec.events)
+        worker = await _worker()
+        ticks = Ticks(lambda n, now: None)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(1)
+        assert await worker.call(lambda backend: backend) == "backend"  # jobs still run
+        await asyncio.sleep(0.2)
+        assert len(ticks.calls) == 1
+        worker.wake()
+        await ticks.wait_for(2)
+        await worker.stop()
+
+    asyncio.run(run())
+
+
+def test_no_tick_runs_once_the_clock_is_stopped():
+    async def run():
+        worker = await _worker()
+        ticks = Ticks(lambda n, now: now + 0.01)  # a fast clock
+        await worker.run_clock(ticks)
+        await ticks.wait_for(3)
+        await worker.run_clock(None)
+        stopped_at = len(ticks.calls)
+        worker.wake()
+        await asyncio.sleep(0.2)
+        assert len(ticks.calls) == stopped_at
+        await worker.stop()
+
+    asyncio.run(run())
+
+
+def test_a_failing_tick_stops_the_clock_and_jobs_go_on():
+    async def run():
+        worker = await _worker()
+
+        def plan(n, now):
+            raise RuntimeError("a broken cycle")
+
+        ticks = Ticks(plan)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(1)
+        worker.wake()
+        assert await worker.call(lambda backend: 42) == 42
+        await asyncio.sleep(0.1)
+        assert len(ticks.calls) == 1
         await worker.stop()
 
     asyncio.run(run())

@@ -1,15 +1,22 @@
-"""The publish loop: release a cycle, step physics once, publish the state, pace the next.
+"""The robot's cycle, run as the physics worker's tick: commands in, one step, the state out.
 
-Callback-driven rather than a coroutine per cycle, because it runs 1000 times a second and a
-callback chain is the cheapest thing asyncio does. Exactly one physics step per published
-cycle; only the release instant depends on the wall clock (see pacing.py). The physics worker
-keeps the deadline (its wait for the next job is the precise sleep) and runs the job the loop
-left in its slot, so a realtime cycle costs two hand-overs: worker (step) → loop (publish),
-and the loop fills the slot for the next one. While the arm is idle the next cycle's command
-is known at once, so the worker steps it ahead and sends the state the loop posts back on the
-deadline (physics/worker.py, "Ahead of time"); during a motion the command comes from the
-client, so the step waits for the deadline and the loop sends the state as soon as it is
-packed.
+A tick is a whole cycle in the physics thread: the commands the loop queued since the last one
+go to the core (closing the open cycle's window), the core decides the drives' task, MuJoCo steps
+once, the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
+VM every extra hand-over between threads cost more CPU than the cycle's own work. The event loop
+still owns every endpoint; it decodes and checks datagrams, queues the commands (`receive`), and
+serves TCP. The core is shared between the two threads, so it is only touched with `lock` held:
+the tick holds it for the whole cycle, the TCP endpoints for each request.
+
+While the arm is idle the next cycle's command is known at once (the hold), so the tick steps
+and packs it straight after sending the current state, and the next tick only sends it: idle
+states leave on their deadline to within this thread's wake-up. During a motion the command
+comes from the client, so the cycle runs when its deadline comes (realtime) or when the answer
+arrives (lockstep, see pacing.py), and the state leaves as soon as it is packed.
+
+A request's replies wait for the first state published after it (`after_next_state`), and a
+reply the cycle itself produced (a Move's end, a recovery) goes out after the state that shows
+it: libfranka reads the newest queued state after a reply, which must show what the reply says.
 
 The clock pauses while nobody is connected and the arm has settled (PAUSE_AFTER cycles after
 the last client left): nothing can observe it, and an idle fleet of simulators then costs no
@@ -19,9 +26,13 @@ CPU. The next client resumes it at once; message_id carries on from where it sto
 from __future__ import annotations
 
 import asyncio
+import collections
 import logging
+import threading
+import time
 from typing import Callable
 
+from franka_sim.physics.backend import Measured
 from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
 from franka_sim.server.pacing import Pacer
@@ -29,6 +40,11 @@ from franka_sim.server.pacing import Pacer
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
+
+# on_cycle(cycle, measured), in the physics thread with the lock held, right after the core
+# published `cycle`: what else the cycle does (the Hand), and what the loop must send once the
+# state has left (replies), as a function to call there, or None.
+OnCycle = Callable[[int, Measured], "Callable[[], None] | None"]
 
 
 def _step(backend, joint_command, q_desired, fingers=None):
@@ -48,52 +64,75 @@ class CycleDriver:
         self,
         core: RobotCore,
         worker: PhysicsWorker,
-        publish: Callable[[bytes], None],
+        lock: threading.Lock,
+        send_state: Callable[[bytes], None],
         *,
-        send_from_worker: Callable[[bytes], None] | None = None,
         lockstep: bool = False,
-        after_cycle: Callable[[], None] | None = None,
+        on_cycle: OnCycle | None = None,
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
+        poll_commands: Callable[[], None] = lambda: None,
     ) -> None:
         self.core = core
         self.worker = worker
-        self.publish = publish
-        self.send_from_worker = send_from_worker  # thread-safe send for states stepped ahead
-        self._awaiting: list[tuple[int, Callable[[], None]]] = []  # (cycle, deliver) replies
+        self.lock = lock  # guards the core (and what on_cycle touches)
+        self.send_state = send_state  # safe to call from the physics thread
         self.lockstep = lockstep
-        self.after_cycle = after_cycle
+        self.on_cycle = on_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
-        self.pacer = Pacer()  # used by the worker thread only (inside wake_at)
+        self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
+        self.pacer = Pacer()
+        self._inbox: collections.deque = collections.deque()  # loop → tick: decoded commands
+        self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop only: (cycle, deliver)
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._token = 0
+        self._running = False
+        # Physics thread only:
+        self._prepared: tuple | None = None  # (cycle, data, deliver) stepped ahead (idle)
+        self._deadline: float | None = None
         self._unwatched = 0  # cycles since a client was last connected
         self.paused = False
-        self._busy = False
-        self._running = False
         self._failures = 0
-        self._idle = asyncio.Event()
 
-    def start(self) -> None:
+    # -- the loop's side -------------------------------------------------------------------------
+    async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._running = True
-        self._release()
+        await self.worker.run_clock(self._tick)
 
     async def stop(self) -> None:
         self._running = False
-        self._token += 1  # a wake-up already on its way finds nothing to do
-        self.worker.fill_slot(-1, None)  # and the worker has nothing left to run
-        if self._busy:
-            await self._idle.wait()
+        await self.worker.run_clock(None)  # no tick runs after this
+
+    def receive(self, command) -> None:
+        """A decoded RobotCommand from the client: the next tick hands it to the core; in
+        lockstep it runs now (it may be the answer the open cycle waits for)."""
+        self._inbox.append(command)
+        if self.lockstep:
+            self.worker.wake()
 
     def resume(self) -> None:
-        """A client arrived: restart a paused clock at once."""
-        self._unwatched = 0
-        if self.paused and self._running and not self._busy:
-            self.paused = False
-            self._release()
+        """A client arrived: a paused clock starts again at once (a wake-up that finds the
+        clock running releases nothing)."""
+        self.worker.wake()
 
+    def after_next_state(self, deliver: Callable[[], None]) -> bool:
+        """Call `deliver` (a request's replies) once the first state published after now has
+        been sent; False while no state is coming (stopped, paused): deliver now. Lock held."""
+        if not self._running or self.paused:
+            return False
+        self._awaiting.append((self.core.message_id + 1, deliver))
+        return True
+
+    def _sent(self, cycle: int, deliver: Callable[[], None] | None) -> None:
+        """The state of `cycle` has left: the replies that waited for it, then its own."""
+        awaiting = self._awaiting
+        while awaiting and awaiting[0][0] <= cycle:
+            awaiting.pop(0)[1]()
+        if deliver is not None and self._running:
+            deliver()
+
+    # -- the physics thread's side ---------------------------------------------------------------
     @property
     def _lockstep_now(self) -> bool:
         """Lockstep pacing applies: a motion streams commands (an async motion does not)."""
@@ -101,128 +140,75 @@ class CycleDriver:
         return (self.lockstep and motion is not None and motion.running
                 and not motion.spec.use_async)
 
-    def release_early(self) -> None:
-        """The command answering the open cycle arrived (the core closed its window)."""
-        if not self._running:
-            return
-        if self._lockstep_now:
-            if not self._busy:
-                self._release()  # lockstep: go on at once
+    def _tick(self, backend, due: bool) -> float | None:
+        try:
+            with self.lock:
+                return self._tick_locked(backend, due)
+        except BaseException:
+            self._running = False  # the worker logs it and stops the clock
+            raise
+
+    def _tick_locked(self, backend, due: bool) -> float | None:
+        lockstep = self._lockstep_now  # (before the answer: it may end the motion)
+        if due and self.core.motion is not None:
+            self.poll_commands()  # an answer that arrived in time counts, read or not
+        answered = self._take_commands()
+        if not due and not self.paused and not (answered and lockstep):
+            return self._deadline  # woken, but nothing to release
+        released_at = time.monotonic()
+        self.paused = False
+        prepared, self._prepared = self._prepared, None
+        if prepared is None:
+            # A motion's cycle (or its last): the client may start the next motion within
+            # this ms, so the cycle after it is decided on its deadline, not ahead of it.
+            moved = self.core.motion is not None
+            prepared = self._cycle(backend)
         else:
-            self.refresh()  # realtime: the next cycle is decided; the worker runs it on time
-
-    def after_next_state(self, deliver: Callable[[], None]) -> bool:
-        """Call `deliver` (a request's replies) once the first state published after now
-        has been sent; False while no state is coming (stopped, paused): deliver now.
-
-        A client that reads the state after a reply (libfranka takes the newest one queued)
-        then always sees what its request did, wherever the reply fell between two states.
-        """
-        if not self._running or self.paused:
-            return False
-        self._awaiting.append((self.core.message_id + 1, deliver))
-        return True
-
-    def _state_sent(self, cycle: int) -> None:
-        """The state of `cycle` has left: deliver the replies that waited for it."""
-        awaiting = self._awaiting
-        while awaiting and awaiting[0][0] <= cycle:
-            awaiting.pop(0)[1]()
-
-    def _sender(self, cycle: int, *, then_after_cycle: bool) -> Callable[[bytes], None]:
-        """The worker's send for `cycle`; it tells the loop when that state has left if
-        replies wait for it (or `then_after_cycle`: run after_cycle only then)."""
-        send, loop = self.send_from_worker, self._loop
-
-        def send_state(data: bytes) -> None:  # runs in the worker thread
-            send(data)
-            if then_after_cycle or self._awaiting:
-                try:
-                    loop.call_soon_threadsafe(self._sent, cycle, then_after_cycle)
-                except RuntimeError:  # loop closed during shutdown
-                    pass
-        return send_state
-
-    def _sent(self, cycle: int, then_after_cycle: bool) -> None:
-        self._state_sent(cycle)
-        if then_after_cycle and self._running and self.after_cycle is not None:
-            self.after_cycle()
-
-    def refresh(self) -> None:
-        """Give the worker the next cycle's job if the core can decide it now.
-
-        Called after each publish, each on-time answer and each TCP request (any of which may
-        change what the next cycle does). With the slot filled, the deadline costs no trip
-        through the loop; without it (a motion waiting for its answer), the worker asks.
-        """
-        if not self._running or self.paused or not self.core.decided:
-            return
-        if self._lockstep_now:
-            return  # lockstep releases on the answer itself
-        cycle = self.core.message_id + 1
-        ahead = self.send_from_worker is not None and self.core.motion is None
-        self.worker.fill_slot(cycle, self._job(cycle), ahead=ahead)
-
-    def _on_deadline(self, token: int) -> None:
-        if token == self._token and self._running and not self._busy:
-            self._release()
-
-    def _release(self) -> None:
-        """Release the next cycle now, from the loop."""
-        self._busy = True
-        self._idle.clear()
-        self._token += 1  # invalidates any wake-up armed for this cycle
-        self.worker.submit_job(self._job(self.core.message_id + 1))
-
-    def _job(self, cycle: int) -> tuple:
-        """The release job of `cycle`: the core's joint command (closing its window if still
-        open), the physics step, and when the worker should expect the cycle after it."""
-        joint_command = self.core.joint_command()
-        q_desired = self.core.desired_q
-        fingers = None if self.finger_command is None else self.finger_command()
+            moved = False
+        self._send(prepared)
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
-        keep_going = self._unwatched < PAUSE_AFTER or self.core.motion is not None
-        self.paused = not keep_going
-        lockstep = self._lockstep_now
-        pacer, token = self.pacer, self._token
+        if self._unwatched >= PAUSE_AFTER and self.core.motion is None:
+            self.paused = True
+            self._deadline = None
+            return None
+        if self.core.motion is None and not moved:  # idle: the next command is the hold
+            self._prepared = self._cycle(backend)
+        self._deadline = self.pacer.next_deadline(released_at, lockstep=self._lockstep_now)
+        return self._deadline
 
-        def wake_at(now: float) -> float | None:  # runs in the worker thread
-            return pacer.next_deadline(now, lockstep=lockstep) if keep_going else None
+    def _take_commands(self) -> bool:
+        """Hand the queued commands to the core; True if one answered the open cycle in time."""
+        answered = False
+        inbox, core = self._inbox, self.core
+        while inbox:
+            answered = core.receive_command(inbox.popleft()) or answered
+        return answered
 
-        return PhysicsWorker.release_job(
-            _step, (joint_command, q_desired, fingers),
-            lambda result: self._on_stepped(result, cycle), self._loop,
-            wake_at, lambda: self._on_deadline(token), cycle)
+    def _cycle(self, backend) -> tuple:
+        """Release the next cycle: decide, step, publish. (cycle, state bytes, deliver)."""
+        core = self.core
+        joint_command = core.joint_command()
+        q_desired = core.desired_q
+        fingers = None if self.finger_command is None else self.finger_command()
+        measured, kinematics = _step(backend, joint_command, q_desired, fingers)
+        data = deliver = None
+        try:
+            data = core.publish(measured, kinematics)
+            if self.on_cycle is not None:
+                deliver = self.on_cycle(core.message_id, measured)
+        except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+            self._failures += 1
+            if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
+                log.exception("cycle %d failed to publish (%d so far)",
+                              core.message_id, self._failures)
+        return core.message_id, data, deliver
 
-    def _on_stepped(self, result, cycle: int) -> None:
-        if isinstance(result, BaseException):
-            log.error("physics step failed; publishing stopped: %s", result)
-            self._running = False
-        else:
-            ahead = self.send_from_worker is not None
-            deferred = False
+    def _send(self, prepared: tuple) -> None:
+        cycle, data, deliver = prepared
+        if data is not None:
+            self.send_state(data)
+        if deliver is not None or self._awaiting:
             try:
-                data = self.core.publish(*result)
-                # A reply the cycle produced (a Move's end, a recovery) must not overtake the
-                # state that shows its effect: after_cycle (which sends it) follows that state.
-                deferred = ahead and self.core.has_replies
-                if not ahead or not self.worker.post(
-                        cycle, data, self._sender(cycle, then_after_cycle=deferred)):
-                    deferred = False
-                    self.publish(data)
-                    self._state_sent(cycle)
-            except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
-                if ahead:
-                    self.worker.post(cycle, None, self.send_from_worker)  # the worker goes on
-                self._failures += 1
-                if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
-                    log.exception("cycle %d failed to publish (%d so far)",
-                                  self.core.message_id, self._failures)
-            if self.after_cycle is not None and not deferred:
-                self.after_cycle()
-        self._busy = False
-        self._idle.set()
-        if self.paused and self._running and self.has_client():  # a client came meanwhile
-            self.resume()
-        else:
-            self.refresh()
+                self._loop.call_soon_threadsafe(self._sent, cycle, deliver)
+            except RuntimeError:  # loop closed during shutdown
+                pass

@@ -7,6 +7,7 @@ states go to (client IP, the UDP port it announced in Connect) from a socket of 
 from __future__ import annotations
 
 import asyncio
+from contextlib import AbstractContextManager
 from typing import Callable
 
 from franka_sim.robot.session import Session
@@ -17,8 +18,10 @@ class GripperEndpoint(SingleClientEndpoint):
     """Accepts gripper clients, routes the active one's traffic and sends it GripperStates."""
 
     def __init__(self, make_session: Callable[[], Session],
-                 on_disconnect: Callable[[], None]) -> None:
-        super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect)
+                 on_disconnect: Callable[[], None],
+                 lock: AbstractContextManager | None = None) -> None:
+        super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect,
+                         lock=lock)
         self._client_gone = on_disconnect
         self.state_target: tuple[str, int] | None = None
         self.udp: asyncio.DatagramTransport | None = None

@@ -6,6 +6,7 @@ and docs/deviations.md).
 
 from __future__ import annotations
 
+from contextlib import AbstractContextManager
 from typing import Callable
 
 from franka_sim.robot.session import Session
@@ -15,8 +16,6 @@ from franka_sim.server.single_client import SingleClientEndpoint
 class RobotEndpoint(SingleClientEndpoint):
     def __init__(self, make_session: Callable[[], Session],
                  on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
-                 after_request: Callable[[], None] = lambda: None,
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
-                 ) -> None:
-        super().__init__("FCI", make_session, on_handshake, on_disconnect, after_request,
-                         defer_replies)
+                 lock: AbstractContextManager | None = None) -> None:
+        super().__init__("FCI", make_session, on_handshake, on_disconnect, defer_replies, lock)

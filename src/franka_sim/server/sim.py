@@ -10,6 +10,8 @@ from __future__ import annotations
 import asyncio
 import errno
 import logging
+import threading
+from typing import Callable
 
 import numpy as np
 
@@ -56,18 +58,19 @@ class FrankaSim:
             self.description, q0, scene_xml=self.scene, fingers=config.gripper))
         # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
         self.gripper = Gripper() if config.gripper else None
+        # The core and the Hand are shared by the physics thread (each cycle) and the loop
+        # (each TCP request): whoever touches them holds this lock (see cycle_driver.py).
+        self.lock = threading.Lock()
         self.gripper_endpoint = GripperEndpoint(
-            self._make_gripper_session, self._on_gripper_disconnect)
+            self._make_gripper_session, self._on_gripper_disconnect, lock=self.lock)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
-                                   after_request=self._after_request,
-                                   defer_replies=self._defer_replies)
+                                   defer_replies=self._defer_replies, lock=self.lock)
         self.driver = CycleDriver(
-            self.core, self.worker, self.udp.send_state,
-            send_from_worker=self.udp.send_state_from_any_thread,
-            lockstep=config.clock is ClockMode.lockstep, after_cycle=self._after_cycle,
+            self.core, self.worker, self.lock, self.udp.send_state,
+            lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
-            has_client=self._has_client,
+            has_client=self._has_client, poll_commands=self.udp.poll,
         )
         self._started = False
 
@@ -100,7 +103,7 @@ class FrankaSim:
                         "already in use (another franka-sim or robot bridge on this address?)",
                     ) from exc
                 raise
-        self.driver.start()
+        await self.driver.start()
         self._started = True
         log.info(
             "simulated FR3 serving on %s:%d (clock %s; %s; scene %s)",
@@ -145,9 +148,6 @@ class FrankaSim:
     def _defer_replies(self, deliver) -> bool:
         return self.driver.after_next_state(deliver)  # see CycleDriver.after_next_state
 
-    def _after_request(self) -> None:
-        self.driver.refresh()  # a Move, Stop or Set* may change what the next cycle does
-
     def _has_client(self) -> bool:
         return self.robot.active is not None or self.gripper_endpoint.active is not None
 
@@ -158,28 +158,32 @@ class FrankaSim:
     def _on_disconnect(self) -> None:
         self.udp.target = None
         self.core.client_gone()
-        self.driver.refresh()
 
     def _on_command(self, command) -> None:
-        if self.core.receive_command(command):
-            self.driver.release_early()
-        self._flush_replies()
+        self.driver.receive(command)
 
-    def _after_cycle(self) -> None:
-        self._flush_replies()
+    def _on_cycle(self, cycle: int, measured) -> "Callable[[], None] | None":
+        """The rest of a cycle (physics thread, lock held): the Hand moves on; the replies
+        the robot and the Hand produced, to send once the state has left."""
+        replies = self.core.take_replies()
         gripper = self.gripper
-        if gripper is None:
-            return
-        measured, cycle = self.core.measured, self.core.message_id
-        gripper.advance(cycle, None if measured is None else measured.fingers)
-        for reply in gripper.take_replies():
-            self.gripper_endpoint.send(reply)
-        if gripper.state_due(cycle):
-            self.gripper_endpoint.send_state(gripper.pack_state(cycle))
+        hand_replies, hand_state = [], None
+        if gripper is not None:
+            gripper.advance(cycle, measured.fingers)
+            hand_replies = gripper.take_replies()
+            if gripper.state_due(cycle) and self.gripper_endpoint.state_target is not None:
+                hand_state = gripper.pack_state(cycle)
+        if not (replies or hand_replies or hand_state):
+            return None
+
+        def deliver() -> None:  # on the loop
+            for reply in replies:
+                self.robot.send(reply)
+            for reply in hand_replies:
+                self.gripper_endpoint.send(reply)
+            if hand_state is not None:
+                self.gripper_endpoint.send_state(hand_state)
+        return deliver
 
     def _on_gripper_disconnect(self) -> None:
         self.gripper.client_gone()
-
-    def _flush_replies(self) -> None:
-        for reply in self.core.take_replies():
-            self.robot.send(reply)

@@ -14,6 +14,7 @@ import asyncio
 import logging
 import os
 import socket
+from contextlib import AbstractContextManager, nullcontext
 from typing import Callable
 
 from franka_sim.robot.session import Session, SessionError
@@ -61,6 +62,10 @@ class ClientConnection(asyncio.Protocol):
     def data_received(self, data: bytes) -> None:  # type: ignore[override]
         if self.session is None:
             return
+        with self.owner.lock:  # the robot's physics thread shares what the session changes
+            self._receive(data)
+
+    def _receive(self, data: bytes) -> None:
         was_connected = self.session.handshake is not None
         try:
             replies = self.session.receive(data)
@@ -70,7 +75,6 @@ class ClientConnection(asyncio.Protocol):
             return
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
-        self.owner.after_request()
         closed = self.session.closed
 
         def deliver() -> None:
@@ -89,7 +93,8 @@ class ClientConnection(asyncio.Protocol):
         if self.owner.active is self:
             self.owner.active = None
             log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
-            self.owner.on_disconnect()
+            with self.owner.lock:
+                self.owner.on_disconnect()
 
 
 class SingleClientEndpoint:
@@ -101,16 +106,18 @@ class SingleClientEndpoint:
         make_session: Callable[[], Session],
         on_handshake: Callable[[str, int], None],
         on_disconnect: Callable[[], None],
-        after_request: Callable[[], None] = lambda: None,
         defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
+        lock: "AbstractContextManager | None" = None,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
         self.on_handshake = on_handshake
         self.on_disconnect = on_disconnect
-        self.after_request = after_request  # what the session did may change the next cycle
         # defer_replies(deliver) → True: the owner calls deliver() later (after the next state).
         self.defer_replies = defer_replies
+        # Held while the session or on_handshake/on_disconnect run: what they change (the
+        # robot core, the Hand) is shared with the physics thread.
+        self.lock = lock if lock is not None else nullcontext()
         self.active: ClientConnection | None = None
         self.server: asyncio.AbstractServer | None = None
 

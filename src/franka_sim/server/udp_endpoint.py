@@ -31,7 +31,7 @@ class UdpEndpoint(asyncio.DatagramProtocol):
         self.transport = transport
         sock = transport.get_extra_info("socket")
         # A duplicate descriptor of the endpoint's own socket (same port, non-blocking): states
-        # leave from the port libfranka answers to, sent without going through the loop.
+        # leave from the port libfranka answers to, sent by the physics thread directly.
         self._raw = socket.socket(sock.family, sock.type, fileno=os.dup(sock.fileno()))
 
     def connection_lost(self, exc) -> None:  # type: ignore[override]
@@ -44,11 +44,8 @@ class UdpEndpoint(asyncio.DatagramProtocol):
         return self.transport.get_extra_info("sockname")[:2]
 
     def send_state(self, data: bytes) -> None:
-        if self.target is not None and self.transport is not None:
-            self.transport.sendto(data, self.target)
-
-    def send_state_from_any_thread(self, data: bytes) -> None:
-        """send_state for the physics thread: a plain sendto on the duplicate descriptor."""
+        """A RobotState to the client, from any thread (the physics thread sends them): a plain
+        sendto on the duplicate descriptor, not through the loop."""
         target, raw = self.target, self._raw
         if target is None or raw is None:
             return
@@ -56,6 +53,23 @@ class UdpEndpoint(asyncio.DatagramProtocol):
             raw.sendto(data, target)
         except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
             log.debug("state not sent: %s", exc)
+
+    def poll(self) -> None:
+        """Take the datagrams already queued on the socket now, from any thread (the physics
+        thread, at a motion cycle's deadline: a command that arrived before the deadline
+        answers the cycle even if the loop has not read it yet)."""
+        raw = self._raw
+        if raw is None:
+            return
+        while True:
+            try:
+                data, addr = raw.recvfrom(4096)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:  # an ICMP error queued on the socket
+                log.debug("UDP error: %s", exc)
+                return
+            self.datagram_received(data, addr)
 
     def datagram_received(self, data: bytes, addr) -> None:  # type: ignore[override]
         if self.target is None or tuple(addr[:2]) != self.target:
