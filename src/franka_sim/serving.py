@@ -47,7 +47,20 @@ def _config(settings: dict) -> Config:
     return Config(**settings)
 
 
+# MuJoCo's optional renderer (its OpenGL bindings, glfw, cffi): `import mujoco` loads it when
+# present and goes on without it when it is not. A server never renders; ~3 MiB resident.
+_RENDERER_MODULES = ("mujoco._render", "mujoco.rendering", "mujoco.rendering.classic",
+                     "mujoco.rendering.classic.renderer", "mujoco.rendering.classic.gl_context")
+
+
+def _without_renderer() -> None:
+    """Make `import mujoco` skip its renderer in this process (before anything imports it)."""
+    for name in _RENDERER_MODULES:
+        sys.modules.setdefault(name, None)  # an import of it now raises ImportError
+
+
 def main(blob: str) -> int:
+    _without_renderer()
     args = json.loads(blob)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
