@@ -47,7 +47,8 @@ FINGER_BOXES = (((0.0, 0.0045, 0.045), (0.011, 0.0045, 0.0175)),  # pad
 
 FINGER_ARMATURE = 0.1  # kg along the stroke: the drive's reflected inertia (our choice)
 FINGER_KP = 3000.0  # N/m per finger
-FINGER_KD = 2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE))  # critical, N·s/m
+# Critical damping, N·s/m; a Python float, as the drive's per-step arithmetic is on scalars.
+FINGER_KD = float(2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE)))
 MAX_FINGER_FORCE = 100.0  # N per finger (the description's effort limit, fr3_facts §3)
 
 
@@ -79,7 +80,7 @@ class Palm:
         self._com_at_zero = positions + rotations @ FINGER_COM  # finger CoMs in F at x = 0
         self._opening_dir = rotations[:, :, 1]  # each finger's +y (its opening) in F
         self._finger_inertia = sum(R @ FINGER_INERTIA @ R.T for R in rotations)
-        self._eigval, self._eigvec = np.zeros(3), np.zeros(9)
+        self._eigval, self._eigvec, self._inertia = np.zeros(3), np.zeros(9), np.zeros(9)
         self._monomials = np.ones(6)
         self.set_composite(mass, com, inertia)
 
@@ -114,10 +115,12 @@ class Palm:
         """Store the palm for finger positions x1, x2 into the model's hand body."""
         k = self._monomials
         k[1], k[2], k[3], k[4], k[5] = x1, x2, x1 * x1, x2 * x2, x1 * x2
-        inertia = k @ self._inertia_coeffs
+        # np.dot: the very BLAS call `@` makes here (the same bits), with less dispatch and
+        # into a given array; this runs every step the fingers move.
+        inertia = np.dot(k, self._inertia_coeffs, out=self._inertia)
         mujoco.mju_eig3(self._eigval, self._eigvec, model.body_iquat[body], inertia)
-        if self._eigval.min() <= 0.0:
+        if min(self._eigval.tolist()) <= 0.0:
             raise ValueError("the fingers outweigh the end effector's inertia")
         model.body_mass[body] = self.mass
-        model.body_ipos[body] = k @ self._com_coeffs
+        np.dot(k, self._com_coeffs, out=model.body_ipos[body])
         model.body_inertia[body] = self._eigval

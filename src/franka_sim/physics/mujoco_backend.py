@@ -65,6 +65,43 @@ SETTLE = 1e-9  # rad and rad/s (m and m/s for a finger): the standstill band of 
 _LIMIT_JOINT = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)
 # What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
 _REST_STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION) & ~int(mujoco.mjtState.mjSTATE_TIME)
+# A step's readings, as one array whose views are the Measured's fields (see _record). The
+# 7-vectors sit in rows of 8 so that every field starts 16-byte aligned, as a freshly allocated
+# array does: whatever reads them sees the same memory alignment as with separate arrays.
+_Q, _DQ, _DDQ, _TAU_J, _THETA, _DTAU_J, _DTHETA, _TAU_EXT = (
+    slice(8 * i, 8 * i + 7) for i in range(8))
+_TAU_J_THETA, _DTAU_J_DTHETA = slice(24, 39), slice(40, 55)  # each pair with a pad between
+_ROWS = 64  # the 7-vectors
+_O_T_F, _J_F, _TOP, _BOTTOM = slice(64, 80), slice(80, 122), slice(122, 140), slice(140, 158)
+_READINGS = 158
+
+
+class _FlangeBlock:
+    """The flange's pose and Jacobian as MuJoCo gives them, in a block of a work array, and the
+    gather that makes O_T_F (4,4) and J_F (6,7) of them: both fresh, from one indexing.
+
+    The block holds the site's xmat (9) and xpos (3), O_T_F's last row [0, 0, 0, 1] and the full
+    (6, nv) Jacobian ([linear; angular], what mj_jacSite writes into `jacp` and `jacr`).
+    """
+
+    def __init__(self, work: np.ndarray, start: int, nv: int, dof: int) -> None:
+        mat, pos, self.last_row, jac = start, start + 9, start + 12, start + 16
+        self.mat, self.pos = work[mat:pos], work[pos:self.last_row]
+        work[self.last_row:jac] = (0.0, 0.0, 0.0, 1.0)
+        self.jac = work[jac:jac + 6 * nv].reshape(6, nv)
+        self.jacp, self.jacr = self.jac[:3], self.jac[3:]
+        O_T_F = [mat, mat + 1, mat + 2, pos, mat + 3, mat + 4, mat + 5, pos + 1,
+                 mat + 6, mat + 7, mat + 8, pos + 2, *range(self.last_row, jac)]
+        J_F = jac + nv * np.arange(6)[:, None] + dof + np.arange(7)
+        self.index = np.concatenate([O_T_F, J_F.ravel()])  # J_F at 16: 16-byte aligned
+
+    @staticmethod
+    def size(nv: int) -> int:
+        return 16 + 6 * nv
+
+
+def _clip(f: float, limit: float) -> float:
+    return limit if f > limit else (-limit if f < -limit else f)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -96,36 +133,31 @@ class MujocoBackend:
         self._arm_joint = np.zeros(model.njnt, dtype=bool)  # the arm's joints, by joint id
         self._arm_joint[jids] = True
         self._hand = model.body(HAND_BODY).id
-        # Accelerometer readings as one gather: (top, bottom) × joints 1..6 × xyz. A description
-        # without some sensors points them one past the end, at a zero appended per read.
-        index = np.full((2, 6, 3), model.nsensordata)
-        for k, names in enumerate((ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)):
-            for i, name in enumerate(names):
-                if name in desc.frames:
-                    index[k, i] = model.sensor_adr[model.sensor(name).id] + np.arange(3)
-        self._acc_index = index
-        self._acc_all_present = bool((index < model.nsensordata).all())
         self._armature = model.dof_armature[self._vs].copy()
 
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self._qs], data.qvel[self._vs]
+        self._qpos, self._sensordata = data.qpos, data.sensordata
+        self._scratch_qpos, self._scratch_qvel = self._scratch.qpos, self._scratch.qvel
+        self._scratch_flange_mat = self._scratch.site_xmat[self._flange]
+        self._scratch_flange_pos = self._scratch.site_xpos[self._flange]
         self._applied = data.qfrc_applied[self._vs]
-        self._gcomp = np.zeros(7)
+        self._rne = np.zeros(model.nv)
+        self._gcomp = self._rne[self._vs]  # g(q) of the arm (see _gravity_at_rest)
         self._flange_pos = data.site_xpos[self._flange]
         self._flange_mat = data.site_xmat[self._flange]
         self._tmp = np.zeros(7)
-        self._rne = np.zeros(model.nv)
-        self._motor = np.zeros(7)
         self._dq_prev = np.zeros(7)
-        self._ddq = np.zeros(7)
-        self._tau_J_prev = np.zeros(7)
-        self._theta_prev = np.zeros(7)
+        # Divisors as arrays: a ufunc converts a Python scalar operand on every call.
+        self._timesteps = np.full(15, self.timestep)  # for dtau_J and dtheta (with their pad)
+        self._timestep7 = self._timesteps[:7]
+        self._stiffness = np.full(7, JOINT_STIFFNESS)
         self._last: Measured | None = None
-        # External torque and the flange Jacobian (views and buffers).
+        self._init_readings()
+        # External torque (views and buffers).
         self._constraint = data.qfrc_constraint[self._vs]
         self._xfrc = data.xfrc_applied
         self._generalized = np.zeros(model.nv)
-        self._jac = np.zeros((6, model.nv))
         self._gravity_vector = model.opt.gravity.copy()
         self._load_gravity = np.zeros(7)  # the declared load's g(q), added this step
         self._zero3 = np.zeros(3)
@@ -141,13 +173,47 @@ class MujocoBackend:
             self._init_fingers()
         self.reset(q0)
 
+    def _init_readings(self) -> None:
+        """The work arrays the readings (and the desired-state kinematics) are assembled in.
+
+        A step's holds the 7-vectors as they are published (computed in place), then what the
+        gather picks the other fields from: the flange block and the sensor data. Measured's
+        arrays are then one allocation and one indexing per step, not one per field.
+        """
+        m, nv, dof = self.model, self.model.nv, self._vs.start
+        sensors = _ROWS + _FlangeBlock.size(nv)
+        self._work = work = np.zeros(sensors + m.nsensordata)
+        self._readings_flange = flange = _FlangeBlock(work, _ROWS, nv, dof)
+        self._jac = flange.jac
+        self._work_sensors = work[sensors:]
+        # Accelerometers: (top, bottom) × joints 1..6 × xyz; a sensor the description lacks
+        # reads a 0 of O_T_F's last row.
+        acc = np.full((2, 6, 3), flange.last_row)
+        for k, names in enumerate((ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)):
+            for i, name in enumerate(names):
+                if name in self.desc.frames:
+                    acc[k, i] = sensors + m.sensor_adr[m.sensor(name).id] + np.arange(3)
+        self._gather = np.concatenate([np.arange(_ROWS), flange.index, acc.ravel()])
+        assert self._gather.size == _READINGS
+        self._query_work = np.zeros(_FlangeBlock.size(nv))
+        self._query_flange = _FlangeBlock(self._query_work, 0, nv, dof)
+        self._work_q, self._work_dq = work[_Q], work[_DQ]
+        self._ddq, self._tau_J, self._theta = work[_DDQ], work[_TAU_J], work[_THETA]
+        self._tau_J_theta, self._derivatives = work[_TAU_J_THETA], work[_DTAU_J_DTHETA]
+        self._tau_ext = work[_TAU_EXT]
+        self._previous = np.zeros(15)  # the last step's tau_J and theta (views of its readings)
+
     def _init_fingers(self) -> None:
         m, d = self.model, self.data
         jids = [m.joint(name).id for name in fg.FINGER_JOINTS]
-        self._fq = [int(a) for a in m.jnt_qposadr[jids]]
-        self._fv = [int(a) for a in m.jnt_dofadr[jids]]
+        qadr, vadr = [int(a) for a in m.jnt_qposadr[jids]], [int(a) for a in m.jnt_dofadr[jids]]
+        if qadr[1] != qadr[0] + 1 or vadr[1] != vadr[0] + 1:
+            raise RuntimeError("finger joints must be contiguous in qpos/qvel")
+        fq, fv = slice(qadr[0], qadr[0] + 2), slice(vadr[0], vadr[0] + 2)
+        self._finger_q, self._finger_v = d.qpos[fq], d.qvel[fv]
+        self._finger_applied, self._finger_gravity = d.qfrc_applied[fv], self._rne[fv]
         self._palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
-        self._palm_at: tuple[float, float] | None = None  # finger positions the palm is for
+        self._palm_at: list[float] | None = None  # finger positions the palm is for
         self._finger_cmd = FingerCommand(fg.OPEN_WIDTH, 0.0, fg.MAX_FINGER_FORCE)
         self._finger_drive = (0.0, 0.0)
 
@@ -202,24 +268,23 @@ class MujocoBackend:
         if load is not None:
             self._declared_load_gravity(load)
             applied += self._load_gravity
-        self._motor[:] = applied
         if self.has_fingers:
             self._drive_fingers(fingers)
         self._dq_prev[:] = self._dq
         mujoco.mj_step2(m, d)
         np.subtract(self._dq, self._dq_prev, out=self._ddq)
-        self._ddq /= self.timestep
+        np.divide(self._ddq, self._timestep7, out=self._ddq)
         tau_ext = self._external_torque()  # before step1 rebuilds the constraint rows
         if self.has_fingers:
             self._update_palm()
         mujoco.mj_step1(m, d)
-        J_F = self._flange_jacobian()
+        self._flange_jacobian()
         if load is not None:
             tau_ext -= self._load_gravity
-            tau_ext -= self._declared_load_inertia(load, J_F)
+            tau_ext -= self._declared_load_inertia(load, self._jac[:, self._vs].copy())
         else:
             self._load_velocity = None
-        return self._record(self._motor, self._ddq, first=False, tau_ext=tau_ext, J_F=J_F)
+        return self._record(first=False)  # the drive torque is still in qfrc_applied
 
     def _standstill(self, q_d: np.ndarray, fingers: FingerCommand | None) -> None:
         """Within SETTLE of the hold: exactly there, at rest (see Rest in the module docstring)."""
@@ -230,25 +295,29 @@ class MujocoBackend:
             dq[:] = 0.0
         if not self.has_fingers:
             return
-        c, d = fingers or self._finger_cmd, self.data
+        c = fingers or self._finger_cmd
         if c.speed != 0.0:
             return
-        target = 0.5 * c.width
-        for qa, va in zip(self._fq, self._fv):
-            if abs(d.qpos[qa] - target) < SETTLE and abs(d.qvel[va]) < SETTLE:
-                d.qpos[qa], d.qvel[va] = target, 0.0
+        target, fq, fv = 0.5 * c.width, self._finger_q, self._finger_v
+        for i, (x, v) in enumerate(zip(fq.tolist(), fv.tolist())):
+            if abs(x - target) < SETTLE and abs(v) < SETTLE:
+                fq[i], fv[i] = target, 0.0
 
     def _external_torque(self) -> np.ndarray:
         """(7,) torque the robot exerts on its environment over the step just integrated.
 
         Called between mj_step2 and mj_step1, while the constraint rows (efc_*) and the
-        kinematics are still those the step used.
+        kinematics are still those the step used. Written into the readings' work array.
         """
-        touched, pushed = self._constraint.any(), self._xfrc.any()
-        if not (touched or pushed):
-            return np.zeros(7)
+        external = self._tau_ext
+        touched, pushed = np.count_nonzero(self._constraint), np.count_nonzero(self._xfrc)
+        if touched:
+            external[:] = self._constraint
+        else:
+            external.fill(0.0)
+            if not pushed:
+                return external
         m, d, gen = self.model, self.data, self._generalized
-        external = self._constraint.copy() if touched else np.zeros(7)
         if touched:  # minus the arm's own joint-limit stops
             n = d.nefc
             rows = np.flatnonzero(d.efc_type[:n] == _LIMIT_JOINT)
@@ -266,11 +335,10 @@ class MujocoBackend:
             external += gen[self._vs]
         return np.negative(external, out=external)
 
-    def _flange_jacobian(self) -> np.ndarray:
-        """(6,7) flange Jacobian at the current q (kinematics must be fresh)."""
-        jac = self._jac
-        mujoco.mj_jacSite(self.model, self.data, jac[:3], jac[3:], self._flange)
-        return jac[:, self._vs].copy()
+    def _flange_jacobian(self) -> None:
+        """The flange Jacobian at the current q into the readings (kinematics must be fresh)."""
+        block = self._readings_flange
+        mujoco.mj_jacSite(self.model, self.data, block.jacp, block.jacr, self._flange)
 
     def _declared_load_gravity(self, load: Payload) -> None:
         """g(q) of the declared load into self._load_gravity, on the scratch kinematics at q."""
@@ -308,21 +376,19 @@ class MujocoBackend:
         """Finger forces for this step: a force-limited PD on each finger plus its gravity load."""
         if command is not None:
             self._finger_cmd = command
-        c, d = self._finger_cmd, self.data
+        c = self._finger_cmd
         target, velocity = 0.5 * c.width, 0.5 * c.speed
         limit = max(0.0, min(c.force, fg.MAX_FINGER_FORCE))
-        drive = []
-        for qa, va in zip(self._fq, self._fv):
-            f = float(fg.FINGER_KP * (target - d.qpos[qa])
-                      + fg.FINGER_KD * (velocity - d.qvel[va]))
-            f = limit if f > limit else (-limit if f < -limit else f)
-            drive.append(f)
-            d.qfrc_applied[va] = f + self._rne[va]
-        self._finger_drive = (drive[0], drive[1])
+        (x1, x2), (v1, v2) = self._finger_q.tolist(), self._finger_v.tolist()
+        f1 = _clip(fg.FINGER_KP * (target - x1) + fg.FINGER_KD * (velocity - v1), limit)
+        f2 = _clip(fg.FINGER_KP * (target - x2) + fg.FINGER_KD * (velocity - v2), limit)
+        g1, g2 = self._finger_gravity.tolist()
+        self._finger_applied[0], self._finger_applied[1] = f1 + g1, f2 + g2
+        self._finger_drive = (f1, f2)
 
     def _update_palm(self) -> None:
         """Rewrite the palm for the fingers' new positions, so the hand stays the reported body."""
-        x = (float(self.data.qpos[self._fq[0]]), float(self.data.qpos[self._fq[1]]))
+        x = self._finger_q.tolist()
         if x != self._palm_at:
             self._palm.write(self.model, self._hand, *x)
             self._palm_at = x
@@ -330,44 +396,52 @@ class MujocoBackend:
     def _finger_state(self) -> FingerState | None:
         if not self.has_fingers:
             return None
-        d = self.data
-        return FingerState(
-            width=float(d.qpos[self._fq[0]] + d.qpos[self._fq[1]]),
-            speed=float(d.qvel[self._fv[0]] + d.qvel[self._fv[1]]),
-            force=-0.5 * (self._finger_drive[0] + self._finger_drive[1]))
+        (x1, x2), (v1, v2) = self._finger_q.tolist(), self._finger_v.tolist()
+        f1, f2 = self._finger_drive
+        return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
 
     def _gravity_at_rest(self) -> None:
-        """g(q) at the current q into self._gcomp, bit-identical to MuJoCo's bias at dq = 0."""
-        s = self._scratch
-        s.qpos[:] = self.data.qpos
-        s.qvel[:] = 0.0
-        mujoco.mj_kinematics(self.model, s)
-        mujoco.mj_comPos(self.model, s)
-        mujoco.mj_comVel(self.model, s)
-        mujoco.mj_rne(self.model, s, 0, self._rne)
-        self._gcomp[:] = self._rne[self._vs]
+        """g(q) at the current q into self._rne (self._gcomp: the arm's part), bit-identical to
+        MuJoCo's bias at dq = 0.
 
-    def _record(self, motor: np.ndarray, ddq: np.ndarray, *, first: bool,
-                tau_ext: np.ndarray, J_F: np.ndarray) -> Measured:
-        tau_J = motor - self._armature * ddq
-        theta = self._q + tau_J / JOINT_STIFFNESS
+        All four passes are needed: the queries leave the scratch at other positions and
+        velocities, and even at dq = 0 mj_comVel's zeros carry signs that depend on q.
+        """
+        m, s = self.model, self._scratch
+        self._scratch_qpos[:] = self._qpos
+        self._scratch_qvel.fill(0.0)
+        mujoco.mj_kinematics(m, s)
+        mujoco.mj_comPos(m, s)
+        mujoco.mj_comVel(m, s)
+        mujoco.mj_rne(m, s, 0, self._rne)
+
+    def _record(self, *, first: bool) -> Measured:
+        """The readings of the step just taken, as one fresh array the Measured's fields view.
+
+        The drive torque is in qfrc_applied, ddq, tau_ext and the Jacobian in the work array.
+        """
+        tau_J, theta = self._tau_J, self._theta
+        np.multiply(self._armature, self._ddq, out=tau_J)
+        np.subtract(self._applied, tau_J, out=tau_J)
+        np.divide(tau_J, self._stiffness, out=theta)
+        theta += self._q
         if first:
-            dtau_J, dtheta = np.zeros(7), np.zeros(7)
-        else:
-            dtau_J = (tau_J - self._tau_J_prev) / self.timestep
-            dtheta = (theta - self._theta_prev) / self.timestep
-        self._tau_J_prev, self._theta_prev = tau_J, theta
-        O_T_F = np.eye(4)
-        O_T_F[:3, :3] = self._flange_mat.reshape(3, 3)
-        O_T_F[:3, 3] = self._flange_pos
-        sensordata = self.data.sensordata
-        if not self._acc_all_present:
-            sensordata = np.append(sensordata, 0.0)
-        top, bottom = sensordata[self._acc_index]
+            self._derivatives.fill(0.0)
+        else:  # dtau_J and dtheta in one go (the pad between them stays 0)
+            np.subtract(self._tau_J_theta, self._previous, out=self._derivatives)
+            np.divide(self._derivatives, self._timesteps, out=self._derivatives)
+        self._work_q[:] = self._q
+        self._work_dq[:] = self._dq
+        self._readings_flange.mat[:] = self._flange_mat
+        self._readings_flange.pos[:] = self._flange_pos
+        self._work_sensors[:] = self._sensordata
+        r = self._work[self._gather]
+        self._previous = r[_TAU_J_THETA]
         self._last = Measured(
-            q=self._q.copy(), dq=self._dq.copy(), ddq=ddq.copy(), tau_J=tau_J, dtau_J=dtau_J,
-            theta=theta, dtheta=dtheta, O_T_F=O_T_F, accelerometer_top=top,
-            accelerometer_bottom=bottom, fingers=self._finger_state(), tau_ext=tau_ext, J_F=J_F)
+            q=r[_Q], dq=r[_DQ], ddq=r[_DDQ], tau_J=r[_TAU_J], dtau_J=r[_DTAU_J], theta=r[_THETA],
+            dtheta=r[_DTHETA], O_T_F=r[_O_T_F].reshape(4, 4),
+            accelerometer_top=r[_TOP].reshape(6, 3), accelerometer_bottom=r[_BOTTOM].reshape(6, 3),
+            fingers=self._finger_state(), tau_ext=r[_TAU_EXT], J_F=r[_J_F].reshape(6, 7))
         return self._last
 
     def measure(self) -> Measured:
@@ -383,8 +457,7 @@ class MujocoBackend:
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
         if self.has_fingers:  # open, at rest, the palm matching
-            for qa in self._fq:
-                d.qpos[qa] = 0.5 * fg.OPEN_WIDTH
+            self._finger_q[:] = 0.5 * fg.OPEN_WIDTH
             self._finger_cmd = FingerCommand(fg.OPEN_WIDTH, 0.0, fg.MAX_FINGER_FORCE)
             self._finger_drive = (0.0, 0.0)
             self._palm_at = None
@@ -392,12 +465,13 @@ class MujocoBackend:
         self._gravity_at_rest()
         self._applied[:] = self._gcomp
         if self.has_fingers:
-            for va in self._fv:
-                d.qfrc_applied[va] = self._rne[va]
+            self._finger_applied[:] = self._finger_gravity
         mujoco.mj_forward(m, d)  # qacc = 0 here: gravity compensation alone holds the arm
         self._load_velocity = None
-        self._record(self._gcomp.copy(), np.zeros(7), first=True, tau_ext=np.zeros(7),
-                     J_F=self._flange_jacobian())
+        self._ddq.fill(0.0)
+        self._tau_ext.fill(0.0)
+        self._flange_jacobian()
+        self._record(first=True)
 
     # -- queries (scratch data, state untouched) --------------------------------------------------
     def _at(self, q, dq=None) -> mujoco.MjData:
@@ -443,17 +517,16 @@ class MujocoBackend:
 
     def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
         """O_T_F and the flange Jacobian at q from one kinematics pass (the desired-state path)."""
-        s = self._scratch
-        s.qpos[:] = self.data.qpos
-        s.qpos[self._qs] = q
-        mujoco.mj_kinematics(self.model, s)
-        mujoco.mj_comPos(self.model, s)  # what mj_jacSite needs, nothing more
-        pose = np.eye(4)
-        pose[:3, :3] = s.site_xmat[self._flange].reshape(3, 3)
-        pose[:3, 3] = s.site_xpos[self._flange]
-        jacp, jacr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
-        mujoco.mj_jacSite(self.model, s, jacp, jacr, self._flange)
-        return pose, np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
+        m, s, block = self.model, self._scratch, self._query_flange
+        self._scratch_qpos[:] = self._qpos
+        self._scratch_qpos[self._qs] = q
+        mujoco.mj_kinematics(m, s)
+        mujoco.mj_comPos(m, s)  # what mj_jacSite needs, nothing more
+        mujoco.mj_jacSite(m, s, block.jacp, block.jacr, self._flange)
+        block.mat[:] = self._scratch_flange_mat
+        block.pos[:] = self._scratch_flange_pos
+        r = self._query_work[block.index]
+        return r[:16].reshape(4, 4), r[16:].reshape(6, 7)
 
     # -- run-time changes -------------------------------------------------------------------------
     def set_end_effector(self, mass: float, com, inertia) -> None:
