@@ -11,6 +11,8 @@ The resulting q_d then goes through the same joint controller as a joint motion.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 DT = 1e-3
@@ -24,15 +26,26 @@ SINGULAR_POSE_MIN_SINGULAR_VALUE = 0.02
 ELBOW_GAIN = 1.0  # the elbow is a position command: close its error each cycle (null space)
 
 
+def _constant(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
+
+
+_EYE3, _EYE6 = _constant(np.eye(3)), _constant(np.eye(6))
+_DLS_DAMPING_EYE = _constant(DLS_DAMPING**2 * np.eye(6))
+
+
 def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    x, y, z = v.tolist() if isinstance(v, np.ndarray) else v  # floats build ~2× faster
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
     """The axis·angle of a rotation matrix (log map), robust near 0 and π."""
-    cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    cos = min(max((R.trace() - 1.0) / 2.0, -1.0), 1.0)  # np.clip, without its ~2 µs wrapper
     angle = np.arccos(cos)
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    r0, r1, r2 = R.tolist()
+    w = np.array([r2[1] - r1[2], r0[2] - r2[0], r1[0] - r0[1]])
     if angle < 1e-9:
         return 0.5 * w
     if np.pi - angle < 1e-6:
@@ -44,11 +57,12 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
 
 def exp_rotation(w: np.ndarray) -> np.ndarray:
     """Rotation matrix of a rotation vector (Rodrigues)."""
-    angle = np.linalg.norm(w)
+    w = np.asarray(w, dtype=float)
+    angle = math.sqrt(w.dot(w))  # np.linalg.norm's own sum, without its checks
     if angle < 1e-12:
-        return np.eye(3) + skew(w)
+        return _EYE3 + skew(w)
     K = skew(w / angle)
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    return _EYE3 + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
 
 
 def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -70,8 +84,8 @@ def smallest_singular_value(J: np.ndarray) -> float:
 
 def dls_step(J: np.ndarray, error: np.ndarray, elbow_error: float | None) -> np.ndarray:
     """Joint step toward `error` (6,), plus an elbow (joint 3) correction in the null space."""
-    JJt = J @ J.T + DLS_DAMPING**2 * np.eye(6)
-    J_pinv = J.T @ np.linalg.solve(JJt, np.eye(6))
+    JJt = J @ J.T + _DLS_DAMPING_EYE
+    J_pinv = J.T @ np.linalg.solve(JJt, _EYE6)
     dq = J_pinv @ error
     if elbow_error is not None:
         z = np.zeros(J.shape[1])
@@ -85,35 +99,69 @@ class CartesianTarget:
 
     For the velocity interface the pose is the integral of the commanded twist, so that the
     IK tracks a pose and never drifts; a missed cycle continues the twist at constant
-    acceleration, as the robot extrapolates every motion signal.
+    acceleration, as the robot extrapolates every motion signal. For the pose interface the
+    twist (and its rate) is the poses' backward difference, which only a gap needs: it is
+    worked out from the last three poses when one occurs, not on every cycle.
     """
 
     def __init__(self, O_T_EE_start: np.ndarray) -> None:
         self.pose = np.array(O_T_EE_start, dtype=float)
-        self.twist = np.zeros(6)
-        self.twist_rate = np.zeros(6)
+        self._twist = np.zeros(6)
+        self._twist_rate = np.zeros(6)
+        # The poses since the twist above was last brought up to date (it is the first one's),
+        # the last three at most: the twist and its rate at the newest need no more.
+        self._poses = [self.pose]
+
+    @property
+    def twist(self) -> np.ndarray:
+        self._settle()
+        return self._twist
+
+    @property
+    def twist_rate(self) -> np.ndarray:
+        self._settle()
+        return self._twist_rate
 
     def set_pose(self, O_T_EE_c: np.ndarray) -> None:
-        twist = np.concatenate([(O_T_EE_c[:3, 3] - self.pose[:3, 3]) / DT,
-                                rotation_vector(O_T_EE_c[:3, :3] @ self.pose[:3, :3].T) / DT])
-        self.twist_rate = (twist - self.twist) / DT
-        self.twist = twist
         self.pose = np.array(O_T_EE_c, dtype=float)
+        poses = self._poses
+        poses.append(self.pose)
+        if len(poses) > 3:
+            del poses[0]
+
+    def _settle(self) -> None:
+        """The twist and its rate at the newest pose, as if differenced at every set_pose."""
+        poses = self._poses
+        if len(poses) == 1:
+            return
+        previous = self._twist if len(poses) == 2 else _pose_rate(poses[1], poses[0])
+        twist = _pose_rate(poses[-1], poses[-2])
+        self._twist_rate = (twist - previous) / DT
+        self._twist = twist
+        self._poses = [poses[-1]]
 
     def set_twist(self, O_dP_EE_c: np.ndarray) -> None:
         twist = np.asarray(O_dP_EE_c, dtype=float)
-        self.twist_rate = (twist - self.twist) / DT
-        self.twist = twist.copy()
+        self._twist_rate = (twist - self.twist) / DT
+        self._twist = twist.copy()
         self._integrate()
 
     def extrapolate(self, stand_still: bool = False) -> None:
+        self._settle()
         if stand_still:
-            self.twist = np.zeros(6)
-            self.twist_rate = np.zeros(6)
+            self._twist = np.zeros(6)
+            self._twist_rate = np.zeros(6)
             return
-        self.twist = self.twist + self.twist_rate * DT
+        self._twist = self._twist + self._twist_rate * DT
         self._integrate()
 
     def _integrate(self) -> None:
-        self.pose[:3, 3] += self.twist[:3] * DT
-        self.pose[:3, :3] = exp_rotation(self.twist[3:] * DT) @ self.pose[:3, :3]
+        self.pose[:3, 3] += self._twist[:3] * DT
+        self.pose[:3, :3] = exp_rotation(self._twist[3:] * DT) @ self.pose[:3, :3]
+        self._poses = [self.pose]
+
+
+def _pose_rate(T: np.ndarray, T_before: np.ndarray) -> np.ndarray:
+    """The twist that took T_before to T in one cycle."""
+    return np.concatenate([(T[:3, 3] - T_before[:3, 3]) / DT,
+                           rotation_vector(T[:3, :3] @ T_before[:3, :3].T) / DT])

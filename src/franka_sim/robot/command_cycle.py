@@ -15,18 +15,8 @@ from the start, so a client that never sends is aborted all the same.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 WINDOW = 100
-
-
-@dataclass
-class Closed:
-    """The outcome of one cycle: the command to apply next (if any) and whether it was on time."""
-
-    command: object | None  # newest unapplied command, possibly a late one
-    on_time: bool
-    consecutive_lost: int
 
 
 class CommandCycle:
@@ -58,8 +48,10 @@ class CommandCycle:
             return True
         return False
 
-    def close(self) -> Closed:
-        """The window of the open cycle ends (the next one is being released)."""
+    def close(self):
+        """The window of the open cycle ends (the next one is being released): the command to
+        apply next (the newest unapplied one, possibly late), or None; `consecutive_lost` and
+        the rate count this cycle from now on."""
         on_time = self._answered
         if self._latest is not None or self._history or on_time:  # from the first command on
             if len(self._history) == WINDOW:
@@ -74,7 +66,7 @@ class CommandCycle:
             self.consecutive_lost += 1
         command, self._latest = self._latest, None
         self.open_id = None
-        return Closed(command, on_time, self.consecutive_lost)
+        return command
 
     @property
     def success_rate(self) -> float:

@@ -26,9 +26,12 @@ def impedance_damping(K: np.ndarray) -> np.ndarray:
     return 2.0 * np.sqrt(K * NOMINAL_JOINT_INERTIA)
 
 
-def impedance_torque(K: np.ndarray, q_d, dq_d, q, dq) -> np.ndarray:
-    """The impedance's torque without gravity: what the robot reports as tau_J_d."""
-    return K * (q_d - q) + impedance_damping(K) * (dq_d - dq)
+def impedance_torque(K: np.ndarray, D: np.ndarray, q_d, dq_d, q, dq) -> np.ndarray:
+    """The impedance's torque without gravity: what the robot reports as tau_J_d.
+
+    D is impedance_damping(K) (RobotSettings.D_theta keeps it, derived once per K).
+    """
+    return K * (q_d - q) + D * (dq_d - dq)
 
 
 # Cartesian impedance: damping derived from the stiffness against a nominal apparent inertia
@@ -37,19 +40,27 @@ NOMINAL_EE_INERTIA = np.array([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
 # A weak joint impedance in the Cartesian law's null space keeps the redundant joint from
 # drifting (the robot's own null-space behaviour is unpublished).
 NULLSPACE_STIFFNESS = 10.0  # Nm/rad
+NULLSPACE_DAMPING = 2.0 * np.sqrt(NULLSPACE_STIFFNESS * 0.5)
+_EYE7 = np.eye(7)
+_EYE7.setflags(write=False)
 
 
-def cartesian_impedance_torque(K_x, O_T_K_d, O_T_K, J_K, dq, q_d, q) -> np.ndarray:
+def cartesian_damping(K_x: np.ndarray) -> np.ndarray:
+    """The damping the Cartesian impedance derives from its stiffness (critical, as above)."""
+    return 2.0 * np.sqrt(K_x * NOMINAL_EE_INERTIA)
+
+
+def cartesian_impedance_torque(K_x, D_x, O_T_K_d, O_T_K, J_K, dq, q_d, q) -> np.ndarray:
     """Joint torques of a Cartesian spring-damper in the stiffness frame K.
 
-    K_x (SetCartesianImpedance) acts along the axes of K: a push on K displaces it by F/K_x.
-    J_K is the base-frame Jacobian of K's origin; the error and the velocity are rotated into
-    K, scaled, and rotated back. Gravity is the physics' business (the robot adds it).
+    K_x (SetCartesianImpedance) acts along the axes of K: a push on K displaces it by F/K_x;
+    D_x is cartesian_damping(K_x). J_K is the base-frame Jacobian of K's origin; the error and
+    the velocity are rotated into K, scaled, and rotated back. Gravity is the physics' business
+    (the robot adds it).
     """
     R = O_T_K[:3, :3]
     error_O = pose_error(O_T_K_d, O_T_K)
     velocity_O = J_K @ dq
-    D_x = 2.0 * np.sqrt(K_x * NOMINAL_EE_INERTIA)
     error_K = np.concatenate([R.T @ error_O[:3], R.T @ error_O[3:]])
     velocity_K = np.concatenate([R.T @ velocity_O[:3], R.T @ velocity_O[3:]])
     wrench_K = K_x * error_K - D_x * velocity_K
@@ -57,6 +68,6 @@ def cartesian_impedance_torque(K_x, O_T_K_d, O_T_K, J_K, dq, q_d, q) -> np.ndarr
     tau = J_K.T @ wrench_O
     # Null space: J_K^T-consistent projector with the (damped) pseudo-inverse.
     J_pinv = np.linalg.pinv(J_K, rcond=1e-3)
-    N = np.eye(len(q)) - J_K.T @ J_pinv.T
-    tau_ns = NULLSPACE_STIFFNESS * (q_d - q) - 2.0 * np.sqrt(NULLSPACE_STIFFNESS * 0.5) * dq
+    N = _EYE7 - J_K.T @ J_pinv.T
+    tau_ns = NULLSPACE_STIFFNESS * (q_d - q) - NULLSPACE_DAMPING * dq
     return tau + N @ tau_ns

@@ -39,7 +39,7 @@ from franka_sim.robot.cartesian import (
     ee_jacobian,
     smallest_singular_value,
 )
-from franka_sim.robot.controllers import cartesian_impedance_torque, impedance_damping
+from franka_sim.robot.controllers import cartesian_impedance_torque
 from franka_sim.robot.external_forces import ExternalForces, accelerating, active_thresholds
 from franka_sim.robot.motion_guard import MotionGuard, ViolationLog, error_names
 from franka_sim.robot.motion import (
@@ -77,6 +77,7 @@ class RobotCore:
         self.robot_mode = RobotMode.kIdle
         self.errors = np.zeros(NUM_ERRORS, dtype=bool)
         self.reflex_reason = np.zeros(NUM_ERRORS, dtype=bool)
+        self.flags_version = 0  # moves whenever errors or reflex_reason change (publisher)
         self.q_hold = np.array(q0, dtype=float)
         self.measured: Measured | None = None
         self.motion: Motion | None = None
@@ -89,7 +90,8 @@ class RobotCore:
         self._hold: tuple | None = None
         self.external = ExternalForces()
         self._payload: Payload | None = None  # the declared load, as the drives' model carries it
-        self._F_T_K: tuple | None = None  # ((NE_T_EE, EE_T_K), F_T_K), rebuilt when they change
+        self._F_T_K: tuple | None = None  # (NE_T_EE, EE_T_K, F_T_K), rebuilt when they change
+        self._motion_F_T_K: tuple | None = None  # (motion, EE_T_K, its F_T_EE @ EE_T_K)
         self._window_closed = False  # the open cycle's command window was closed early
 
     # -- the cycle ---------------------------------------------------------------------------
@@ -112,26 +114,25 @@ class RobotCore:
             self._window_closed = True
             self._close_cycle(motion)
         motion = self.motion  # closing may have ended it
-        K = self.settings.K_theta
         if motion is None or not motion.running:
             return self._hold_command()
+        settings = self.settings
         if self._stalled_at is not None:
-            return JointCommand.impedance(self._stalled_at, K, impedance_damping(K))
+            return JointCommand.impedance(self._stalled_at, settings.K_theta, settings.D_theta)
         if motion.spec.torque_controlled:
             return JointCommand.torque(motion.tau_J_d)
-        ref = motion.reference
         if motion.spec.controller is MoveControllerMode.kCartesianImpedance:
             return JointCommand.torque(self._cartesian_impedance(motion))
-        return JointCommand.impedance(ref.q_d, K, impedance_damping(K), dq_d=ref.dq_d)
+        ref = motion.reference
+        return JointCommand.impedance(ref.q_d, settings.K_theta, settings.D_theta, dq_d=ref.dq_d)
 
     def _hold_command(self) -> JointCommand:
         """Idle: the joint impedance about q_hold (rebuilt only when q_hold or K_theta change)."""
-        key = (self.q_hold, self.settings.K_theta)
-        if self._hold is None or any(a is not b for a, b in zip(key, self._hold[0])):
-            K = self.settings.K_theta
-            self._hold = key, JointCommand.impedance(self.q_hold, K, impedance_damping(K),
-                                                     hold=True)
-        return self._hold[1]
+        hold, settings = self._hold, self.settings
+        if hold is None or hold[0] is not self.q_hold or hold[1] is not settings.K_theta:
+            self._hold = hold = (self.q_hold, settings.K_theta, JointCommand.impedance(
+                self.q_hold, settings.K_theta, settings.D_theta, hold=True))
+        return hold[2]
 
     def _cartesian_impedance(self, motion: Motion) -> np.ndarray:
         """kCartesianImpedance: a spring-damper at K about the desired EE pose (see controllers)."""
@@ -139,11 +140,16 @@ class RobotCore:
         if m is None or kin is None:
             return np.zeros(7)
         O_T_F_d, J_F_d = kin
-        F_T_K = motion.F_T_EE @ self.settings.EE_T_K
+        settings = self.settings
+        cached = self._motion_F_T_K
+        if cached is None or cached[0] is not motion or cached[1] is not settings.EE_T_K:
+            cached = self._motion_F_T_K = (motion, settings.EE_T_K,
+                                           motion.F_T_EE @ settings.EE_T_K)
+        F_T_K = cached[2]
         # The Jacobian at q_d stands in for the one at q: they differ by the tracking error.
         J_K = ee_jacobian(m.O_T_F, J_F_d, F_T_K)
         return cartesian_impedance_torque(
-            self.settings.K_x, O_T_F_d @ F_T_K, m.O_T_F @ F_T_K, J_K, m.dq,
+            settings.K_x, settings.D_x, O_T_F_d @ F_T_K, m.O_T_F @ F_T_K, J_K, m.dq,
             motion.reference.q_d, m.q,
         )
 
@@ -152,25 +158,27 @@ class RobotCore:
         self.message_id += 1
         self.measured = measured
         motion = self.motion
-        if motion is not None and not motion.running:
-            motion.running = True  # the modes flip on the first state after kMotionStarted
-            self.robot_mode = RobotMode.kMove
-            self.reflex_reason[:] = False
         if motion is not None:
+            if not motion.running:
+                motion.running = True  # the modes flip on the first state after kMotionStarted
+                self.robot_mode = RobotMode.kMove
+                self.reflex_reason[:] = False
+                self.flags_version += 1
             self.cycle.opened(self.message_id)
             self._window_closed = False
             motion.kinematics = desired_kinematics
-            if motion.running:
-                self._enforce(self.guard.judge_measured(measured.q, measured.dq))
-        self._estimate_external_forces(measured)
-        self._advance_recovery(measured)
+            violations = self.guard.judge_measured(measured.q, measured.dq)
+            if violations:
+                self._enforce(violations)
+        if not self.external.untouched(measured.tau_ext):
+            self._estimate_external_forces(measured)
+        if self._recovery is not None:
+            self._advance_recovery(measured)
         return self.publisher.pack(self, measured, desired_kinematics)
 
     def _estimate_external_forces(self, measured: Measured) -> None:
         """External torque, wrench and flags; a collision stops a running motion (always: the
         robot's own safety, not something a client opts into)."""
-        if self.external.untouched(measured.tau_ext):
-            return
         motion = self.motion if self.motion_running else None
         ddq_d = None
         if motion is not None and motion.spec.generator is not MoveMotionGeneratorMode.kNone:
@@ -185,10 +193,12 @@ class RobotCore:
 
     def _flange_to_K(self) -> np.ndarray:
         settings = self.settings
-        key = (settings.NE_T_EE, settings.EE_T_K)
-        if self._F_T_K is None or any(a is not b for a, b in zip(key, self._F_T_K[0])):
-            self._F_T_K = key, hand.F_T_NE_HAND @ settings.NE_T_EE @ settings.EE_T_K
-        return self._F_T_K[1]
+        cached = self._F_T_K
+        if (cached is None or cached[0] is not settings.NE_T_EE
+                or cached[1] is not settings.EE_T_K):
+            cached = self._F_T_K = (settings.NE_T_EE, settings.EE_T_K,
+                                    hand.F_T_NE_HAND @ settings.NE_T_EE @ settings.EE_T_K)
+        return cached[2]
 
     @property
     def motion_running(self) -> bool:
@@ -213,18 +223,22 @@ class RobotCore:
         return self.cycle.success_rate if self.motion_running else 0.0
 
     def _close_cycle(self, motion: Motion) -> None:
-        closed = self.cycle.close()
-        self.guard.released()
-        if closed.command is not None:
-            if self._enforce(self.guard.judge_command(closed.command)):
+        command = self.cycle.close()
+        lost = self.cycle.consecutive_lost
+        guard = self.guard
+        guard.released()
+        if command is not None:
+            violations = guard.judge_command(command)
+            if violations and self._enforce(violations):
                 return  # a violating command never reaches the physics
-            motion.apply(closed.command)
+            motion.apply(command)
             self._stalled_at = None
         else:
-            motion.miss(closed.consecutive_lost)
-        if motion.cartesian is not None and self._enforce(self.guard.judge_ik(motion.reference)):
-            return
-        lost = closed.consecutive_lost
+            motion.miss(lost)
+        if motion.cartesian is not None:
+            violations = guard.judge_ik(motion.reference)
+            if violations and self._enforce(violations):
+                return
         if lost >= MAX_EXTRAPOLATED_CYCLES and not motion.spec.use_async:
             if self.enforce_comm_constraints:
                 log.warning("%d consecutive command cycles lost: communication_constraints_violation", lost)
@@ -234,7 +248,7 @@ class RobotCore:
                 log.warning("client silent for %d cycles: holding the arm until it is heard again", lost)
             if self._stalled_at is None and self.measured is not None:
                 self._stalled_at = self.measured.q.copy()
-        if closed.command is not None and motion.finished:
+        if command is not None and motion.finished:
             self._finish(motion)
 
     def _enforce(self, violations) -> bool:
@@ -384,6 +398,7 @@ class RobotCore:
         for name in names:
             self.errors[error_index(name)] = True
             self.reflex_reason[error_index(name)] = True
+        self.flags_version += 1
         if self.motion is not None:
             self._replies.append(
                 build_response(Command.Move, self.motion.command_id, MoveStatus.kReflexAborted)
@@ -408,6 +423,7 @@ class RobotCore:
             return
         self._recovery = None
         self.errors[:] = False
+        self.flags_version += 1
         self.external.clear_collisions()
         self.robot_mode = RobotMode.kIdle
         self.q_hold = measured.q.copy()

@@ -107,7 +107,8 @@ class ExternalForces:
 
     def untouched(self, tau_ext: np.ndarray | None) -> bool:
         """Nothing touches the arm and the estimate has decayed: an update would change nothing."""
-        return not self._active and (tau_ext is None or not tau_ext.any())
+        # any() of a list: ndarray.any() costs ~1 µs per cycle through its Python wrapper
+        return not self._active and (tau_ext is None or not any(tau_ext.tolist()))
 
     def update(self, tau_ext: np.ndarray | None, O_T_F: np.ndarray, J_F: np.ndarray | None,
                F_T_K: np.ndarray, thresholds: Thresholds) -> list[str]:

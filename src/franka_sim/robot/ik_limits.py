@@ -12,7 +12,7 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.robot import limits as L
-from franka_sim.robot.limits import joint_limits
+from franka_sim.robot.limits import SpeedLimitFloor, joint_limits
 from franka_sim.robot.motion import DT, JointReference
 from franka_sim.robot.safety import Violation
 
@@ -25,12 +25,29 @@ class IkJointSideChecker:
         self._acceleration = L.JOINT_ACCELERATION * scale
         self._jerk = L.JOINT_JERK * scale
         self._ddq_prev = np.zeros(7)
+        self._floor: SpeedLimitFloor | None = None
+        self._proof_thresholds = None
 
     def check(self, ref: JointReference) -> list[Violation]:
         """Judge this cycle's IK output (q_d, dq_d, ddq_d of the Cartesian motion)."""
-        table, out = self._table, []
         jerk = (ref.ddq_d - self._ddq_prev) / DT
         self._ddq_prev = ref.ddq_d.copy()
+        # The usual case in one comparison: in range and within the floor's reach, under the
+        # floor of the velocity law, and under the acceleration and jerk limits.
+        signed = self._table.signed_stack(ref.q_d, ref.dq_d, ref.ddq_d, jerk)
+        if self._floor is not None and all((signed <= self._proof_thresholds).tolist()):
+            return []
+        self._move_floor(signed[:14])
+        return self._violations(ref, jerk)
+
+    def _move_floor(self, q_signed: np.ndarray) -> None:
+        floor = self._floor = SpeedLimitFloor(self._table, q_signed)
+        self._proof_thresholds = np.concatenate((floor.reach_in_range, floor.limits,
+                                                 np.full(14, self._acceleration),
+                                                 np.full(14, self._jerk)))
+
+    def _violations(self, ref: JointReference, jerk: np.ndarray) -> list[Violation]:
+        table, out = self._table, []
         for i, limit in table.ends_passed(table.signed(ref.q_d)):
             out.append(Violation(_CMG + "position_limits_violation", f"joint {i + 1}",
                                  float(ref.q_d[i]), limit, quantity="position", unit="rad"))

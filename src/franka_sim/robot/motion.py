@@ -180,30 +180,47 @@ class Motion:
         self.tau_J_d = np.zeros(7)
         self.last_command = None
         self.finished = False
+        # What a command means for this Move, decided once: the generator's signal to follow
+        # (None: torque only), whether it carries tau_J_d, and which flag finishes it.
+        generator = spec.generator
+        self._follow = (
+            self._follow_async if spec.use_async
+            else self._follow_position if generator is MoveMotionGeneratorMode.kJointPosition
+            else self._follow_velocity if generator is MoveMotionGeneratorMode.kJointVelocity
+            else self._follow_cartesian if self.cartesian is not None
+            else None
+        )
+        self._torque_controlled = spec.torque_controlled
+        self._finished_flag = ("torque_command_finished"
+                               if generator is MoveMotionGeneratorMode.kNone
+                               else "motion_generation_finished")
 
     def apply(self, command) -> None:
         """Take the command the client sent for this cycle."""
         self.last_command = command
-        if self.async_target is not None:
-            self.async_target.target = np.array(command["q_c"], dtype=float)
-            self.async_target.advance()
-        elif self.spec.generator is MoveMotionGeneratorMode.kJointPosition:
-            self.reference.follow_position(np.asarray(command["q_c"], dtype=float))
-        elif self.spec.generator is MoveMotionGeneratorMode.kJointVelocity:
-            self.reference.follow_velocity(np.asarray(command["dq_c"], dtype=float))
-        elif self.cartesian is not None:
-            if self.spec.generator is MoveMotionGeneratorMode.kCartesianPosition:
-                self.cartesian.set_pose(np.reshape(command["O_T_EE_c"], (4, 4), order="F"))
-            else:
-                self.cartesian.set_twist(command["O_dP_EE_c"])
-            self.elbow_target = float(command["elbow_c"][0]) if command["valid_elbow"] else None
-            self._solve()
-        if self.spec.torque_controlled:
+        if self._follow is not None:
+            self._follow(command)
+        if self._torque_controlled:
             self.tau_J_d = np.array(command["tau_J_d"], dtype=float)
-        if self.spec.generator is MoveMotionGeneratorMode.kNone:
-            self.finished = bool(command["torque_command_finished"])
+        self.finished = bool(command[self._finished_flag])
+
+    def _follow_async(self, command) -> None:
+        self.async_target.target = np.array(command["q_c"], dtype=float)
+        self.async_target.advance()
+
+    def _follow_position(self, command) -> None:
+        self.reference.follow_position(np.asarray(command["q_c"], dtype=float))
+
+    def _follow_velocity(self, command) -> None:
+        self.reference.follow_velocity(np.asarray(command["dq_c"], dtype=float))
+
+    def _follow_cartesian(self, command) -> None:
+        if self.spec.generator is MoveMotionGeneratorMode.kCartesianPosition:
+            self.cartesian.set_pose(np.reshape(command["O_T_EE_c"], (4, 4), order="F"))
         else:
-            self.finished = bool(command["motion_generation_finished"])
+            self.cartesian.set_twist(command["O_dP_EE_c"])
+        self.elbow_target = float(command["elbow_c"][0]) if command["valid_elbow"] else None
+        self._solve()
 
     def miss(self, consecutive: int) -> None:
         """No command for this cycle: extrapolate (torques are simply held)."""

@@ -15,7 +15,7 @@ import numpy as np
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.robot.ik_limits import IkJointSideChecker
 from franka_sim.robot.motion import CARTESIAN_GENERATORS, MoveSpec, JointReference
-from franka_sim.robot.safety import MotionLimitChecker, Violation, check_measured
+from franka_sim.robot.safety import MeasuredChecker, MotionLimitChecker, Violation
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +28,7 @@ class MotionGuard:
     def __init__(self, desc: ArmDescription, spec: MoveSpec, *, q_start, O_T_EE_start,
                  elbow_start, joint_discontinuity_scale: float = 1.0) -> None:
         self.desc = desc
+        self._measured = MeasuredChecker(desc)
         # An async motion's q_c is a goal for the robot's own generator, not a stream to judge.
         self._commands = None if spec.use_async else MotionLimitChecker(
             desc, spec.generator, spec.torque_controlled,
@@ -48,7 +49,7 @@ class MotionGuard:
         return [] if self._ik is None else self._ik.check(reference)
 
     def judge_measured(self, q: np.ndarray, dq: np.ndarray) -> list[Violation]:
-        return check_measured(self.desc, q, dq)
+        return self._measured.check(q, dq)
 
 
 def error_names(violations: list[Violation]) -> list[str]:

@@ -1,10 +1,13 @@
 """Fills the RobotState from the robot's decisions and the measurement, once per cycle.
 
 Only fields that change are written each cycle (each write costs ~0.3 µs); constant ones
-(hand inertials, gravity) once, and the measured ones only when the physics measured anew (an
-arm at rest hands over the same Measured each cycle, see physics/mujoco_backend.py § Rest). The desired-side kinematics (O_T_EE_d and the Jacobian at q_d)
-come from the physics thread with the step, because MuJoCo computes them ~6× faster than
-numpy would here.
+(hand inertials, gravity) once, the status (modes, error bits, success rate) when it changes,
+and the measured ones only when the physics measured anew (an arm at rest hands over the same
+Measured each cycle, see physics/mujoco_backend.py § Rest). Transforms are written through
+4×4 views in the wire's column-major order, so no reordered copy is made first; the 2- and
+6-number signals (elbow, its rates) are plain floats. The desired-side kinematics (O_T_EE_d
+and the Jacobian at q_d) come from the physics thread with the step, because MuJoCo computes
+them ~6× faster than numpy would here.
 """
 
 from __future__ import annotations
@@ -14,29 +17,42 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from franka_sim.description import hand
+from franka_sim.description.kinematics import elbow as elbow_of
 from franka_sim.physics.backend import Measured
 from franka_sim.protocol.codec import StateBuffer
-from franka_sim.protocol.enums import MoveMotionGeneratorMode
+from franka_sim.protocol.enums import ControllerMode, MotionGeneratorMode
+from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.robot.controllers import impedance_torque
-from franka_sim.description.kinematics import elbow as elbow_of
 from franka_sim.robot.frames import column_major
 from franka_sim.robot.settings import RobotSettings
 
 if TYPE_CHECKING:
     from franka_sim.robot.core import RobotCore
+    from franka_sim.robot.motion import Motion
 
 GRAVITY = np.array([0.0, 0.0, -9.81])
 DT = 1e-3
+IDLE_MODES = (MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance)
+
+
+def _zeros(n: int) -> np.ndarray:
+    array = np.zeros(n)
+    array.setflags(write=False)  # shared: whoever keeps it must never write into it
+    return array
+
+
+ZERO6, ZERO7 = _zeros(6), _zeros(7)
 
 
 def ee_twist(O_T_F: np.ndarray, J_F: np.ndarray, F_T_EE: np.ndarray, dq: np.ndarray) -> np.ndarray:
     """Twist of the EE point in the base frame from the flange Jacobian."""
     twist = J_F @ dq
-    r = O_T_F[:3, :3] @ F_T_EE[:3, 3]
-    w = twist[3:]  # ω × r, written out: np.cross costs ~15 µs on 3-vectors
-    twist[0] += w[1] * r[2] - w[2] * r[1]
-    twist[1] += w[2] * r[0] - w[0] * r[2]
-    twist[2] += w[0] * r[1] - w[1] * r[0]
+    rx, ry, rz = (O_T_F[:3, :3] @ F_T_EE[:3, 3]).tolist()
+    vx, vy, vz, wx, wy, wz = twist.tolist()
+    # ω × r in floats: np.cross costs ~15 µs on 3-vectors
+    twist[0] = vx + (wy * rz - wz * ry)
+    twist[1] = vy + (wz * rx - wx * rz)
+    twist[2] = vz + (wx * ry - wy * rx)
     return twist
 
 
@@ -49,9 +65,19 @@ class StatePublisher:
         s.F_x_Cee[:] = hand.HAND_COM
         s.I_ee[:] = column_major(np.asarray(hand.HAND_INERTIA))
         s.O_ddP_O[:] = GRAVITY
-        self._O_dP_EE_c = np.zeros(6)
-        self._elbow_c = np.zeros(2)
-        self._delbow_c = np.zeros(2)
+        # The transforms as 4×4 (column-major underneath), the accelerometers as (6, 3).
+        self._O_T_EE_view = s.matrix("O_T_EE", (4, 4))
+        self._O_T_EE_d_view = s.matrix("O_T_EE_d", (4, 4))
+        self._O_T_EE_c_view = s.matrix("O_T_EE_c", (4, 4))
+        self._accelerometer_views = (s.accelerometer_top.reshape(6, 3),
+                                     s.accelerometer_bottom.reshape(6, 3))
+        self._elbows = s.span("elbow", "elbow_d")  # (elbow, elbow_d): 4 numbers
+        self._elbows_c = s.span("elbow_c", "ddelbow_c")  # (elbow_c, delbow_c, ddelbow_c): 6
+        # The commanded signals' last values, to difference the next ones against.
+        self._O_dP_EE_c: np.ndarray = ZERO6
+        self._rates_zero = True  # ddq_d, O_dP_EE_d, O_dP_EE_c, O_ddP_EE_c all hold zeros
+        self._elbow_c = (0.0, 0.0)
+        self._delbow_c = (0.0, 0.0)
         self._configured: tuple | None = None
         self._idle_written = False
         self._F_T_EE = np.eye(4)
@@ -59,41 +85,59 @@ class StatePublisher:
         self._written: tuple | None = None  # (Measured, F_T_EE) whose fields the buffer holds
         self._O_T_EE = np.eye(4)
         self._idle_for: Measured | None = None  # the Measured the idle signals were written for
+        self._status: tuple | None = None  # (motion, robot_mode) whose modes the buffer holds
+        self._flags_version = -1  # core.flags_version whose error bits the buffer holds
+        self._rate = 0.0  # control_command_success_rate in the buffer
 
     def pack(self, core: "RobotCore", m: Measured, desired_kinematics) -> bytes:
-        s, settings = self.buffer, self.settings
+        s = self.buffer
         s.message_id[...] = core.message_id
         F_T_EE = self._configured_frames()
         written = self._written
         if written is None or written[0] is not m or written[1] is not F_T_EE:
             self._written = (m, F_T_EE)
             self._O_T_EE = O_T_EE = m.O_T_F @ F_T_EE
-            s.O_T_EE[:] = column_major(O_T_EE)
+            self._O_T_EE_view[...] = O_T_EE
             s.q[:] = m.q
             s.dq[:] = m.dq
             s.tau_J[:] = m.tau_J
             s.dtau_J[:] = m.dtau_J
             s.theta[:] = m.theta
             s.dtheta[:] = m.dtheta
-            s.accelerometer_top[:] = m.accelerometer_top.ravel()
-            s.accelerometer_bottom[:] = m.accelerometer_bottom.ravel()
+            top, bottom = self._accelerometer_views
+            top[...] = m.accelerometer_top
+            bottom[...] = m.accelerometer_bottom
             self._idle_for = None
         O_T_EE = self._O_T_EE
 
-        motion = core.motion if core.motion_running else None
+        motion = core.motion
+        if motion is not None and not motion.running:
+            motion = None
         if motion is None:
             self._idle_signals(m, O_T_EE)
         else:
             self._motion_signals(core, motion, m, O_T_EE, F_T_EE, desired_kinematics)
-        mg, ctrl = core.state_modes
-        s.motion_generator_mode[...] = int(mg)
-        s.controller_mode[...] = int(ctrl)
-        s.robot_mode[...] = int(core.robot_mode)
-        s.errors[:] = core.errors
-        s.reflex_reason[:] = core.reflex_reason
-        s.control_command_success_rate[...] = core.success_rate
+        self._write_status(core, motion)
         self._external_forces(core.external)
         return s.pack()
+
+    def _write_status(self, core: "RobotCore", motion: "Motion | None") -> None:
+        """Modes, error bits and the success rate: rewritten only when they changed."""
+        s, robot_mode, written = self.buffer, core.robot_mode, self._status
+        if written is None or written[0] is not motion or written[1] is not robot_mode:
+            self._status = (motion, robot_mode)
+            mg, ctrl = IDLE_MODES if motion is None else motion.spec.state_modes
+            s.motion_generator_mode[...] = int(mg)
+            s.controller_mode[...] = int(ctrl)
+            s.robot_mode[...] = int(robot_mode)
+        if core.flags_version != self._flags_version:
+            self._flags_version = core.flags_version
+            s.errors[:] = core.errors
+            s.reflex_reason[:] = core.reflex_reason
+        rate = 0.0 if motion is None else core.cycle.success_rate
+        if rate != self._rate:
+            self._rate = rate
+            s.control_command_success_rate[...] = rate
 
     def _external_forces(self, external) -> None:
         """The estimate and the contact/collision flags, rewritten only when they changed."""
@@ -115,59 +159,66 @@ class StatePublisher:
         if m is self._idle_for:  # written last cycle, for this very measurement
             return
         if not self._idle_written:  # the zeros need writing once per idle spell
-            for field in (s.dq_d, s.ddq_d, s.tau_J_d, s.O_dP_EE_d, s.O_dP_EE_c, s.O_ddP_EE_c,
-                          s.delbow_c, s.ddelbow_c):
+            for field in (s.dq_d, s.ddq_d, s.tau_J_d, s.O_dP_EE_d, s.O_dP_EE_c, s.O_ddP_EE_c):
                 field[:] = 0.0
-            self._O_dP_EE_c[:] = 0.0
+            self._O_dP_EE_c = ZERO6
+            self._rates_zero = True
             self._idle_written = True
         s.q_d[:] = m.q
-        pose = column_major(O_T_EE)
-        s.O_T_EE_d[:] = pose
-        s.O_T_EE_c[:] = pose
-        elbow = elbow_of(m.q)
-        s.elbow[:] = elbow
-        s.elbow_d[:] = elbow
-        s.elbow_c[:] = elbow
-        self._elbow_c[:] = elbow
-        self._delbow_c[:] = 0.0
+        self._O_T_EE_d_view[...] = O_T_EE
+        self._O_T_EE_c_view[...] = O_T_EE
+        e0, e1 = elbow_of(m.q)
+        elbows = self._elbows
+        elbows[0] = elbows[2] = e0
+        elbows[1] = elbows[3] = e1
+        elbows = self._elbows_c
+        elbows[0], elbows[1] = e0, e1
+        elbows[2] = elbows[3] = elbows[4] = elbows[5] = 0.0
+        self._elbow_c = (e0, e1)
+        self._delbow_c = (0.0, 0.0)
         self._idle_for = m
 
     def _motion_signals(self, core, motion, m: Measured, O_T_EE, F_T_EE, desired_kinematics):
         """A motion runs: desired signals from its generator, commanded ones from the client."""
-        s, settings = self.buffer, self.settings
+        s = self.buffer
         self._idle_written = False
         self._idle_for = None
-        q_d = core.desired_q
-        if q_d is None:  # torque only: nothing desired but what is measured
-            q_d, dq_d, ddq_d = m.q, m.dq, np.zeros(7)
+        spec = motion.spec
+        if spec.generator is Gen.kNone:  # torque only: nothing desired but what is measured
+            q_d, dq_d, ddq_d = m.q, m.dq, ZERO7
         else:
             ref = motion.reference
-            dq_d, ddq_d = ref.dq_d, ref.ddq_d
+            q_d, dq_d, ddq_d = ref.q_d, ref.dq_d, ref.ddq_d
         s.q_d[:] = q_d
         s.dq_d[:] = dq_d
-        s.ddq_d[:] = ddq_d
-        if motion.spec.torque_controlled:
+        if spec.torque_controlled:
             s.tau_J_d[:] = motion.tau_J_d
         else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d)
-            s.tau_J_d[:] = impedance_torque(settings.K_theta, q_d, dq_d, m.q, m.dq)
+            settings = self.settings
+            s.tau_J_d[:] = impedance_torque(settings.K_theta, settings.D_theta, q_d, dq_d,
+                                            m.q, m.dq)
         if desired_kinematics is not None:
             O_T_F_d, J_F_d = desired_kinematics
             O_T_EE_d = O_T_F_d @ F_T_EE
             O_dP_EE_d = ee_twist(O_T_F_d, J_F_d, F_T_EE, dq_d)
         else:
-            O_T_EE_d, O_dP_EE_d = O_T_EE, np.zeros(6)
-        s.O_T_EE_d[:] = column_major(O_T_EE_d)
-        s.O_dP_EE_d[:] = O_dP_EE_d
-        self._commanded_cartesian(motion, O_T_EE_d, O_dP_EE_d, q_d)
-        s.elbow[:] = elbow_of(m.q)
-        s.elbow_d[:] = elbow_of(q_d)
+            O_T_EE_d, O_dP_EE_d = O_T_EE, ZERO6
+        self._O_T_EE_d_view[...] = O_T_EE_d
+        e0, e1 = elbow_of(m.q)
+        d0, d1 = (e0, e1) if q_d is m.q else elbow_of(q_d)
+        elbows = self._elbows
+        elbows[0], elbows[1], elbows[2], elbows[3] = e0, e1, d0, d1
+        O_dP_EE_c, elbow_c = self._commanded_cartesian(motion, O_T_EE_d, O_dP_EE_d, (d0, d1))
+        self._write_rates(ddq_d, O_dP_EE_d, O_dP_EE_c)
+        self._write_elbow_c(elbow_c)
 
     def _configured_frames(self) -> np.ndarray:
         """F_T_EE; rewrites the client-configured fields only when a Set* command replaced them."""
-        settings, s = self.settings, self.buffer
-        key = (settings.NE_T_EE, settings.EE_T_K, settings.load)
-        if self._configured is None or any(a is not b for a, b in zip(key, self._configured)):
-            self._configured = key
+        settings, configured = self.settings, self._configured
+        if (configured is None or configured[0] is not settings.NE_T_EE
+                or configured[1] is not settings.EE_T_K or configured[2] is not settings.load):
+            s = self.buffer
+            self._configured = (settings.NE_T_EE, settings.EE_T_K, settings.load)
             self._F_T_EE = hand.F_T_NE_HAND @ settings.NE_T_EE
             s.F_T_EE[:] = column_major(self._F_T_EE)
             s.NE_T_EE[:] = column_major(settings.NE_T_EE)
@@ -177,30 +228,45 @@ class StatePublisher:
             s.I_load[:] = column_major(settings.load.inertia)
         return self._F_T_EE
 
-    def _commanded_cartesian(self, motion, O_T_EE_d, O_dP_EE_d, q_d) -> None:
-        """The c-signals: the client's own Cartesian stream if it drives one, else the d-signals."""
-        s = self.buffer
+    def _commanded_cartesian(self, motion, O_T_EE_d, O_dP_EE_d, elbow_d) -> tuple:
+        """The c-signals: the client's own Cartesian stream if it drives one, else the d-signals.
+        Writes O_T_EE_c; returns (O_dP_EE_c, elbow_c)."""
         command = motion.last_command
         generator = motion.spec.generator
-        if command is not None and generator is MoveMotionGeneratorMode.kCartesianPosition:
-            s.O_T_EE_c[:] = command["O_T_EE_c"]
+        if command is None or generator is not Gen.kCartesianPosition:
+            self._O_T_EE_c_view[...] = O_T_EE_d
         else:
-            s.O_T_EE_c[:] = column_major(O_T_EE_d)
-        if command is not None and generator is MoveMotionGeneratorMode.kCartesianVelocity:
-            dP = np.asarray(command["O_dP_EE_c"], dtype=float)
+            self.buffer.O_T_EE_c[:] = command["O_T_EE_c"]
+        if command is None or generator is not Gen.kCartesianVelocity:
+            O_dP_EE_c = O_dP_EE_d
         else:
-            dP = O_dP_EE_d
-        s.O_ddP_EE_c[:] = (dP - self._O_dP_EE_c) / DT
-        s.O_dP_EE_c[:] = dP
-        self._O_dP_EE_c = np.array(dP, dtype=float)
-        if command is not None and generator in (
-            MoveMotionGeneratorMode.kCartesianPosition, MoveMotionGeneratorMode.kCartesianVelocity
-        ) and command["valid_elbow"]:
-            elbow_c = np.asarray(command["elbow_c"], dtype=float)
-        else:
-            elbow_c = np.asarray(elbow_of(q_d))
-        delbow = (elbow_c - self._elbow_c) / DT
-        s.ddelbow_c[:] = (delbow - self._delbow_c) / DT
-        s.delbow_c[:] = delbow
-        s.elbow_c[:] = elbow_c
-        self._elbow_c, self._delbow_c = np.array(elbow_c, dtype=float), delbow
+            O_dP_EE_c = np.array(command["O_dP_EE_c"], dtype=float)
+        if command is not None and generator in (Gen.kCartesianPosition, Gen.kCartesianVelocity) \
+                and command["valid_elbow"]:
+            return O_dP_EE_c, tuple(command["elbow_c"].tolist())
+        return O_dP_EE_c, elbow_d
+
+    def _write_rates(self, ddq_d, O_dP_EE_d, O_dP_EE_c) -> None:
+        """ddq_d, O_dP_EE_d, and O_dP_EE_c with its rate. A torque-only motion's are all zero
+        (the shared zero arrays): written on its first cycle, they stay."""
+        previous = self._O_dP_EE_c
+        zeros = (ddq_d is ZERO7 and O_dP_EE_d is ZERO6 and O_dP_EE_c is ZERO6
+                 and previous is ZERO6)
+        if zeros and self._rates_zero:
+            return
+        s = self.buffer
+        s.ddq_d[:] = ddq_d
+        s.O_dP_EE_d[:] = O_dP_EE_d
+        s.O_ddP_EE_c[:] = (O_dP_EE_c - previous) / DT
+        s.O_dP_EE_c[:] = O_dP_EE_c
+        self._O_dP_EE_c = O_dP_EE_c  # a fresh array, or a read-only zero: safe to keep
+        self._rates_zero = zeros
+
+    def _write_elbow_c(self, elbow_c: tuple[float, float]) -> None:
+        """elbow_c and its first two differences, in floats."""
+        (e0, e1), (p0, p1), (v0, v1) = elbow_c, self._elbow_c, self._delbow_c
+        d0, d1 = (e0 - p0) / DT, (e1 - p1) / DT
+        elbows = self._elbows_c
+        elbows[0], elbows[1], elbows[2], elbows[3] = e0, e1, d0, d1
+        elbows[4], elbows[5] = (d0 - v0) / DT, (d1 - v1) / DT
+        self._elbow_c, self._delbow_c = elbow_c, (d0, d1)

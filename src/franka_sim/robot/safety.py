@@ -14,7 +14,8 @@ commanded, where dividing every order by the last interval alone would overstate
 regular cycle's acceleration (n+1)/2-fold. A client that resumes from its own stale waypoint
 has commanded a real jump, and trips.
 
-`check_measured` is the safety controller: the measured range and velocity, in every mode.
+`check_measured` is the safety controller: the measured range and velocity, in every mode
+(`MeasuredChecker` runs it cycle after cycle).
 """
 
 from __future__ import annotations
@@ -29,11 +30,12 @@ from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.protocol.errors import error_index
 from franka_sim.robot import limits as L
 from franka_sim.robot.limits import (
-    RAISED_ERRORS, ErrorNames, SampleGrid, derivative_thresholds, joint_limits, rotation_rows,
-    rotation_step,
+    RAISED_ERRORS, ErrorNames, JointLimitTable, SampleGrid, SpeedLimitFloor,
+    derivative_thresholds, joint_limits, rotation_rows, rotation_step,
 )
 
-__all__ = ["MotionLimitChecker", "RAISED_ERRORS", "Violation", "check_measured"]
+__all__ = ["MeasuredChecker", "MotionLimitChecker", "RAISED_ERRORS", "Violation",
+           "check_measured"]
 
 _AT_REST = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # a 3-vector rate and its rate, both zero
 _PER_SECOND = {"velocity": "/s", "acceleration": "/s²", "jerk": "/s³"}
@@ -104,6 +106,7 @@ class MotionLimitChecker:
             magnitude = L.JOINT_POSITION_MAGNITUDE if position else L.JOINT_VELOCITY_MAGNITUDE
             self._v_slack, self._a_thr, self._j_thr = derivative_thresholds(
                 L.Envelope(0.0, L.JOINT_ACCELERATION, L.JOINT_JERK), magnitude, 1 - position)
+            self._move_floor(self._q)
             self._checks.append(self._joint_position if position else self._joint_velocity)
         elif self.generator in (Gen.kCartesianPosition, Gen.kCartesianVelocity):
             pose = self.generator is Gen.kCartesianPosition
@@ -148,6 +151,23 @@ class MotionLimitChecker:
         return out
 
     # -- joint interfaces -----------------------------------------------------------------------
+    # The joint checks first try to prove a step inside every limit against a SpeedLimitFloor
+    # laid at the previous command (where the law applies): one comparison of the stacked
+    # [next start, velocity − floor, acceleration, jerk] against their thresholds. Only when
+    # that fails do they evaluate the law and explain; the floor then moves to the new start.
+    # Either way the verdict is the law's own (see SpeedLimitFloor).
+    def _move_floor(self, q_start: np.ndarray) -> None:
+        floor = self._floor = SpeedLimitFloor(self._table, q_start)
+        reach = floor.reach_in_range if self.generator is Gen.kJointPosition else floor.reach
+        self._proof_thresholds = np.concatenate(
+            [reach] + [np.full(14, x) for x in (self._v_slack, self._a_thr, self._j_thr)])
+
+    def _proven_inside(self, q_next, v, a, j) -> bool:
+        """The step is inside the limits, and q_next (the next step's start) within the floor's
+        reach; False says nothing (NaN included), the law decides then."""
+        stacked = np.concatenate((q_next, v - self._floor.limits, a, j))
+        return all((stacked <= self._proof_thresholds).tolist())
+
     def _joint_position(self, command, n: int, out: list) -> None:
         table = self._table
         q = table.signed(command["q_c"])
@@ -158,13 +178,15 @@ class MotionLimitChecker:
         if self._first and self._start_pose_invalid(q, out):
             v = a = np.zeros(14)  # the jump is reported as what it is; judge on from here
             self._report_range(q, out)
-        else:
+            self._move_floor(q)
+        elif self._first or not self._proven_inside(q, v, a, j):
             limits = table.speed_limits(self._q)  # the law where the step starts, as libfranka
             excess = np.maximum(v - limits - self._v_slack, q - table.ends)
             excess = np.maximum(excess, np.maximum(a - self._a_thr, j - self._j_thr))
             if not max(excess.tolist()) <= 0.0:
                 self._report_range(q, out)
                 self._explain_joints(out, L.JOINT_POSITION_NAMES, v, a, j, limits)
+            self._move_floor(q)
         self._q, self._v, self._a = q, v, a
         self._grid.advance(n)
 
@@ -175,12 +197,15 @@ class MotionLimitChecker:
         s1, s2, _ = self._grid.spacings(n)
         a = (dq - self._v) / s1
         j = (a - self._a) / s2
-        limits = self._table.speed_limits(self._q)
-        excess = np.maximum(dq - limits - self._v_slack,
-                            np.maximum(a - self._a_thr, j - self._j_thr))
-        if not max(excess.tolist()) <= 0.0:
-            self._explain_joints(out, L.JOINT_VELOCITY_NAMES, dq, a, j, limits)
-        self._q = self._q + dq * s1  # the robot integrates dq_c into q_d; the law applies there
+        q_next = self._q + dq * s1  # the robot integrates dq_c into q_d; the law applies there
+        if not self._proven_inside(q_next, dq, a, j):
+            limits = self._table.speed_limits(self._q)
+            excess = np.maximum(dq - limits - self._v_slack,
+                                np.maximum(a - self._a_thr, j - self._j_thr))
+            if not max(excess.tolist()) <= 0.0:
+                self._explain_joints(out, L.JOINT_VELOCITY_NAMES, dq, a, j, limits)
+            self._move_floor(q_next)
+        self._q = q_next
         self._v, self._a = dq, a
         self._grid.advance(n)
 
@@ -323,7 +348,35 @@ def check_measured(desc: ArmDescription, q, dq) -> list[Violation]:
     Measured velocity gets MEASURED_VELOCITY_TOLERANCE of slack (sensor noise; see limits.py).
     """
     table = joint_limits(desc)
-    q, dq = table.signed(q), table.signed(dq)
+    return _measured_violations(table, table.signed(q), table.signed(dq))
+
+
+class MeasuredChecker:
+    """check_measured for one motion, cycle after cycle: the law is evaluated only when a
+    SpeedLimitFloor near the arm cannot prove it inside (the verdict is the same)."""
+
+    def __init__(self, desc: ArmDescription) -> None:
+        self._table = joint_limits(desc)
+        self._proof: tuple | None = None  # (offsets, thresholds) of the floor, see check
+
+    def check(self, q, dq) -> list[Violation]:
+        table, proof = self._table, self._proof
+        signed = table.signed_stack(q, dq)
+        # In range and within the floor's reach (q − 0 ≤ reach), and no faster than the floor
+        # allows (dq − floor ≤ tolerance): nothing to report.
+        if proof is not None and all((signed - proof[0] <= proof[1]).tolist()):
+            return []
+        q, dq = signed[:14], signed[14:]
+        floor = SpeedLimitFloor(table, q)
+        self._proof = (np.concatenate((np.zeros(14), floor.limits)),
+                       np.concatenate((floor.reach_in_range,
+                                       np.full(14, L.MEASURED_VELOCITY_TOLERANCE))))
+        return _measured_violations(table, q, dq)
+
+
+def _measured_violations(table: JointLimitTable, q: np.ndarray,
+                         dq: np.ndarray) -> list[Violation]:
+    """check_measured on signed q and dq."""
     tolerance = L.MEASURED_VELOCITY_TOLERANCE
     excess = q - table.ends
     moving = max(dq.tolist()) > tolerance  # slower never trips: the law is never below 0

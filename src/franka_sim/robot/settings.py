@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from franka_sim.robot.controllers import cartesian_damping, impedance_damping
+
 # K_theta range [0, 14250] Nm/rad; K_x translation [10, 3000] N/m, rotation [1, 300] Nm/rad.
 K_THETA_MAX = 14250.0
 K_X_TRANSLATION_RANGE = (10.0, 3000.0)
@@ -118,6 +120,24 @@ class RobotSettings:
     load: Load = field(default_factory=Load)
     guiding_mode: tuple[bool, ...] = (True, True, True, True, True, True)
     guiding_nullspace: bool = True
+    _derived: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @property
+    def D_theta(self) -> np.ndarray:
+        """The joint impedance's damping, derived from K_theta."""
+        return self._derive(self.K_theta, impedance_damping)
+
+    @property
+    def D_x(self) -> np.ndarray:
+        """The Cartesian impedance's damping, derived from K_x."""
+        return self._derive(self.K_x, cartesian_damping)
+
+    def _derive(self, K: np.ndarray, law) -> np.ndarray:
+        """law(K), computed anew only when K is replaced (a Set* command), not every cycle."""
+        cached = self._derived.get(law)
+        if cached is None or cached[0] is not K:
+            cached = self._derived[law] = (K, law(K))
+        return cached[1]
 
     def set_joint_impedance(self, K_theta) -> None:
         k = _finite("K_theta", K_theta)
