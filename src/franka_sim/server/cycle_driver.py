@@ -150,9 +150,10 @@ class CycleDriver:
 
     def _tick_locked(self, backend, due: bool) -> float | None:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
-        if due and self.core.motion is not None:
-            self.poll_commands()  # an answer that arrived in time counts, read or not
         answered = self._take_commands()
+        if due and not self.core.decided:  # no answer yet: one that arrived in time counts,
+            self.poll_commands()  # whether the loop has read it or not
+            answered = self._take_commands() or answered
         if not due and not self.paused and not (answered and lockstep):
             return self._deadline  # woken, but nothing to release
         released_at = time.monotonic()
