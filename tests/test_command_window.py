@@ -1,10 +1,11 @@
 """The command window end to end: an answer that reached the robot before its cycle's window
 closed counts, whatever the server's event loop is busy with at that moment.
 
-The physics thread releases cycles; at a motion cycle's deadline it also reads the datagrams
-still queued on the socket. Here the loop is blocked on purpose while a raw client answers, so
-only that read can see the answers. Lockstep, so each window is 100 ms of wall time: the client
-has ample time to answer on a loaded machine, and the outcome does not depend on timing.
+The physics thread releases cycles, and reads the socket itself for an answer not yet read:
+at a motion cycle's deadline, and in lockstep while it waits for the answer. Here the loop is
+blocked on purpose while a raw client answers, so only those reads can see the answers.
+Lockstep, so each window is 100 ms of wall time: the client has ample time to answer on a
+loaded machine, and the outcome does not depend on timing.
 """
 
 from __future__ import annotations

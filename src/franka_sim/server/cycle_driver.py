@@ -12,7 +12,12 @@ While the arm is idle the next cycle's command is known at once (the hold), so t
 and packs it straight after sending the current state, and the next tick only sends it: idle
 states leave on their deadline to within this thread's wake-up. During a motion the command
 comes from the client, so the cycle runs when its deadline comes (realtime) or when the answer
-arrives (lockstep, see pacing.py), and the state leaves as soon as it is packed.
+arrives (lockstep, see pacing.py; the tick then reads the socket itself for a moment before
+going to sleep, see `_await_answer`), and the state leaves as soon as it is packed.
+
+In lockstep the cycle after a motion's last waits for the client's next request (or a lockstep
+window), so how many idle cycles separate two motions does not depend on how fast the client
+was: back-to-back motions reproduce to the bit.
 
 A request's replies wait for the first state published after it (`after_next_state`), and a
 reply the cycle itself produced (a Move's end, a recovery) goes out after the state that shows
@@ -35,11 +40,12 @@ from typing import Callable
 from franka_sim.physics.backend import Measured
 from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
-from franka_sim.server.pacing import Pacer
+from franka_sim.server.pacing import LOCKSTEP_WINDOW, Pacer
 
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
+LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
 
 # on_cycle(cycle, measured), in the physics thread with the lock held, right after the core
 # published `cycle`: what else the cycle does (the Hand), and what the loop must send once the
@@ -91,6 +97,11 @@ class CycleDriver:
         self._prepared: tuple | None = None  # (cycle, data, deliver) stepped ahead (idle)
         self._deadline: float | None = None
         self._unwatched = 0  # cycles since a client was last connected
+        # Lockstep, after a motion: the next cycle waits for the client's next request (see
+        # _tick_locked). `_requests` counts requests (loop, lock held), `_holding` is the
+        # count the hold began at.
+        self._requests = 0
+        self._holding: int | None = None
         self.paused = False
         self._failures = 0
 
@@ -122,6 +133,9 @@ class CycleDriver:
         if not self._running or self.paused:
             return False
         self._awaiting.append((self.core.message_id + 1, deliver))
+        self._requests += 1
+        if self._holding:
+            self.worker.wake()  # the held cycle goes now, after this request
         return True
 
     def _sent(self, cycle: int, deliver: Callable[[], None] | None) -> None:
@@ -143,29 +157,51 @@ class CycleDriver:
     def _tick(self, backend, due: bool) -> float | None:
         try:
             with self.lock:
-                return self._tick_locked(backend, due)
+                deadline = self._tick_locked(backend, due)
+            while self._lockstep_now and self._await_answer():
+                with self.lock:
+                    deadline = self._tick_locked(backend, False)
+            return deadline
         except BaseException:
             self._running = False  # the worker logs it and stops the clock
             raise
 
+    def _await_answer(self) -> bool:
+        """Lockstep: read the socket for the answer for up to LOCKSTEP_SPIN, without sleeping.
+
+        A client answers within ~50 µs here; a thread that slept meanwhile needs a hand-over
+        from the loop and then runs its cycle on cold caches, which made a lockstep cycle ~30 %
+        slower. This costs CPU only while a lockstep motion runs, and at most LOCKSTEP_SPIN per
+        cycle (a slower answer is waited for asleep, as before).
+        """
+        spin_until = time.monotonic() + LOCKSTEP_SPIN
+        poll, inbox = self.poll_commands, self._inbox
+        while True:
+            poll()
+            if inbox:
+                return True
+            if time.monotonic() > spin_until:
+                return False
+
     def _tick_locked(self, backend, due: bool) -> float | None:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
+        moving = self.core.motion is not None
         answered = self._take_commands()
         if due and not self.core.decided:  # no answer yet: one that arrived in time counts,
             self.poll_commands()  # whether the loop has read it or not
             answered = self._take_commands() or answered
-        if not due and not self.paused and not (answered and lockstep):
+        requested = self._holding is not None and self._requests != self._holding
+        if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         released_at = time.monotonic()
         self.paused = False
+        self._holding = None
         prepared, self._prepared = self._prepared, None
+        # A motion's cycle (or its last): the client may start its next motion at once, so the
+        # cycle after it is decided when it goes, not ahead of it.
+        moved = prepared is None and moving
         if prepared is None:
-            # A motion's cycle (or its last): the client may start the next motion within
-            # this ms, so the cycle after it is decided on its deadline, not ahead of it.
-            moved = self.core.motion is not None
             prepared = self._cycle(backend)
-        else:
-            moved = False
         self._send(prepared)
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         if self._unwatched >= PAUSE_AFTER and self.core.motion is None:
@@ -174,6 +210,14 @@ class CycleDriver:
             return None
         if self.core.motion is None and not moved:  # idle: the next command is the hold
             self._prepared = self._cycle(backend)
+        if moved and self.lockstep and self.core.motion is None:
+            # A lockstep motion just ended. Its client's next step (the next Move, a read)
+            # decides when the next cycle goes, not how fast it answered within a 1 ms
+            # deadline: so a program of back-to-back motions reproduces to the bit. The cycle
+            # goes on the client's next request, or at the end of a lockstep window.
+            self._holding = self._requests
+            self._deadline = released_at + LOCKSTEP_WINDOW
+            return self._deadline
         self._deadline = self.pacer.next_deadline(released_at, lockstep=self._lockstep_now)
         return self._deadline
 
