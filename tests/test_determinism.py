@@ -4,6 +4,7 @@ bit-identical states, whichever clock paces the cycles and however long the arm 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pylibfranka
@@ -53,3 +54,34 @@ def test_same_trajectories_end_bit_identical(clock):
         pytest.skip("this machine lost command cycles in realtime; only lockstep is immune")
     assert rate_a == rate_b == 1.0
     assert np.array_equal(a, b)
+
+
+def _gap_before_next_motion(host: str, pause: float) -> int:
+    """Cycles between the last state of a motion and the first of the next one, when the
+    client waits `pause` s of wall time in between."""
+    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    for k in range(20):
+        state, _ = control.readOnce()
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == 19
+        control.writeOnce(command)
+    last = round(state.time.to_sec() * 1000)
+    del control
+    time.sleep(pause)
+    control = robot.start_torque_control()
+    state, _ = control.readOnce()
+    first = round(state.time.to_sec() * 1000)
+    command = pylibfranka.Torques([0.0] * 7)
+    command.motion_finished = True
+    control.writeOnce(command)
+    return first - last
+
+
+def test_in_lockstep_the_next_motion_starts_as_many_cycles_later_however_long_the_client_took():
+    """The cycle after a lockstep motion waits for the client's next request, so the idle
+    cycles between two motions do not depend on the client's speed (here: 0 vs 30 ms)."""
+    with running_sim("--clock", "lockstep") as sim:
+        quick = _gap_before_next_motion(sim.host, 0.0)
+        slow = _gap_before_next_motion(sim.host, 0.03)
+    assert quick == slow
