@@ -134,7 +134,7 @@ class CycleDriver:
             return False
         self._awaiting.append((self.core.message_id + 1, deliver))
         self._requests += 1
-        if self._holding:
+        if self._holding is not None:
             self.worker.wake()  # the held cycle goes now, after this request
         return True
 
