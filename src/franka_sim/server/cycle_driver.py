@@ -47,9 +47,9 @@ log = logging.getLogger(__name__)
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
 
-# on_cycle(cycle, measured), in the physics thread with the lock held, right after the core
-# published `cycle`: what else the cycle does (the Hand), and what the loop must send once the
-# state has left (replies), as a function to call there, or None.
+# on_cycle(cycle, measured), in the physics thread with the lock held, right after the state
+# of `cycle` was sent: what else the cycle does (the Hand), and what the loop must send now
+# (the replies it produced), as a function to call there, or None.
 OnCycle = Callable[[int, Measured], "Callable[[], None] | None"]
 
 
@@ -94,7 +94,7 @@ class CycleDriver:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._running = False
         # Physics thread only:
-        self._prepared: tuple | None = None  # (cycle, data, deliver) stepped ahead (idle)
+        self._prepared: tuple | None = None  # (cycle, data, measured) stepped ahead (idle)
         self._deadline: float | None = None
         self._unwatched = 0  # cycles since a client was last connected
         # Lockstep, after a motion: the next cycle waits for the client's next request (see
@@ -230,28 +230,37 @@ class CycleDriver:
         return answered
 
     def _cycle(self, backend) -> tuple:
-        """Release the next cycle: decide, step, publish. (cycle, state bytes, deliver)."""
+        """Release the next cycle: decide, step, publish. (cycle, state bytes, measured)."""
         core = self.core
         joint_command = core.joint_command()
         q_desired = core.desired_q
         fingers = None if self.finger_command is None else self.finger_command()
         measured, kinematics = _step(backend, joint_command, q_desired, fingers)
-        data = deliver = None
+        data = None
         try:
             data = core.publish(measured, kinematics)
-            if self.on_cycle is not None:
-                deliver = self.on_cycle(core.message_id, measured)
         except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
-            self._failures += 1
-            if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
-                log.exception("cycle %d failed to publish (%d so far)",
-                              core.message_id, self._failures)
-        return core.message_id, data, deliver
+            self._failed()
+        return core.message_id, data, measured
+
+    def _failed(self) -> None:
+        self._failures += 1
+        if self._failures in (1, 10, 100) or self._failures % 1000 == 0:
+            log.exception("cycle %d failed (%d so far)", self.core.message_id, self._failures)
 
     def _send(self, prepared: tuple) -> None:
-        cycle, data, deliver = prepared
-        if data is not None:
-            self.send_state(data)
+        """Send a cycle's state, then the rest of the cycle (on_cycle: the Hand, the replies
+        to hand to the loop): a lockstep client is not kept waiting for them."""
+        cycle, data, measured = prepared
+        if data is None:
+            return
+        self.send_state(data)
+        deliver = None
+        if self.on_cycle is not None:
+            try:
+                deliver = self.on_cycle(cycle, measured)
+            except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+                self._failed()
         if deliver is not None or self._awaiting:
             try:
                 self._loop.call_soon_threadsafe(self._sent, cycle, deliver)
