@@ -1,0 +1,96 @@
+"""µs of one motion cycle's own work, in a tight loop, without sockets or threads.
+
+What the physics thread does per cycle, section by section: the core decides the drives' task
+(`jc`), MuJoCo steps (`step`), the desired-side kinematics (`kin`, generators only), the core
+packs the state (`publish`), and the client's answer is decoded (`decode`) and judged
+(`receive`). A server runs the same code, but after a sleep between cycles, where this VM
+runs it 2–3× slower (docs/benchmarks.md): read these as the floor, not as the server's CPU.
+
+    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from franka_sim.config import READY_POSE
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.scene import default_scene_path
+from franka_sim.protocol import robot_messages as msg
+from franka_sim.protocol.codec import decode_command, decode_state, encode_command
+from franka_sim.protocol.enums import Command
+from franka_sim.protocol.framing import Frame, decode_request
+from franka_sim.robot.core import RobotCore
+
+SECTIONS = ("jc", "step", "kin", "publish", "decode", "receive")
+MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
+
+
+def _move(core: RobotCore, controller: int, generator: int) -> None:
+    deviation = dict(translation=10.0, rotation=3.12, elbow=2 * math.pi)
+    data = msg.build_request(
+        Command.Move, 1, controller_mode=controller, motion_generator_mode=generator,
+        maximum_path_deviation=deviation, maximum_goal_pose_deviation=deviation,
+        use_async_motion_generator=False, maximum_velocity=[0.0] * 7)
+    core.request_move(1, decode_request(Frame(int(Command.Move), 1, data)))
+
+
+def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
+    desc = load_arm_description(default_urdf_text())
+    q0 = np.array(READY_POSE)
+    backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
+    core = RobotCore(desc, q0)
+    core.publish(backend.step(core.joint_command()))
+    _move(core, *MOVES[mode])
+    state = decode_state(core.publish(backend.step(core.joint_command())))
+    q_start = np.array(state["q_d"])
+    totals = dict.fromkeys(SECTIONS, 0.0)
+    clock = time.perf_counter
+    for k in range(warmup + cycles):
+        if k == warmup:
+            totals = dict.fromkeys(SECTIONS, 0.0)
+        t0 = clock()
+        joint_command, q_desired = core.joint_command(), core.desired_q
+        t1 = clock()
+        measured = backend.step(joint_command)
+        t2 = clock()
+        kinematics = None if q_desired is None else backend.flange_pose_and_jacobian(q_desired)
+        t3 = clock()
+        core.publish(measured, kinematics)
+        t4 = clock()
+        if mode == "torque":
+            answer = encode_command(message_id=core.message_id, tau_J_d=[0.0] * 7)
+        else:  # a slow swing of joint 7, well inside every limit
+            q_c = q_start.copy()
+            q_c[6] += 0.005 * (1 - math.cos(k * 1e-3))
+            answer = encode_command(message_id=core.message_id, q_c=q_c)
+        t5 = clock()
+        command = decode_command(answer)
+        t6 = clock()
+        core.receive_command(command)
+        t7 = clock()
+        for name, dt in zip(SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t6 - t5, t7 - t6)):
+            totals[name] += dt
+    return {name: total / cycles * 1e6 for name, total in totals.items()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=5000)
+    parser.add_argument("--mode", choices=sorted(MOVES), default="torque")
+    args = parser.parse_args()
+    us = run(args.mode, args.cycles)
+    print(f"franka-sim cycle work, {args.mode} motion, {args.cycles} cycles in a tight loop "
+          "(µs per cycle)")
+    for name in SECTIONS:
+        print(f"  {name:8s} {us[name]:7.1f}")
+    print(f"  {'total':8s} {sum(us.values()):7.1f}")
+
+
+if __name__ == "__main__":
+    main()
