@@ -5,7 +5,8 @@ go to the core (closing the open cycle's window), the core decides the drives' t
 once, the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
 VM every extra hand-over between threads cost more CPU than the cycle's own work. The event loop
 still owns every endpoint; it decodes and checks datagrams, queues the commands (`receive`), and
-serves TCP. The core is shared between the two threads, so it is only touched with `lock` held:
+serves TCP (the tick reads the UDP socket too, through the same checks, when an answer it waits
+for has not been read yet). The core is shared between the two threads, so it is only touched with `lock` held:
 the tick holds it for the whole cycle, the TCP endpoints for each request.
 
 While the arm is idle the next cycle's command is known at once (the hold), so the tick steps
