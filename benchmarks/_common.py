@@ -40,6 +40,12 @@ def reference_command(host: str) -> list[str]:
     return [sys.executable, str(Path(__file__).with_name("reference_sender.py")), "--host", host]
 
 
+def responder_command(host: str, clock: str) -> list[str]:
+    """benchmarks/reference_responder.py: a control loop's server doing nothing but the protocol."""
+    return [sys.executable, str(Path(__file__).with_name("reference_responder.py")),
+            "--host", host, "--clock", clock]
+
+
 class Server:
     """A `franka-sim serve` subprocess (or another `command`); a thread drains its stderr.
 

@@ -8,6 +8,7 @@ event loop reading commands and serving TCP), and the load the rest of the machi
 CPUs during the run is printed: trust a CPU figure only when that load was low.
 
 python benchmarks/control_loop.py [--seconds 10] [--clock realtime|lockstep] [--mode torque|joint]
+python benchmarks/control_loop.py --reference [--clock lockstep]   # the floor: protocol only
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import time
 import numpy as np
 import pylibfranka
 
-from _common import CLK_TCK, Load, Server, cpu_seconds, serve_command, verdict
+from _common import CLK_TCK, Load, Server, cpu_seconds, responder_command, serve_command, verdict
 
 PRIVATE_HOST = "127.0.0.201"
 PHYSICS_THREAD = "fsim-physics"  # the name the physics worker gives its OS thread
@@ -79,8 +80,12 @@ def main() -> None:
     parser.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
     parser.add_argument("--mode", choices=["torque", "joint"], default="torque")
     parser.add_argument("--host", default=PRIVATE_HOST)
+    parser.add_argument("--reference", action="store_true",
+                        help="measure reference_responder.py (the protocol alone) instead")
     args = parser.parse_args()
-    server = Server(args.host, serve_command(args.host) + ["--clock", args.clock])
+    command = (responder_command(args.host, args.clock) if args.reference
+               else serve_command(args.host) + ["--clock", args.clock])
+    server = Server(args.host, command)
     server.wait_serving()
     try:
         cpu0, threads0 = cpu_seconds(server.pid), thread_cpu_seconds(server.pid)
@@ -93,10 +98,12 @@ def main() -> None:
     finally:
         server.stop()
     speed = result["sim"] / result["wall"]
-    print(f"franka-sim control loop: {args.mode}, {args.clock} clock, {result['cycles']} cycles")
-    print(f"  success rate (mean / min after 200 cycles)  {result['mean_rate']:.4f} / "
-          f"{result['min_rate']:.4f}   target ≥ 0.999 (realtime)  "
-          f"{verdict(result['mean_rate'] >= 0.999) if args.clock == 'realtime' else ''}")
+    what = "reference_responder.py" if args.reference else "franka-sim"
+    print(f"{what} control loop: {args.mode}, {args.clock} clock, {result['cycles']} cycles")
+    if not args.reference:  # the responder reports no success rate
+        print(f"  success rate (mean / min after 200 cycles)  {result['mean_rate']:.4f} / "
+              f"{result['min_rate']:.4f}   target ≥ 0.999 (realtime)  "
+              f"{verdict(result['mean_rate'] >= 0.999) if args.clock == 'realtime' else ''}")
     print(f"  states/s seen by the client                 {result['cycles'] / result['wall']:.1f}")
     print(f"  simulated s per wall s                      {speed:.2f}   "
           f"{'target ≥ 10 ' + verdict(speed >= 10) if args.clock == 'lockstep' else ''}")
@@ -106,8 +113,9 @@ def main() -> None:
     else:  # a faster clock does more cycles per wall second: the target is for real time
         print(f"  server CPU % of a core                      {cpu:.1f}   "
               f"({cpu / speed:.1f} per simulated second)")
-    physics = threads.get(PHYSICS_THREAD, float("nan"))
-    print(f"    physics thread / rest                     {physics:.1f} / {cpu - physics:.1f}")
+    if PHYSICS_THREAD in threads:  # (the responder has one thread)
+        physics = threads[PHYSICS_THREAD]
+        print(f"    physics thread / rest                     {physics:.1f} / {cpu - physics:.1f}")
     print(f"  machine: {os.cpu_count()} CPUs; other processes used {other_cpu:.0f} % of a core "
           f"(this client's own process excluded), tasks waited for a CPU {pressure:.0f} % of "
           "the time")
