@@ -1,5 +1,7 @@
 """The command window end to end: an answer that reached the robot before its cycle's window
-closed counts, whatever the server's event loop is busy with at that moment.
+closed counts, whatever the server's event loop is busy with at that moment. And who reads the
+answers: with the realtime clock only the physics thread, at each deadline (the loop is not
+woken for every datagram).
 
 The physics thread releases cycles, and reads the socket itself for an answer not yet read:
 at a motion cycle's deadline, and in lockstep while it waits for the answer. Here the loop is
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+import time
 
 from conftest import fresh_loopback_address
 from franka_sim import FrankaSim
@@ -50,3 +53,39 @@ def test_answers_on_the_socket_count_while_the_loop_is_blocked():
     assert answered == list(range(answered[0], answered[0] + ANSWERS))  # one cycle each
     assert after[0] - before[0] == ANSWERS  # every answer counted on time
     assert after[1] - before[1] == 0  # no cycle lost while the loop was blocked
+
+
+def test_realtime_commands_are_read_by_the_physics_thread_only():
+    host = fresh_loopback_address()
+    sent = 20
+
+    async def app():
+        async with FrankaSim(host=host) as sim:  # realtime clock
+            readers: list[str] = []
+            endpoint = sim.udp
+            received = endpoint.datagram_received
+
+            def spy(data, addr) -> None:
+                readers.append(threading.current_thread().name)
+                received(data, addr)
+
+            endpoint.datagram_received = spy
+            client = await asyncio.to_thread(RawClient, host)
+            assert await asyncio.to_thread(client.move, 2, 4) == 1  # torque, kMotionStarted
+
+            def answer() -> None:  # each answer is read, on time or not
+                for _ in range(sent):
+                    client.send(tau_J_d=[0.0] * 7)
+                    client.recv()
+                give_up = time.monotonic() + 10
+                while len(readers) < sent + 1 and time.monotonic() < give_up:  # + the finish
+                    client.send(tau_J_d=[0.0] * 7, torque_command_finished=True)
+                    client.recv()
+
+            await asyncio.to_thread(answer)  # the loop runs meanwhile, free to read
+            client.close()
+            return readers
+
+    readers = asyncio.run(app())
+    assert len(readers) > sent
+    assert set(readers) == {"franka-sim-physics"}

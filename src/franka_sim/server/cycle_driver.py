@@ -1,13 +1,14 @@
 """The robot's cycle, run as the physics worker's tick: commands in, one step, the state out.
 
-A tick is a whole cycle in the physics thread: the commands the loop queued since the last one
-go to the core (closing the open cycle's window), the core decides the drives' task, MuJoCo steps
+A tick is a whole cycle in the physics thread: the commands that arrived since the last one go
+to the core (closing the open cycle's window), the core decides the drives' task, MuJoCo steps
 once, the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
-VM every extra hand-over between threads cost more CPU than the cycle's own work. The event loop
-still owns every endpoint; it decodes and checks datagrams, queues the commands (`receive`), and
-serves TCP (the tick reads the UDP socket too, through the same checks, when an answer it waits
-for has not been read yet). The core is shared between the two threads, so it is only touched with `lock` held:
-the tick holds it for the whole cycle, the TCP endpoints for each request.
+VM every extra hand-over between threads cost more CPU than the cycle's own work. The tick reads
+the UDP socket itself at each deadline (`poll_commands`: the endpoint decodes and checks each
+datagram and hands the commands to `receive`); in lockstep the event loop reads it as well, to
+wake a tick that waits asleep for an answer. The loop owns the endpoints and serves TCP. The
+core is shared between the two threads, so it is only touched with `lock` held: the tick holds
+it for the whole cycle, the TCP endpoints for each request.
 
 While the arm is idle the next cycle's command is known at once (the hold), so the tick steps
 and packs it straight after sending the current state, and the next tick only sends it: idle
@@ -79,6 +80,7 @@ class CycleDriver:
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
         poll_commands: Callable[[], None] = lambda: None,
+        commands_unread: bool = False,
     ) -> None:
         self.core = core
         self.worker = worker
@@ -89,6 +91,9 @@ class CycleDriver:
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
         self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
+        # Nobody else reads the socket (realtime): every cycle's deadline does, idle ones too
+        # (a stray datagram is counted and logged within a cycle, as the loop would).
+        self.commands_unread = commands_unread
         self.pacer = Pacer()
         self._inbox: collections.deque = collections.deque()  # loop → tick: decoded commands
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop only: (cycle, deliver)
@@ -188,8 +193,9 @@ class CycleDriver:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
         moving = self.core.motion is not None
         answered = self._take_commands()
-        if due and not self.core.decided:  # no answer yet: one that arrived in time counts,
-            self.poll_commands()  # whether the loop has read it or not
+        if due and (self.commands_unread or not self.core.decided):
+            # An answer that arrived in time counts, whether the loop has read it or not.
+            self.poll_commands()
             answered = self._take_commands() or answered
         requested = self._holding is not None and self._requests != self._holding
         if not due and not self.paused and not (answered and lockstep) and not requested:

@@ -7,7 +7,6 @@ on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
 
 from __future__ import annotations
 
-import asyncio
 import errno
 import logging
 import threading
@@ -71,12 +70,12 @@ class FrankaSim:
             lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
             has_client=self._has_client, poll_commands=self.udp.poll,
+            commands_unread=config.clock is ClockMode.realtime,
         )
         self._started = False
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> "FrankaSim":
-        loop = asyncio.get_running_loop()
         await self.worker.start()
         try:
             await self.robot.start(self.config.host, self.config.robot_port)
@@ -89,13 +88,19 @@ class FrankaSim:
                     "(another franka-sim or robot bridge on this address?)",
                 ) from exc
             raise
-        await loop.create_datagram_endpoint(lambda: self.udp, local_addr=(self.config.host, 0))
+        # Realtime: the physics thread alone reads the commands, at each deadline (udp_endpoint).
+        try:
+            await self.udp.open(self.config.host, watched=self.config.clock is ClockMode.lockstep)
+        except OSError:
+            await self.robot.stop()
+            await self.worker.stop()
+            raise
         if self.gripper is not None:
             try:
                 await self.gripper_endpoint.start(self.config.host, self.config.gripper_port)
             except OSError as exc:
                 await self.robot.stop()
-                self.udp.transport.close()
+                self.udp.close()
                 await self.worker.stop()
                 if exc.errno == errno.EADDRINUSE:
                     raise AddressInUse(
@@ -121,8 +126,7 @@ class FrankaSim:
         if self.gripper is not None:
             await self.gripper_endpoint.stop()
         await self.driver.stop()
-        if self.udp.transport is not None:
-            self.udp.transport.close()
+        self.udp.close()
         await self.worker.stop()
 
     async def __aenter__(self) -> "FrankaSim":
