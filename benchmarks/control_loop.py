@@ -115,7 +115,8 @@ def main() -> None:
               f"({cpu / speed:.1f} per simulated second)")
     if PHYSICS_THREAD in threads:  # (the responder has one thread)
         physics = threads[PHYSICS_THREAD]
-        print(f"    physics thread / rest                     {physics:.1f} / {cpu - physics:.1f}")
+        print(f"    physics thread / rest                     {physics:.1f} / "
+              f"{max(cpu - physics, 0.0):.1f}")
     print(f"  machine: {os.cpu_count()} CPUs; other processes used {other_cpu:.0f} % of a core "
           f"(this client's own process excluded), tasks waited for a CPU {pressure:.0f} % of "
           "the time")
