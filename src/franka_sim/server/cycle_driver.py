@@ -193,7 +193,8 @@ class CycleDriver:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
         moving = self.core.motion is not None
         answered = self._take_commands()
-        if due and (self.commands_unread or not self.core.decided):
+        ready = self._prepared is not None  # an idle cycle stepped ahead: it goes first
+        if due and not ready and (self.commands_unread or not self.core.decided):
             # An answer that arrived in time counts, whether the loop has read it or not.
             self.poll_commands()
             answered = self._take_commands() or answered
@@ -210,6 +211,9 @@ class CycleDriver:
         if prepared is None:
             prepared = self._cycle(backend)
         self._send(prepared)
+        if due and ready and self.commands_unread:  # no command can answer an idle state:
+            self.poll_commands()  # what came is read once the state has left (strays, junk)
+            self._take_commands()
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         if self._unwatched >= PAUSE_AFTER and self.core.motion is None:
             self.paused = True
