@@ -6,6 +6,7 @@ depend on the package under test (except for spawning its console script).
 
 from __future__ import annotations
 
+import ctypes
 import os
 import shutil
 import signal
@@ -38,6 +39,16 @@ def serve_command(host: str) -> list[str]:
 def reference_command(host: str) -> list[str]:
     """benchmarks/reference_sender.py: a trivial 1 kHz sender, the platform's floor."""
     return [sys.executable, str(Path(__file__).with_name("reference_sender.py")), "--host", host]
+
+
+def reference_process() -> None:
+    """Set up a reference server process as franka-sim sets up its own: SIGTERM exits, and a
+    1 ns timer slack (PR_SET_TIMERSLACK) makes its sleeps precise."""
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    try:
+        ctypes.CDLL(None).prctl(29, 1, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
 
 
 def responder_command(host: str, clock: str) -> list[str]:

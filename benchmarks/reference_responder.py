@@ -18,14 +18,13 @@ the fastest lockstep any server could reach with this client.
 from __future__ import annotations
 
 import argparse
-import ctypes
 import select
-import signal
 import socket
 import struct
 import sys
 import time
 
+from _common import reference_process
 from franka_sim.description.urdf import default_urdf_text
 from franka_sim.protocol.codec import COMMAND_DTYPE, StateBuffer
 from franka_sim.protocol.enums import (Command, ConnectStatus, ControllerMode, MotionGeneratorMode,
@@ -145,11 +144,7 @@ def main() -> None:
     ap.add_argument("--host", default="127.0.0.201")
     ap.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
     args = ap.parse_args()
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
-    try:
-        ctypes.CDLL(None).prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns, as franka-sim does
-    except (OSError, AttributeError):
-        pass
+    reference_process()
     Responder(args.host, args.clock == "lockstep").serve()
 
 

@@ -11,23 +11,19 @@ sender shows too comes from the machine (load, VM scheduling), not from franka-s
 from __future__ import annotations
 
 import argparse
-import ctypes
-import signal
 import socket
 import struct
 import sys
 import time
+
+from _common import reference_process
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--host", default="127.0.0.201")
     args = ap.parse_args()
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
-    try:
-        ctypes.CDLL(None).prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns, as franka-sim does
-    except (OSError, AttributeError):
-        pass
+    reference_process()
     server = socket.create_server((args.host, 1337), reuse_port=False)
     print(f"reference sender serving on {args.host}:1337", file=sys.stderr, flush=True)
     conn, peer = server.accept()
