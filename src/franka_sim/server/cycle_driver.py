@@ -80,7 +80,6 @@ class CycleDriver:
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
         poll_commands: Callable[[], None] = lambda: None,
-        commands_unread: bool = False,
     ) -> None:
         self.core = core
         self.worker = worker
@@ -91,9 +90,6 @@ class CycleDriver:
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
         self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
-        # Nobody else reads the socket (realtime): every cycle's deadline does, idle ones too
-        # (a stray datagram is counted and logged within a cycle, as the loop would).
-        self.commands_unread = commands_unread
         self.pacer = Pacer()
         self._inbox: collections.deque = collections.deque()  # loop → tick: decoded commands
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop only: (cycle, deliver)
@@ -193,11 +189,13 @@ class CycleDriver:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
         moving = self.core.motion is not None
         answered = self._take_commands()
+        # Realtime: the loop does not read the socket (udp_endpoint), every deadline does, idle
+        # ones too (a stray datagram is counted and logged within a cycle). Lockstep: the loop
+        # reads it, and a deadline only looks for an answer it has not read yet.
+        unread = not self.lockstep
         ready = self._prepared is not None  # an idle cycle stepped ahead: it goes first
-        if due and not ready and (self.commands_unread or not self.core.decided):
-            # An answer that arrived in time counts, whether the loop has read it or not.
-            self.poll_commands()
-            answered = self._take_commands() or answered
+        if due and not ready and (unread or not self.core.decided):
+            answered = self._read_socket() or answered  # an answer in time counts
         requested = self._holding is not None and self._requests != self._holding
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
@@ -211,9 +209,8 @@ class CycleDriver:
         if prepared is None:
             prepared = self._cycle(backend)
         self._send(prepared)
-        if due and ready and self.commands_unread:  # no command can answer an idle state:
-            self.poll_commands()  # what came is read once the state has left (strays, junk)
-            self._take_commands()
+        if due and ready and unread:  # no command can answer an idle state: what came
+            self._read_socket()  # (strays, junk) is read once the state has left
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         if self._unwatched >= PAUSE_AFTER and self.core.motion is None:
             self.paused = True
@@ -231,6 +228,11 @@ class CycleDriver:
             return self._deadline
         self._deadline = self.pacer.next_deadline(released_at, lockstep=self._lockstep_now)
         return self._deadline
+
+    def _read_socket(self) -> bool:
+        """The datagrams on the socket now, to the core; True if one answered in time."""
+        self.poll_commands()
+        return self._take_commands()
 
     def _take_commands(self) -> bool:
         """Hand the queued commands to the core; True if one answered the open cycle in time."""

@@ -70,7 +70,6 @@ class FrankaSim:
             lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
             has_client=self._has_client, poll_commands=self.udp.poll,
-            commands_unread=config.clock is ClockMode.realtime,
         )
         self._started = False
 
@@ -92,16 +91,13 @@ class FrankaSim:
         try:
             await self.udp.open(self.config.host, watched=self.config.clock is ClockMode.lockstep)
         except OSError:
-            await self.robot.stop()
-            await self.worker.stop()
+            await self._undo_start()
             raise
         if self.gripper is not None:
             try:
                 await self.gripper_endpoint.start(self.config.host, self.config.gripper_port)
             except OSError as exc:
-                await self.robot.stop()
-                self.udp.close()
-                await self.worker.stop()
+                await self._undo_start()
                 if exc.errno == errno.EADDRINUSE:
                     raise AddressInUse(
                         exc.errno, f"{self.config.host}:{self.config.gripper_port} (gripper) is "
@@ -117,6 +113,12 @@ class FrankaSim:
             else "no gripper", self.scene,
         )
         return self
+
+    async def _undo_start(self) -> None:
+        """A later endpoint could not open: close what start() opened before it."""
+        await self.robot.stop()
+        self.udp.close()
+        await self.worker.stop()
 
     async def stop(self) -> None:
         if not self._started:
