@@ -33,6 +33,10 @@ if TYPE_CHECKING:
 GRAVITY = np.array([0.0, 0.0, -9.81])
 DT = 1e-3
 IDLE_MODES = (MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance)
+# Fields copied as they are, from a Measured and from ExternalForces (same names in the state).
+MEASURED_FIELDS = ("q", "dq", "tau_J", "dtau_J", "theta", "dtheta")
+EXTERNAL_FIELDS = ("tau_ext_hat_filtered", "O_F_ext_hat_K", "K_F_ext_hat_K", "joint_contact",
+                   "cartesian_contact", "joint_collision", "cartesian_collision")
 
 
 def _zeros(n: int) -> np.ndarray:
@@ -71,6 +75,8 @@ class StatePublisher:
         self._O_T_EE_c_view = s.matrix("O_T_EE_c", (4, 4))
         self._accelerometer_views = (s.accelerometer_top.reshape(6, 3),
                                      s.accelerometer_bottom.reshape(6, 3))
+        self._measured_fields = [(name, getattr(s, name)) for name in MEASURED_FIELDS]
+        self._external_fields = [(name, getattr(s, name)) for name in EXTERNAL_FIELDS]
         self._elbows = s.span("elbow", "elbow_d")  # (elbow, elbow_d): 4 numbers
         self._elbows_c = s.span("elbow_c", "ddelbow_c")  # (elbow_c, delbow_c, ddelbow_c): 6
         # The commanded signals' last values, to difference the next ones against.
@@ -98,12 +104,8 @@ class StatePublisher:
             self._written = (m, F_T_EE)
             self._O_T_EE = O_T_EE = m.O_T_F @ F_T_EE
             self._O_T_EE_view[...] = O_T_EE
-            s.q[:] = m.q
-            s.dq[:] = m.dq
-            s.tau_J[:] = m.tau_J
-            s.dtau_J[:] = m.dtau_J
-            s.theta[:] = m.theta
-            s.dtheta[:] = m.dtheta
+            for name, field in self._measured_fields:
+                field[:] = getattr(m, name)
             top, bottom = self._accelerometer_views
             top[...] = m.accelerometer_top
             bottom[...] = m.accelerometer_bottom
@@ -144,14 +146,8 @@ class StatePublisher:
         if external.version == self._external_version:
             return
         self._external_version = external.version
-        s = self.buffer
-        s.tau_ext_hat_filtered[:] = external.tau_ext_hat_filtered
-        s.O_F_ext_hat_K[:] = external.O_F_ext_hat_K
-        s.K_F_ext_hat_K[:] = external.K_F_ext_hat_K
-        s.joint_contact[:] = external.joint_contact
-        s.cartesian_contact[:] = external.cartesian_contact
-        s.joint_collision[:] = external.joint_collision
-        s.cartesian_collision[:] = external.cartesian_collision
+        for name, field in self._external_fields:
+            field[:] = getattr(external, name)
 
     def _idle_signals(self, m: Measured, O_T_EE: np.ndarray) -> None:
         """Idle: desired and commanded signals follow the measurement; rates are zero."""
