@@ -145,11 +145,29 @@ class RawClient:
         self.udp.close()
 
 
+def _stat(path: str) -> tuple[str, float]:
+    """(comm, utime + stime in seconds) of a /proc stat file (a process's or a thread's)."""
+    with open(path) as f:
+        head, tail = f.read().rsplit(")", 1)  # comm may contain spaces and parentheses
+    fields = tail.split()
+    return head.split("(", 1)[1], (int(fields[11]) + int(fields[12])) / CLK_TCK  # 14, 15
+
+
 def cpu_seconds(pid: int) -> float:
     """utime + stime of a process (all its threads), in seconds."""
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()  # comm may contain spaces
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # fields 14 and 15 of stat(5)
+    return _stat(f"/proc/{pid}/stat")[1]
+
+
+def thread_cpu_seconds(pid: int) -> dict[str, float]:
+    """utime + stime per thread name of a process (threads of one name summed)."""
+    out: dict[str, float] = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            name, seconds = _stat(f"/proc/{pid}/task/{tid}/stat")
+        except OSError:  # exited meanwhile
+            continue
+        out[name] = out.get(name, 0.0) + seconds
+    return out
 
 
 def rss_mib(pid: int) -> float:

@@ -21,24 +21,12 @@ import time
 import numpy as np
 import pylibfranka
 
-from _common import CLK_TCK, Load, Server, cpu_seconds, responder_command, serve_command, verdict
+from _common import (Load, Server, cpu_seconds, responder_command, serve_command,
+                     thread_cpu_seconds, verdict)
+from franka_sim.physics.worker import OS_THREAD_NAME
 
 PRIVATE_HOST = "127.0.0.201"
-PHYSICS_THREAD = "fsim-physics"  # the name the physics worker gives its OS thread
-
-
-def thread_cpu_seconds(pid: int) -> dict[str, float]:
-    """utime + stime per thread name of a process (threads of one name summed)."""
-    out: dict[str, float] = {}
-    for tid in os.listdir(f"/proc/{pid}/task"):
-        try:
-            with open(f"/proc/{pid}/task/{tid}/stat") as f:
-                head, tail = f.read().rsplit(")", 1)
-        except OSError:  # exited meanwhile
-            continue
-        name, fields = head.split("(", 1)[1], tail.split()
-        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / CLK_TCK
-    return out
+PHYSICS_THREAD = OS_THREAD_NAME.decode()  # the name the physics thread has in /proc
 
 
 def control(host: str, seconds: float, mode: str) -> dict:

@@ -32,8 +32,8 @@ from franka_sim.protocol.enums import (Command, ConnectStatus, ControllerMode, M
 from franka_sim.protocol.framing import FrameReader, decode_request
 from franka_sim.protocol.robot_messages import REQUEST_SIZES, CommandHeader, build_response
 from franka_sim.robot.motion import parse_move
+from franka_sim.server.pacing import LOCKSTEP_WINDOW
 
-WINDOW = 0.1  # s a lockstep cycle waits for its answer, as franka-sim's LOCKSTEP_WINDOW
 URDF = default_urdf_text().encode()
 _MOTION_DONE = COMMAND_DTYPE.fields["motion_generation_finished"][1]
 _TORQUE_DONE = COMMAND_DTYPE.fields["torque_command_finished"][1]
@@ -70,13 +70,13 @@ class Responder:
         deadline = time.monotonic()
         while True:
             lockstep = self.lockstep and self.running
-            timeout = (deadline + WINDOW if lockstep else deadline) - time.monotonic()
+            timeout = (deadline + LOCKSTEP_WINDOW if lockstep else deadline) - time.monotonic()
             readable = [self.tcp, self.udp] if lockstep else [self.tcp]
             ready, _, _ = select.select(readable, [], [], max(timeout, 0.0))
             if self.tcp in ready:
                 self.on_tcp()
             self.read_commands()
-            if lockstep and not self.answered and time.monotonic() < deadline + WINDOW:
+            if lockstep and not self.answered and time.monotonic() < deadline + LOCKSTEP_WINDOW:
                 continue
             if not lockstep and time.monotonic() < deadline:
                 continue
