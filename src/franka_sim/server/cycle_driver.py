@@ -80,6 +80,7 @@ class CycleDriver:
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
         poll_commands: Callable[[], None] = lambda: None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.core = core
         self.worker = worker
@@ -90,6 +91,7 @@ class CycleDriver:
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
         self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
+        self.clock = clock  # the worker's clock (monotonic seconds): deadlines are on it
         self.pacer = Pacer()
         self._inbox: collections.deque = collections.deque()  # loop → tick: decoded commands
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop only: (cycle, deliver)
@@ -176,13 +178,14 @@ class CycleDriver:
         slower. This costs CPU only while a lockstep motion runs, and at most LOCKSTEP_SPIN per
         cycle (a slower answer is waited for asleep, as before).
         """
-        spin_until = time.monotonic() + LOCKSTEP_SPIN
+        clock = self.clock
+        spin_until = clock() + LOCKSTEP_SPIN
         poll, inbox = self.poll_commands, self._inbox
         while True:
             poll()
             if inbox:
                 return True
-            if time.monotonic() > spin_until:
+            if clock() > spin_until:
                 return False
 
     def _tick_locked(self, backend, due: bool) -> float | None:
@@ -199,7 +202,6 @@ class CycleDriver:
         requested = self._holding is not None and self._requests != self._holding
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
-        released_at = time.monotonic()
         self.paused = False
         self._holding = None
         prepared, self._prepared = self._prepared, None
@@ -209,6 +211,7 @@ class CycleDriver:
         if prepared is None:
             prepared = self._cycle(backend)
         self._send(prepared)
+        sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         if due and ready and unread:  # no command can answer an idle state: what came
             self._read_socket()  # (strays, junk) is read once the state has left
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
@@ -224,9 +227,9 @@ class CycleDriver:
             # deadline: so a program of back-to-back motions reproduces to the bit. The cycle
             # goes on the client's next request, or at the end of a lockstep window.
             self._holding = self._requests
-            self._deadline = released_at + LOCKSTEP_WINDOW
+            self._deadline = sent_at + LOCKSTEP_WINDOW
             return self._deadline
-        self._deadline = self.pacer.next_deadline(released_at, lockstep=self._lockstep_now)
+        self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now)
         return self._deadline
 
     def _read_socket(self) -> bool:

@@ -2,9 +2,12 @@
 
 The robot's time is the cycle counter; this only decides the wall-clock instant at which the
 next cycle is released. `realtime` keeps absolute 1 ms deadlines (t0 + k·1 ms) so the rate has
-no drift, but never releases two states closer than `min_spacing` — after an overrun it catches
-up at up to 2 kHz instead of bursting — and re-anchors after a stall too long to catch up (a
-frozen host), because no client benefits from a flood of stale cycles. `lockstep` (only while a
+no drift, but never sends two states closer than `min_spacing` — after an overrun it catches up
+at up to 2 kHz instead of bursting. The spacing counts from the moment the previous state left,
+not from when its cycle was released: a thread held up between the two (a late wake-up, another
+task) would otherwise send the delayed state and the next on-time one back to back. It
+re-anchors after a stall too long to catch up (a frozen host), because no client benefits from
+a flood of stale cycles. `lockstep` (only while a
 motion runs) releases the next cycle as soon as the command answering the current one arrives,
 and otherwise waits up to LOCKSTEP_WINDOW of wall time for it: long enough that a client
 descheduled on a loaded machine (CI) loses no cycle, so the outcome of a run does not depend on
@@ -28,16 +31,16 @@ class Pacer:
     _t0: float | None = None
     _k: int = 0
 
-    def next_deadline(self, released_at: float, *, lockstep: bool) -> float:
-        """The deadline of the cycle after the one released at `released_at`."""
+    def next_deadline(self, sent_at: float, *, lockstep: bool) -> float:
+        """The deadline of the cycle after the one whose state left at `sent_at`."""
         if lockstep:
             self._t0 = None  # realtime pacing re-anchors when lockstep ends
-            return released_at + LOCKSTEP_WINDOW
+            return sent_at + LOCKSTEP_WINDOW
         if self._t0 is None:
-            self._t0, self._k = released_at, 0
+            self._t0, self._k = sent_at, 0
         self._k += 1
         deadline = self._t0 + self._k * self.period
-        if released_at - deadline > self.max_lag:
-            self._t0, self._k = released_at, 1
-            deadline = released_at + self.period
-        return max(deadline, released_at + self.min_spacing)
+        if sent_at - deadline > self.max_lag:
+            self._t0, self._k = sent_at, 1
+            deadline = sent_at + self.period
+        return max(deadline, sent_at + self.min_spacing)
