@@ -170,12 +170,17 @@ def thread_cpu_seconds(pid: int) -> dict[str, float]:
     return out
 
 
-def rss_mib(pid: int) -> float:
+def memory_mib(pid: int) -> tuple[float, float]:
+    """(resident, anonymous) MiB of pid. The resident set includes the libraries' code pages,
+    which every process mapping the same files shares; the anonymous part (heap, stacks, the
+    model and data) is the process's own: what each further server adds to a machine."""
+    found = {}
     with open(f"/proc/{pid}/status") as f:
         for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "RssAnon"):
+                found[key] = int(value.split()[0]) / 1024
+    return found.get("VmRSS", float("nan")), found.get("RssAnon", float("nan"))
 
 
 def cpu_percent(pid: int, seconds: float) -> float:

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from _common import (PRIVATE_HOST, Load, RawClient, Server, cpu_percent, cpu_seconds,
-                     reference_command, rss_mib, serve_command, verdict)
+                     memory_mib, reference_command, serve_command, verdict)
 
 
 def main() -> None:
@@ -75,7 +75,7 @@ def main() -> None:
         w1 = time.perf_counter_ns()
         other_cpu, pressure = load.stop()
         cpu = 100 * (cpu_seconds(pid) - cpu0) / ((w1 - w0) / 1e9) if pid else None
-        rss = rss_mib(pid) if pid else None
+        rss, anon = memory_mib(pid) if pid else (None, None)
         client.close()
     finally:
         if server:
@@ -113,6 +113,7 @@ def main() -> None:
         rows += [
             ("server CPU % of a core (streaming)", f"{cpu:.1f}", "≤ 15", cpu <= 15, ""),
             ("server RSS MiB", f"{rss:.1f}", "≤ 65", rss <= 65, ""),
+            ("  of which its own (anonymous, not shared)", f"{anon:.1f}", "", None, ""),
         ]
     if idle_cpu is not None:
         rows.append(("server CPU % of a core (idle, no client)", f"{idle_cpu:.1f}", "", None, ""))
