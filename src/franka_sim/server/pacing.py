@@ -2,17 +2,17 @@
 
 The robot's time is the cycle counter; this only decides the wall-clock instant at which the
 next cycle is released. `realtime` keeps absolute 1 ms deadlines (t0 + k·1 ms) so the rate has
-no drift, but never sends two states closer than `min_spacing` — after an overrun it catches up
+no drift, but never sends two states closer than `min_spacing`: after an overrun it catches up
 at up to 2 kHz instead of bursting. The spacing counts from the moment the previous state left,
-not from when its cycle was released: a thread held up between the two (a late wake-up, another
-task) would otherwise send the delayed state and the next on-time one back to back. It
-re-anchors after a stall too long to catch up (a frozen host), because no client benefits from
-a flood of stale cycles. `lockstep` (only while a
-motion runs) releases the next cycle as soon as the command answering the current one arrives,
-and otherwise waits up to LOCKSTEP_WINDOW of wall time for it: long enough that a client
-descheduled on a loaded machine (CI) loses no cycle, so the outcome of a run does not depend on
-the host's timing; short enough that a client that went away is still noticed (20 lost cycles
-take 2 s).
+not from when its cycle was released: a thread held up between releasing a cycle and sending
+its state (not run by the machine for a while) would otherwise send that late state and the
+next on-time one back to back. It re-anchors after a stall too long to catch up (a frozen
+host), because no client benefits from a flood of stale cycles. `lockstep` (only while a motion
+runs) releases the next cycle as soon as the command answering the current one arrives, and
+otherwise waits up to LOCKSTEP_WINDOW of wall time, from when the state left, for it: long
+enough that a client descheduled on a loaded machine (CI) loses no cycle, so the outcome of a
+run does not depend on the host's timing; short enough that a client that went away is still
+noticed (20 lost cycles take 2 s).
 """
 
 from __future__ import annotations
