@@ -10,6 +10,7 @@ import threading
 
 import pytest
 
+from franka_sim.protocol.enums import MoveStatus
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD, Pacer
 
@@ -94,3 +95,23 @@ def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
     clock.now, hold_up[0] = deadline, 0.0
     driver._tick(harness.backend, True)
     assert left[-1] - left[-2] >= driver.pacer.min_spacing
+
+
+def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
+    """The part of a step that no reading needs (physics: finish_step) runs once the state has
+    left, so a lockstep client never waits for it; and it has run before the tick returns."""
+    harness = Harness()
+    unfinished_at_send: list[bool] = []
+
+    def send_state(data: bytes) -> None:
+        unfinished_at_send.append(harness.backend._unfinished)
+
+    driver = CycleDriver(harness.core, _Worker(), threading.Lock(), send_state,
+                         clock=_FakeClock())
+    assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
+    driver._tick(harness.backend, True)  # the state that shows the motion running
+    unfinished_at_send.clear()
+    for _ in range(3):  # the motion's cycles (unanswered: the last torques are reused)
+        driver._tick(harness.backend, True)
+        assert not harness.backend._unfinished
+    assert unfinished_at_send == [True, True, True]

@@ -8,6 +8,7 @@ complex-step derivative of the potential energy and the mass matrix from link Ja
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -18,7 +19,7 @@ from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose, frame_pose
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP,
                                          default_urdf_text, load_arm_description)
-from franka_sim.physics.backend import JointCommand
+from franka_sim.physics.backend import JointCommand, Payload
 from franka_sim.physics.mujoco_backend import JOINT_STIFFNESS, MujocoBackend
 from franka_sim.physics.scene import ROTOR_INERTIA_FR3, build_model, collision_bits
 
@@ -333,3 +334,62 @@ def test_a_step_at_rest_is_skipped_and_bit_identical_to_stepping():
     for name in ("qpos", "qvel", "qacc_warmstart", "qfrc_applied", "sensordata"):
         np.testing.assert_array_equal(getattr(lazy.data, name), getattr(eager.data, name))
     assert reused > 2000  # and the rest was really skipped, in every phase that settles
+
+
+def test_finishing_a_step_after_its_readings_changes_no_bit():
+    """A server finishes each step once the state has left (finish_step); a caller that never
+    does gets it done at the start of the next step; and g(q), prepared there, is what the
+    step would compute at its start. All three give the same readings and data, through torque
+    and impedance motions, a push, the Hand moving, a new end effector and a hold that settles
+    (the standstill puts q exactly on the hold, so g(q) moves with it)."""
+    from franka_sim.physics.backend import FingerCommand
+    from franka_sim.physics.scene import default_scene_path
+
+    class GravityAtStart(MujocoBackend):
+        def finish_step(self):
+            super().finish_step()
+            self._gravity_ready = False  # so g(q) is computed at the start of every step
+
+    scene = default_scene_path()
+    server = MujocoBackend(DESC, HOME, scene_xml=scene, fingers=True)
+    plain = MujocoBackend(DESC, HOME, scene_xml=scene, fingers=True)
+    at_start = GravityAtStart(DESC, HOME, scene_xml=scene, fingers=True)
+    backends = (server, plain, at_start)
+    hand_body = server.model.body("hand").id
+    rng = np.random.default_rng(3)
+    load = Payload(0.8, np.array([0.0, 0.02, 0.06]), np.diag([1e-3, 1e-3, 5e-4]))
+    for k in range(3000):
+        if k < 300:
+            cmd = JointCommand.torque(rng.normal(0.0, 2.0, 7))
+            if k >= 150:  # a declared load (SetLoad): its gravity is the robot's model too
+                cmd = dataclasses.replace(cmd, load=load)
+        else:
+            q_d = HOME + 0.05 * math.sin(min(k, 600) * 1e-2)
+            cmd = JointCommand.impedance(q_d, K_IDLE, D_IDLE, hold=k >= 600)
+        fingers = FingerCommand(0.02, 0.1, 20.0) if k == 100 else None
+        if k == 450:
+            for b in backends:
+                b.set_end_effector(1.2, [0.0, 0.0, 0.05], np.diag([3e-3, 3e-3, 2e-3]))
+        for b in backends:
+            b.data.xfrc_applied[hand_body, 0] = 8.0 if 200 <= k < 220 else 0.0
+        a, b, c = (backend.step(cmd, fingers) for backend in backends)
+        server.finish_step()
+        server.gravity(HOME + 0.3)  # a query between two cycles (the scratch data moves)
+        at_start.finish_step()
+        for x, y, z in zip(_measured_fields(a), _measured_fields(b), _measured_fields(c)):
+            np.testing.assert_array_equal(x, y)
+            np.testing.assert_array_equal(x, z)
+    assert np.array_equal(a.q, cmd.q_d)  # the hold did settle (the standstill put q there)
+    plain.finish_step()
+    for name in ("qpos", "qvel", "qacc_warmstart", "qLD", "qfrc_bias", "xpos", "sensordata"):
+        np.testing.assert_array_equal(getattr(server.data, name), getattr(plain.data, name))
+
+
+def test_a_new_end_effector_is_compensated_from_the_next_step(backend):
+    """Gravity compensation is prepared while the state is out (finish_step); a change of
+    what hangs on the flange after that must not leave the next step with the old one."""
+    at_rest = hold(backend, HOME, 50).q.copy()
+    backend.finish_step()
+    backend.set_end_effector(2.5, [0.0, 0.0, 0.08], np.diag([5e-3, 5e-3, 3e-3]))
+    measured = hold(backend, at_rest, 1)
+    np.testing.assert_array_equal(measured.q, at_rest)

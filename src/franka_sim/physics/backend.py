@@ -113,6 +113,10 @@ class Backend(Protocol):
         `fingers` replaces the Hand's finger command from this step on; None keeps the last one.
         """
 
+    def finish_step(self) -> None:
+        """Do now the part of the last step that no reading depends on (else the next step
+        does it first): a server calls it once the state has left, off the client's path."""
+
     def measure(self) -> Measured:
         """The readings of the last step (or reset), without stepping."""
 

@@ -23,7 +23,13 @@ the robot subtracts its model. Without contact it is exactly zero, at the cost o
 Step structure. `mj_step2` then `mj_step1`: the second half of step n followed by the first
 half of step n+1. After it, positions-dependent quantities (flange pose, g(q)) belong to the
 new q that we report, while accelerations (ddq, accelerometers) are those of the step just
-taken — a sensor reports the acceleration over the interval it sampled.
+taken — a sensor reports the acceleration over the interval it sampled. The readings need only
+the kinematics of the new q (mj_kinematics, mj_comPos), so `step` computes those and leaves the
+rest of mj_step1 (inertia, its factorisation, contacts, velocities, bias) and the next step's
+gravity compensation to `finish_step`, which the server calls once the state has left: a
+lockstep client waits for none of it. Whoever does not call it gets it done at the start of the
+next step. Both orders run the same computations on the same inputs: the results are the same
+bits.
 
 Sensors. tau_J is the link-side torque of an elastic joint whose motor carries the rotor
 inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign). theta models the
@@ -168,6 +174,8 @@ class MujocoBackend:
         self._asleep = data.tree_asleep.copy()
         self._last_cmd: JointCommand | None = None
         self._still = 0  # consecutive steps that changed nothing
+        self._unfinished = False  # the last step's mj_step1 is still to do (finish_step)
+        self._gravity_ready = False  # self._rne holds g(q) at the current q (finish_step)
         self.has_fingers = fingers
         if fingers:
             self._init_fingers()
@@ -219,6 +227,7 @@ class MujocoBackend:
 
     # -- the hot path ---------------------------------------------------------------------------
     def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+        self.finish_step()
         same = self._same_inputs(cmd, fingers)
         if same and self._still >= 2 and self._untouched():
             self.data.time += self.timestep  # the step mj_step would take, to the bit
@@ -228,7 +237,8 @@ class MujocoBackend:
             self._asleep[:] = self.data.tree_asleep
         measured = self._step(cmd, fingers)
         self._last_cmd = cmd
-        if same:
+        if same:  # rest detection compares whole steps (an idle hold: no client waits)
+            self.finish_step()
             mujoco.mj_getState(self.model, self.data, self._after, _REST_STATE)
             still = (np.array_equal(self._before, self._after)
                      and np.array_equal(self._asleep, self.data.tree_asleep))
@@ -236,6 +246,15 @@ class MujocoBackend:
         else:
             self._still = 0
         return measured
+
+    def finish_step(self) -> None:
+        """The rest of the last step: mj_step1 beyond the kinematics, and g(q) at the new q."""
+        if not self._unfinished:
+            return
+        self._unfinished = False
+        mujoco.mj_step1(self.model, self.data)
+        self._gravity_at_rest()
+        self._gravity_ready = True
 
     def _same_inputs(self, cmd: JointCommand, fingers: FingerCommand | None) -> bool:
         """The command is the last step's (the same arrays: the core replaces, never mutates)."""
@@ -254,17 +273,19 @@ class MujocoBackend:
 
     def _step(self, cmd: JointCommand, fingers: FingerCommand | None) -> Measured:
         m, d, tmp, applied = self.model, self.data, self._tmp, self._applied
-        if cmd.hold:
-            self._standstill(cmd.q_d, fingers)
+        if cmd.hold and self._standstill(cmd.q_d, fingers):
+            self._gravity_ready = False  # q moved: g(q) is recomputed (as mj_step1 is not)
+        load = cmd.load
+        if not self._gravity_ready or load is not None:  # (a load's reads the scratch's kinematics)
+            self._gravity_at_rest()
+        self._gravity_ready = False
         np.subtract(cmd.q_d, self._q, out=tmp)
         np.multiply(cmd.K, tmp, out=applied)
         np.subtract(cmd.dq_d, self._dq, out=tmp)
         tmp *= cmd.D
         applied += tmp
         applied += cmd.tau_ff
-        self._gravity_at_rest()
         applied += self._gcomp
-        load = cmd.load
         if load is not None:
             self._declared_load_gravity(load)
             applied += self._load_gravity
@@ -277,7 +298,9 @@ class MujocoBackend:
         tau_ext = self._external_torque()  # before step1 rebuilds the constraint rows
         if self.has_fingers:
             self._update_palm()
-        mujoco.mj_step1(m, d)
+        mujoco.mj_kinematics(m, d)  # what the readings need of mj_step1 (see finish_step)
+        mujoco.mj_comPos(m, d)
+        self._unfinished = True
         self._flange_jacobian()
         if load is not None:
             tau_ext -= self._load_gravity
@@ -286,22 +309,27 @@ class MujocoBackend:
             self._load_velocity = None
         return self._record(first=False)  # the drive torque is still in qfrc_applied
 
-    def _standstill(self, q_d: np.ndarray, fingers: FingerCommand | None) -> None:
-        """Within SETTLE of the hold: exactly there, at rest (see Rest in the module docstring)."""
+    def _standstill(self, q_d: np.ndarray, fingers: FingerCommand | None) -> bool:
+        """Within SETTLE of the hold: exactly there, at rest (see Rest in the module docstring).
+        True if a position changed."""
         tmp, q, dq = self._tmp, self._q, self._dq
+        moved = False
         if (np.abs(dq, out=tmp).max() < SETTLE
                 and np.abs(np.subtract(q, q_d, out=tmp), out=tmp).max() < SETTLE):
+            moved = not np.array_equal(q, q_d)
             q[:] = q_d
             dq[:] = 0.0
         if not self.has_fingers:
-            return
+            return moved
         c = fingers or self._finger_cmd
         if c.speed != 0.0:
-            return
+            return moved
         target, fq, fv = 0.5 * c.width, self._finger_q, self._finger_v
         for i, (x, v) in enumerate(zip(fq.tolist(), fv.tolist())):
             if abs(x - target) < SETTLE and abs(v) < SETTLE:
+                moved = moved or x != target
                 fq[i], fv[i] = target, 0.0
+        return moved
 
     def _external_torque(self) -> np.ndarray:
         """(7,) torque the robot exerts on its environment over the step just integrated.
@@ -454,6 +482,7 @@ class MujocoBackend:
             raise ValueError(f"q0 must have shape (7,), got {q0.shape}")
         m, d = self.model, self.data
         self._still, self._last_cmd = 0, None
+        self._unfinished = self._gravity_ready = False  # all is recomputed below
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
         if self.has_fingers:  # open, at rest, the palm matching
@@ -539,6 +568,8 @@ class MujocoBackend:
         """
         inertia = np.asarray(inertia, float).reshape(3, 3)
         self._still = 0  # the model changes: the next step is a new one
+        self.finish_step()  # (the mj_step1 below redoes it for the new model)
+        self._gravity_ready = False
         if mass < 0 or not np.allclose(inertia, inertia.T):
             raise ValueError("mass must be ≥ 0 and inertia symmetric")
         if self.has_fingers:  # the composite of palm + fingers becomes the given body

@@ -2,7 +2,8 @@
 
 A tick is a whole cycle in the physics thread: the commands that arrived since the last one go
 to the core (closing the open cycle's window), the core decides the drives' task, MuJoCo steps
-once, the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
+once (the part of the step the state does not need waits until it has left: `finish_step`),
+the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
 VM every extra hand-over between threads cost more CPU than the cycle's own work. The tick reads
 the UDP socket itself at each deadline (`poll_commands`: the endpoint decodes and checks each
 datagram and hands the commands to `receive`); in lockstep the event loop reads it as well, to
@@ -212,6 +213,7 @@ class CycleDriver:
             prepared = self._cycle(backend)
         self._send(prepared)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
+        backend.finish_step()  # the part of the step no reading needed, now the state is out
         if due and ready and unread:  # no command can answer an idle state: what came
             self._read_socket()  # (strays, junk) is read once the state has left
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
@@ -221,6 +223,7 @@ class CycleDriver:
             return None
         if self.core.motion is None and not moved:  # idle: the next command is the hold
             self._prepared = self._cycle(backend)
+            backend.finish_step()
         if moved and self.lockstep and self.core.motion is None:
             # A lockstep motion just ended. Its client's next step (the next Move, a read)
             # decides when the next cycle goes, not how fast it answered within a 1 ms
