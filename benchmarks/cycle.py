@@ -2,8 +2,10 @@
 
 What the physics thread does per cycle, section by section: the core decides the drives' task
 (`jc`), MuJoCo steps (`step`), the desired-side kinematics (`kin`, generators only), the core
-packs the state (`publish`), and the client's answer is decoded (`decode`) and judged
-(`receive`). A server runs the same code, but after a sleep between cycles, where this VM
+packs the state (`publish`), the step finishes once the state is out (`finish`: the rest of
+mj_step1 and the next g(q), which no client waits for), and the client's answer is decoded
+(`decode`) and judged (`receive`). `critical` is what a lockstep client waits for: all but
+`finish`. A server runs the same code, but after a sleep between cycles, where this VM
 runs it 2–3× slower (docs/benchmarks.md): read these as the floor, not as the server's CPU.
 
     python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint]
@@ -27,7 +29,7 @@ from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.robot.core import RobotCore
 
-SECTIONS = ("jc", "step", "kin", "publish", "decode", "receive")
+SECTIONS = ("jc", "step", "kin", "publish", "finish", "decode", "receive")
 MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
 
 
@@ -63,6 +65,8 @@ def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
         t3 = clock()
         core.publish(measured, kinematics)
         t4 = clock()
+        backend.finish_step()
+        t4f = clock()
         if mode == "torque":
             answer = encode_command(message_id=core.message_id, tau_J_d=[0.0] * 7)
         else:  # a slow swing of joint 7, well inside every limit
@@ -74,7 +78,8 @@ def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
         t6 = clock()
         core.receive_command(command)
         t7 = clock()
-        for name, dt in zip(SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t6 - t5, t7 - t6)):
+        for name, dt in zip(SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4f - t4, t6 - t5,
+                                       t7 - t6)):
             totals[name] += dt
     return {name: total / cycles * 1e6 for name, total in totals.items()}
 
@@ -90,6 +95,7 @@ def main() -> None:
     for name in SECTIONS:
         print(f"  {name:8s} {us[name]:7.1f}")
     print(f"  {'total':8s} {sum(us.values()):7.1f}")
+    print(f"  {'critical':8s} {sum(us.values()) - us['finish']:7.1f}")
 
 
 if __name__ == "__main__":
