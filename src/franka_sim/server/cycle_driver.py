@@ -223,7 +223,6 @@ class CycleDriver:
             return None
         if self.core.motion is None and not moved:  # idle: the next command is the hold
             self._prepared = self._cycle(backend)
-            backend.finish_step()
         if moved and self.lockstep and self.core.motion is None:
             # A lockstep motion just ended. Its client's next step (the next Move, a read)
             # decides when the next cycle goes, not how fast it answered within a 1 ms
