@@ -348,7 +348,7 @@ def test_finishing_a_step_after_its_readings_changes_no_bit():
     class GravityAtStart(MujocoBackend):
         def finish_step(self):
             super().finish_step()
-            self._gravity_ready = False  # so g(q) is computed at the start of every step
+            self._prepared_for = object()  # so g(q) is computed at the start of every step
 
     scene = default_scene_path()
     server = MujocoBackend(DESC, HOME, scene_xml=scene, fingers=True)

@@ -80,6 +80,7 @@ _TAU_J_THETA, _DTAU_J_DTHETA = slice(24, 39), slice(40, 55)  # each pair with a 
 _ROWS = 64  # the 7-vectors
 _O_T_F, _J_F, _TOP, _BOTTOM = slice(64, 80), slice(80, 122), slice(122, 140), slice(140, 158)
 _READINGS = 158
+_UNPREPARED = object()  # no g(q) prepared for the next step (see finish_step)
 
 
 class _FlangeBlock:
@@ -175,7 +176,7 @@ class MujocoBackend:
         self._last_cmd: JointCommand | None = None
         self._still = 0  # consecutive steps that changed nothing
         self._unfinished = False  # the last step's mj_step1 is still to do (finish_step)
-        self._gravity_ready = False  # self._rne holds g(q) at the current q (finish_step)
+        self._prepared_for: object = _UNPREPARED  # the load (or None) g(q) is prepared with
         self.has_fingers = fingers
         if fingers:
             self._init_fingers()
@@ -248,13 +249,21 @@ class MujocoBackend:
         return measured
 
     def finish_step(self) -> None:
-        """The rest of the last step: mj_step1 beyond the kinematics, and g(q) at the new q."""
+        """The rest of the last step: mj_step1 beyond the kinematics, and g(q) at the new q
+        (for the load the last command declared: the next one almost always declares it too)."""
         if not self._unfinished:
             return
         self._unfinished = False
         mujoco.mj_step1(self.model, self.data)
+        self._prepare_gravity(self._last_cmd.load)
+
+    def _prepare_gravity(self, load: Payload | None) -> None:
+        """g(q) at the current q: the arm's into self._rne, the declared load's (on the same
+        scratch kinematics) into self._load_gravity."""
         self._gravity_at_rest()
-        self._gravity_ready = True
+        if load is not None:
+            self._declared_load_gravity(load)
+        self._prepared_for = load
 
     def _same_inputs(self, cmd: JointCommand, fingers: FingerCommand | None) -> bool:
         """The command is the last step's (the same arrays: the core replaces, never mutates)."""
@@ -273,12 +282,12 @@ class MujocoBackend:
 
     def _step(self, cmd: JointCommand, fingers: FingerCommand | None) -> Measured:
         m, d, tmp, applied = self.model, self.data, self._tmp, self._applied
-        if cmd.hold and self._standstill(cmd.q_d, fingers):
-            self._gravity_ready = False  # q moved: g(q) is recomputed (as mj_step1 is not)
         load = cmd.load
-        if not self._gravity_ready or load is not None:  # (a load's reads the scratch's kinematics)
-            self._gravity_at_rest()
-        self._gravity_ready = False
+        if cmd.hold and self._standstill(cmd.q_d, fingers):
+            self._prepared_for = _UNPREPARED  # q moved: g(q) is recomputed (mj_step1 is not)
+        if self._prepared_for is not load:
+            self._prepare_gravity(load)
+        self._prepared_for = _UNPREPARED
         np.subtract(cmd.q_d, self._q, out=tmp)
         np.multiply(cmd.K, tmp, out=applied)
         np.subtract(cmd.dq_d, self._dq, out=tmp)
@@ -287,7 +296,6 @@ class MujocoBackend:
         applied += cmd.tau_ff
         applied += self._gcomp
         if load is not None:
-            self._declared_load_gravity(load)
             applied += self._load_gravity
         if self.has_fingers:
             self._drive_fingers(fingers)
@@ -482,7 +490,7 @@ class MujocoBackend:
             raise ValueError(f"q0 must have shape (7,), got {q0.shape}")
         m, d = self.model, self.data
         self._still, self._last_cmd = 0, None
-        self._unfinished = self._gravity_ready = False  # all is recomputed below
+        self._unfinished, self._prepared_for = False, _UNPREPARED  # all is recomputed below
         mujoco.mj_resetData(m, d)
         self._q[:] = q0
         if self.has_fingers:  # open, at rest, the palm matching
@@ -568,10 +576,10 @@ class MujocoBackend:
         """
         inertia = np.asarray(inertia, float).reshape(3, 3)
         self._still = 0  # the model changes: the next step is a new one
-        self.finish_step()  # (the mj_step1 below redoes it for the new model)
-        self._gravity_ready = False
         if mass < 0 or not np.allclose(inertia, inertia.T):
             raise ValueError("mass must be ≥ 0 and inertia symmetric")
+        # The mj_step1 below is the rest of the last step, for the new model; g(q) changes.
+        self._unfinished, self._prepared_for = False, _UNPREPARED
         if self.has_fingers:  # the composite of palm + fingers becomes the given body
             self._palm.set_composite(mass, com, 0.5 * (inertia + inertia.T))
             self._palm_at = None
