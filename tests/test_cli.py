@@ -101,7 +101,7 @@ def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
 def test_the_server_runs_without_the_cli_machinery():
     """`serve` parses its flags, then becomes franka_sim.serving in the same process: the
     flag parser's libraries (typer, click, rich, pydantic) are not resident in the server, nor
-    is MuJoCo's renderer (a server never draws)."""
+    is MuJoCo's renderer (a server never draws), nor OpenSSL (the FCI has no TLS)."""
     from conftest import running_sim
 
     with running_sim("--clock", "lockstep") as sim:
@@ -112,6 +112,7 @@ def test_the_server_runs_without_the_cli_machinery():
         maps = Path(f"/proc/{pid}/maps").read_text()
         assert "pydantic_core" not in maps and "mujoco" in maps
         assert "mujoco/_render" not in maps and "glfw" not in maps
+        assert "libcrypto" not in maps and "_ssl." not in maps
         robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
         assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
         del robot

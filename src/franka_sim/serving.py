@@ -9,7 +9,6 @@ one JSON argument; this module takes no flags of its own.
 
 from __future__ import annotations
 
-import asyncio
 import ctypes
 import gc
 import json
@@ -22,6 +21,7 @@ from enum import Enum
 from pathlib import Path
 
 from franka_sim.config import ClockMode, Config
+from franka_sim.footprint import leave_out_renderer, leave_out_tls
 
 log = logging.getLogger("franka_sim")
 
@@ -47,20 +47,9 @@ def _config(settings: dict) -> Config:
     return Config(**settings)
 
 
-# MuJoCo's optional renderer (its OpenGL bindings, glfw, cffi): `import mujoco` loads it when
-# present and goes on without it when it is not. A server never renders; ~3 MiB resident.
-_RENDERER_MODULES = ("mujoco._render", "mujoco.rendering", "mujoco.rendering.classic",
-                     "mujoco.rendering.classic.renderer", "mujoco.rendering.classic.gl_context")
-
-
-def _without_renderer() -> None:
-    """Make `import mujoco` skip its renderer in this process (before anything imports it)."""
-    for name in _RENDERER_MODULES:
-        sys.modules.setdefault(name, None)  # an import of it now raises ImportError
-
-
 def main(blob: str) -> int:
-    _without_renderer()
+    leave_out_renderer()
+    leave_out_tls()  # before asyncio, uvloop and construct are imported
     args = json.loads(blob)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -100,6 +89,8 @@ def _release_unused_heap() -> None:
 
 
 async def _serve(config: Config) -> None:
+    import asyncio
+
     from franka_sim.description.urdf import DescriptionError
     from franka_sim.physics.scene import SceneError
     from franka_sim.server.sim import AddressInUse, FrankaSim

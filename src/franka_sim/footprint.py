@@ -1,0 +1,73 @@
+"""What the serving process leaves out of memory: libraries a robot server never calls.
+
+Only `franka_sim.serving` (the process `franka-sim serve` becomes) applies these, before it
+imports anything else; a program embedding `FrankaSim` keeps its own imports untouched.
+
+- MuJoCo's renderer (OpenGL bindings, glfw, cffi): `import mujoco` goes on without it when
+  it is missing, and a server never draws (~3 MiB resident).
+- TLS. The FCI speaks plain TCP and UDP, yet asyncio and uvloop import `ssl` at start-up
+  and construct imports `hashlib`; both load OpenSSL's libcrypto (~4.5 MiB resident with
+  the `ssl` module). hashlib has built-in digests for when OpenSSL is absent, and uvloop
+  only reads names off `ssl` while importing: a stand-in module gives it those names, and
+  anything that would really use TLS in this process fails with a message saying why.
+"""
+
+from __future__ import annotations
+
+import itertools
+import sys
+import types
+
+_RENDERER_MODULES = ("mujoco._render", "mujoco.rendering", "mujoco.rendering.classic",
+                     "mujoco.rendering.classic.renderer", "mujoco.rendering.classic.gl_context")
+
+NO_TLS = "the franka-sim serving process has no TLS (the FCI protocol does not use it)"
+
+
+def leave_out_renderer() -> None:
+    """Make `import mujoco` skip its renderer (an import of it now raises ImportError)."""
+    for name in _RENDERER_MODULES:
+        sys.modules.setdefault(name, None)
+
+
+def leave_out_tls() -> None:
+    """Keep OpenSSL out of this process; call before asyncio, uvloop or construct is imported."""
+    if "ssl" in sys.modules or "_hashlib" in sys.modules:
+        return  # too late: OpenSSL is loaded already, a stand-in would only hide the real one
+    sys.modules["_hashlib"] = None  # hashlib falls back to its built-in digests
+    sys.modules["ssl"] = _tls_stand_in()
+
+
+class _SSLError(OSError):
+    pass
+
+
+def _refuse(*_args, **_kwargs):
+    raise RuntimeError(NO_TLS)
+
+
+class _Refused:
+    """A TLS object (context, memory BIO) that cannot be made here."""
+
+    def __init__(self, *_args, **_kwargs) -> None:
+        raise RuntimeError(NO_TLS)
+
+
+def _tls_stand_in() -> types.ModuleType:
+    module = types.ModuleType("ssl", NO_TLS)
+    module.SSLError = _SSLError
+    module.create_default_context = _refuse
+    module.SSLContext = module.MemoryBIO = module.SSLObject = module.SSLSocket = _Refused
+    numbers = itertools.count(1000)
+
+    def __getattr__(name: str):
+        # What importers read besides the above: error classes (caught, never raised here)
+        # and SSL_ERROR_* / PROTOCOL_* numbers (compared, never sent anywhere).
+        if name.startswith("__"):
+            raise AttributeError(name)
+        value = next(numbers) if name.isupper() else type(name, (_SSLError,), {})
+        setattr(module, name, value)
+        return value
+
+    module.__getattr__ = __getattr__
+    return module
