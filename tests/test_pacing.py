@@ -10,6 +10,7 @@ import threading
 
 import pytest
 
+from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import MoveStatus
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD, Pacer
@@ -68,8 +69,14 @@ class _FakeClock:
 
 
 class _Worker:
+    def __init__(self) -> None:
+        self.watched: list = []
+
     def wake(self) -> None:
         pass
+
+    def watch(self, sock) -> None:
+        self.watched.append(sock)
 
 
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
@@ -115,3 +122,37 @@ def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
         driver._tick(harness.backend, True)
         assert not harness.backend._unfinished
     assert unfinished_at_send == [True, True, True]
+
+
+def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_socket():
+    """In lockstep only the physics thread reads the answers. When its short spin finds none,
+    the tick has the worker watch the command socket; the wake that follows (not due) reads the
+    answer and releases the next cycle at once. No answer, no cycle."""
+    harness = Harness()
+    sent: list[int] = []
+    on_socket: list[bytes] = []
+    command_socket = object()  # what the worker is asked to watch (it only passes it on)
+    worker = _Worker()
+
+    def poll_commands() -> None:
+        while on_socket:
+            driver.receive(decode_command(on_socket.pop(0)))
+
+    driver = CycleDriver(harness.core, worker, threading.Lock(),
+                         lambda data: sent.append(int(decode_state(data)["message_id"])),
+                         lockstep=True, poll_commands=poll_commands,
+                         command_socket=lambda: command_socket)
+    assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
+    deadline = driver._tick(harness.backend, True)  # the motion's first state; no answer yet
+    assert worker.watched == [command_socket]
+    assert deadline == pytest.approx(driver._deadline)
+    first = len(sent)
+
+    driver._tick(harness.backend, False)  # woken with nothing on the socket: nothing goes
+    assert len(sent) == first and worker.watched == [command_socket] * 2
+
+    on_socket.append(encode_command(message_id=sent[-1], tau_J_d=[0.0] * 7))
+    driver._tick(harness.backend, False)  # the datagram woke it: the next cycle goes at once
+    assert sent[first:] == [sent[first - 1] + 1]
+    assert harness.core.success_rate > 0.0
+    assert worker.watched == [command_socket] * 3  # and it waits for the next answer again

@@ -124,3 +124,68 @@ def test_a_failing_tick_stops_the_clock_and_jobs_go_on():
         await worker.stop()
 
     asyncio.run(run())
+
+
+def _udp_pair():
+    import socket
+
+    receiver = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    receiver.bind(("127.0.0.1", 0))
+    receiver.setblocking(False)
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sender.connect(receiver.getsockname())
+    return receiver, sender
+
+
+def test_data_on_a_watched_socket_runs_the_tick_at_once_and_not_due():
+    """A lockstep cycle waits for its answer this way: the datagram itself wakes the worker."""
+    async def run():
+        worker = await _worker()
+        receiver, sender = _udp_pair()
+        far = 30 * MARGIN
+
+        def plan(n, now):
+            if n == 1:
+                worker.watch(receiver)  # ticks run in the worker: the watch is theirs to set
+            return ticks.calls[0][1] + far
+
+        ticks = Ticks(plan)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(1)
+        sender.send(b"answer")
+        await ticks.wait_for(2)
+        (_, t1, _), (due2, t2, thread) = ticks.calls
+        assert not due2 and t2 < t1 + far and thread == "test-physics"
+        assert receiver.recv(64) == b"answer"  # the worker only woke the tick; it read nothing
+        await worker.stop()
+        receiver.close()
+        sender.close()
+
+    asyncio.run(run())
+
+
+def test_a_watch_holds_only_until_the_next_tick():
+    async def run():
+        worker = await _worker()
+        receiver, sender = _udp_pair()
+        far = 30 * MARGIN
+
+        def plan(n, now):
+            if n == 1:
+                worker.watch(receiver)
+            return ticks.calls[0][1] + far
+
+        ticks = Ticks(plan)
+        await worker.run_clock(ticks)
+        await ticks.wait_for(1)
+        worker.wake()  # the second tick does not watch again
+        await ticks.wait_for(2)
+        sender.send(b"late")
+        assert await worker.call(lambda backend: backend) == "backend"  # jobs still run
+        await asyncio.sleep(0.2)
+        assert len(ticks.calls) == 2
+        await worker.stop()
+        receiver.close()
+        sender.close()
+
+    asyncio.run(run())

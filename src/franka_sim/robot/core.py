@@ -95,11 +95,6 @@ class RobotCore:
         self._window_closed = False  # the open cycle's command window was closed early
 
     # -- the cycle ---------------------------------------------------------------------------
-    @property
-    def decided(self) -> bool:
-        """Whether the next cycle's joint command is known now (idle, or its window closed)."""
-        return self.motion is None or not self.motion.running or self._window_closed
-
     def joint_command(self) -> JointCommand:
         """Release the next cycle: close the command window if still open, decide the drives'
         task. Idempotent until the next publish (a second call only recomputes)."""

@@ -4,19 +4,19 @@ A tick is a whole cycle in the physics thread: the commands that arrived since t
 to the core (closing the open cycle's window), the core decides the drives' task, MuJoCo steps
 once (the part of the step the state does not need waits until it has left: `finish_step`),
 the core packs the RobotState and the thread sends it. One wake-up per cycle: on a 2-core
-VM every extra hand-over between threads cost more CPU than the cycle's own work. The tick reads
-the UDP socket itself at each deadline (`poll_commands`: the endpoint decodes and checks each
-datagram and hands the commands to `receive`); in lockstep the event loop reads it as well, to
-wake a tick that waits asleep for an answer. The loop owns the endpoints and serves TCP. The
-core is shared between the two threads, so it is only touched with `lock` held: the tick holds
-it for the whole cycle, the TCP endpoints for each request.
+VM every extra hand-over between threads cost more CPU than the cycle's own work. Only the tick
+reads the UDP socket (`poll_commands`: the endpoint decodes and checks each datagram and hands
+the commands to `receive`): at each deadline, and in lockstep also when an answer arrives (the
+worker watches the socket while a lockstep cycle waits, see PhysicsWorker.watch). The loop owns
+the endpoints and serves TCP. The core is shared between the two threads, so it is only touched
+with `lock` held: the tick holds it for the whole cycle, the TCP endpoints for each request.
 
 While the arm is idle the next cycle's command is known at once (the hold), so the tick steps
 and packs it straight after sending the current state, and the next tick only sends it: idle
 states leave on their deadline to within this thread's wake-up. During a motion the command
 comes from the client, so the cycle runs when its deadline comes (realtime) or when the answer
-arrives (lockstep, see pacing.py; the tick then reads the socket itself for a moment before
-going to sleep, see `_await_answer`), and the state leaves as soon as it is packed.
+arrives (lockstep, see pacing.py; the tick reads the socket for a moment before it goes to
+sleep watching it, see `_await_answer`), and the state leaves as soon as it is packed.
 
 In lockstep the cycle after a motion's last waits for the client's next request (or a lockstep
 window), so how many idle cycles separate two motions does not depend on how fast the client
@@ -81,6 +81,7 @@ class CycleDriver:
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
         poll_commands: Callable[[], None] = lambda: None,
+        command_socket: Callable[[], object] = lambda: None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.core = core
@@ -92,9 +93,10 @@ class CycleDriver:
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
         self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
+        self.command_socket = command_socket  # the socket poll_commands reads (or None)
         self.clock = clock  # the worker's clock (monotonic seconds): deadlines are on it
         self.pacer = Pacer()
-        self._inbox: collections.deque = collections.deque()  # loop → tick: decoded commands
+        self._inbox: collections.deque = collections.deque()  # poll → tick: decoded commands
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop only: (cycle, deliver)
         self._loop: asyncio.AbstractEventLoop | None = None
         self._running = False
@@ -121,11 +123,9 @@ class CycleDriver:
         await self.worker.run_clock(None)  # no tick runs after this
 
     def receive(self, command) -> None:
-        """A decoded RobotCommand from the client: the next tick hands it to the core; in
-        lockstep it runs now (it may be the answer the open cycle waits for)."""
+        """A decoded RobotCommand from the client (physics thread, from poll_commands): the
+        tick hands it to the core."""
         self._inbox.append(command)
-        if self.lockstep:
-            self.worker.wake()
 
     def resume(self) -> None:
         """A client arrived: a paused clock starts again at once (a wake-up that finds the
@@ -163,7 +163,10 @@ class CycleDriver:
         try:
             with self.lock:
                 deadline = self._tick_locked(backend, due)
-            while self._lockstep_now and self._await_answer():
+            while self._lockstep_now:
+                if not self._await_answer():
+                    self.worker.watch(self.command_socket())  # wait asleep for the answer
+                    break
                 with self.lock:
                     deadline = self._tick_locked(backend, False)
             return deadline
@@ -174,10 +177,10 @@ class CycleDriver:
     def _await_answer(self) -> bool:
         """Lockstep: read the socket for the answer for up to LOCKSTEP_SPIN, without sleeping.
 
-        A client answers within ~50 µs here; a thread that slept meanwhile needs a hand-over
-        from the loop and then runs its cycle on cold caches, which made a lockstep cycle ~30 %
-        slower. This costs CPU only while a lockstep motion runs, and at most LOCKSTEP_SPIN per
-        cycle (a slower answer is waited for asleep, as before).
+        A client answers within ~50 µs here; a thread that slept meanwhile is woken by the
+        kernel and then runs its cycle on cold caches, which made a lockstep cycle ~30 % slower.
+        This costs CPU only while a lockstep motion runs, and at most LOCKSTEP_SPIN per cycle (a
+        slower answer is waited for asleep, the worker watching the socket).
         """
         clock = self.clock
         spin_until = clock() + LOCKSTEP_SPIN
@@ -193,12 +196,10 @@ class CycleDriver:
         lockstep = self._lockstep_now  # (before the answer: it may end the motion)
         moving = self.core.motion is not None
         answered = self._take_commands()
-        # Realtime: the loop does not read the socket (udp_endpoint), every deadline does, idle
-        # ones too (a stray datagram is counted and logged within a cycle). Lockstep: the loop
-        # reads it, and a deadline only looks for an answer it has not read yet.
-        unread = not self.lockstep
+        # Only this thread reads the socket: at every deadline, idle ones too (a stray datagram
+        # is counted and logged within a cycle); in lockstep also in _await_answer (_tick).
         ready = self._prepared is not None  # an idle cycle stepped ahead: it goes first
-        if due and not ready and (unread or not self.core.decided):
+        if due and not ready:
             answered = self._read_socket() or answered  # an answer in time counts
         requested = self._holding is not None and self._requests != self._holding
         if not due and not self.paused and not (answered and lockstep) and not requested:
@@ -214,7 +215,7 @@ class CycleDriver:
         self._send(prepared)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         backend.finish_step()  # the part of the step no reading needed, now the state is out
-        if due and ready and unread:  # no command can answer an idle state: what came
+        if due and ready:  # no command can answer an idle state: what came
             self._read_socket()  # (strays, junk) is read once the state has left
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         if self._unwatched >= PAUSE_AFTER and self.core.motion is None:

@@ -70,6 +70,7 @@ class FrankaSim:
             lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
             finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
             has_client=self._has_client, poll_commands=self.udp.poll,
+            command_socket=lambda: self.udp.sock,
         )
         self._started = False
 
@@ -87,9 +88,9 @@ class FrankaSim:
                     "(another franka-sim or robot bridge on this address?)",
                 ) from exc
             raise
-        # Realtime: the physics thread alone reads the commands, at each deadline (udp_endpoint).
+        # The physics thread alone reads the commands (udp_endpoint).
         try:
-            await self.udp.open(self.config.host, watched=self.config.clock is ClockMode.lockstep)
+            self.udp.open(self.config.host)
         except OSError:
             await self._undo_start()
             raise

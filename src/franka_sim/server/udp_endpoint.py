@@ -4,21 +4,16 @@ States go to (client IP, the port it announced in Connect); libfranka answers fr
 socket, so a datagram from any other address is not the client's and is dropped and counted.
 
 The event loop opens and closes the socket; the physics thread sends every state on it and reads
-the commands (`poll`) when a cycle needs them. With the realtime clock that is all: a command
-only matters at its cycle's deadline, so the loop does not watch the socket, and a cycle costs
-one thread wake-up instead of two (one for the deadline, one for each datagram). In lockstep
-the loop reads it too, through an asyncio datagram transport (`watched`): the physics thread
-waits for an answer asleep once its short spin is over, and the loop's read of the answer is
-what wakes it. (A transport, not a Python reader callback: with uvloop it reads in C, and a
-Python reader would contend with the spinning physics thread for the interpreter: ~20 % slower
-lockstep here.)
+the commands (`poll`) when a cycle needs them: at its deadline, and in lockstep as soon as the
+answer is there (the physics worker watches the socket then). The loop never reads it: a
+datagram wakes one thread, the one that runs the cycle, and on a 2-core VM every further
+wake-up (a reader in the loop) cost more than a cycle's own work and, in lockstep, ~10 % of
+the speed, taking the interpreter from the thread that runs the cycle.
 """
 
 from __future__ import annotations
 
-import asyncio
 import logging
-import os
 import socket
 from typing import Callable
 
@@ -35,22 +30,11 @@ class UdpEndpoint:
         self.on_command = on_command
         self.target: tuple[str, int] | None = None
         self.sock: socket.socket | None = None
-        self._transport: asyncio.DatagramTransport | None = None  # the loop's reader, if any
         self.dropped_foreign = 0
         self.dropped_malformed = 0
 
-    async def open(self, host: str, *, watched: bool) -> None:
-        """Bind a UDP socket on `host` (an ephemeral port); with `watched`, the running loop
-        reads it too."""
-        if watched:
-            loop = asyncio.get_running_loop()
-            self._transport, _ = await loop.create_datagram_endpoint(
-                lambda: _Reader(self), local_addr=(host, 0))
-            own = self._transport.get_extra_info("socket")
-            # A duplicate descriptor of the transport's socket (same port, non-blocking), for
-            # the physics thread's sends and reads.
-            self.sock = socket.socket(own.family, own.type, fileno=os.dup(own.fileno()))
-            return
+    def open(self, host: str) -> None:
+        """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
         family, _, _, _, address = socket.getaddrinfo(host, 0, type=socket.SOCK_DGRAM)[0]
         sock = socket.socket(family, socket.SOCK_DGRAM)
         try:
@@ -65,9 +49,6 @@ class UdpEndpoint:
         sock, self.sock = self.sock, None
         if sock is not None:
             sock.close()
-        if self._transport is not None:
-            self._transport.close()
-            self._transport = None
 
     @property
     def address(self) -> tuple[str, int]:
@@ -114,17 +95,3 @@ class UdpEndpoint:
             log.warning("dropped UDP datagram from the client: %s", exc)
             return
         self.on_command(command)
-
-
-class _Reader(asyncio.DatagramProtocol):
-    """The loop's side of a watched endpoint: every datagram goes to the endpoint."""
-
-    def __init__(self, endpoint: UdpEndpoint) -> None:
-        self.endpoint = endpoint
-
-    def datagram_received(self, data: bytes, addr) -> None:  # type: ignore[override]
-        self.endpoint.datagram_received(data, addr)
-
-    def error_received(self, exc: Exception) -> None:  # type: ignore[override]
-        # ICMP port unreachable after a client vanished: nothing to do but keep serving.
-        log.debug("UDP error: %s", exc)
