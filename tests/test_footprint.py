@@ -4,9 +4,11 @@ Each check runs in a fresh interpreter: what a process has imported cannot be un
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 
 def _run(code: str) -> str:
@@ -75,3 +77,24 @@ def test_a_process_that_already_loaded_tls_keeps_the_real_one():
         print(sys.modules["ssl"] is ssl, ssl.create_default_context() is not None)
     """)
     assert out.split() == ["True", "True"]
+
+
+def test_a_uvloop_the_stand_in_does_not_satisfy_gets_the_real_tls(tmp_path):
+    """A future uvloop might read something off `ssl` the stand-in lacks: the serving process
+    then starts again with OpenSSL (one warning) instead of failing to serve."""
+    import pylibfranka
+    from conftest import running_sim
+
+    fake = tmp_path / "uvloop"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import asyncio, ssl\n"
+        "ssl.OPENSSL_VERSION.split()  # a string on the real module\n"
+        "run = asyncio.run\n")
+    env = {"PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    with running_sim(env=env) as sim:
+        assert len(sim.log_matching("uvloop does not import without OpenSSL")) == 1
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del robot
+        assert "libcrypto" in Path(f"/proc/{sim.proc.pid}/maps").read_text()

@@ -9,7 +9,8 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   and construct imports `hashlib`; both load OpenSSL's libcrypto (~4.5 MiB resident with
   the `ssl` module). hashlib has built-in digests for when OpenSSL is absent, and uvloop
   only reads names off `ssl` while importing: a stand-in module gives it those names, and
-  anything that would really use TLS in this process fails with a message saying why.
+  anything that would really use TLS in this process fails with a message saying why. (A
+  uvloop the stand-in does not satisfy makes the serving process start again with OpenSSL.)
 """
 
 from __future__ import annotations

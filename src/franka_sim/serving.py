@@ -47,22 +47,43 @@ def _config(settings: dict) -> Config:
     return Config(**settings)
 
 
+# Set when a serving process starts again with OpenSSL (see _import_uvloop).
+_KEEP_TLS = "_FRANKA_SIM_SERVING_KEEPS_TLS"
+
+
 def main(blob: str) -> int:
     leave_out_renderer()
-    leave_out_tls()  # before asyncio, uvloop and construct are imported
+    if _KEEP_TLS not in os.environ:
+        leave_out_tls()  # before asyncio, uvloop and construct are imported
     args = json.loads(blob)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:
         _realtime_scheduling(args["rt_priority"])
-    import uvloop
-
+    uvloop = _import_uvloop(blob)
     try:
         uvloop.run(_serve(_config(args["config"])))
     except _Failed as exc:
         print(f"franka-sim: {exc}", file=sys.stderr)
         return 1
     return 0
+
+
+def _import_uvloop(blob: str):
+    """uvloop, which reads names off `ssl` as it imports. Should a uvloop this stand-in does not
+    satisfy be installed, the process starts again (same pid) with OpenSSL: ~4.5 MiB more."""
+    try:
+        import uvloop
+    except Exception as exc:  # noqa: BLE001 - whatever the stand-in failed to provide
+        if _KEEP_TLS in os.environ:
+            raise
+        log.warning("uvloop does not import without OpenSSL (%s: %s); starting again with it",
+                    type(exc).__name__, exc)
+        os.environ[_KEEP_TLS] = "1"
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
+    return uvloop
 
 
 def _realtime_scheduling(priority: int) -> None:
