@@ -137,25 +137,32 @@ def _udp_pair():
     return receiver, sender
 
 
+FAR = 30 * MARGIN
+
+
+async def _first_tick_watching(worker, sock) -> Ticks:
+    """A clock whose first tick watches `sock`; every deadline is FAR after that tick."""
+    def plan(n, now):
+        if n == 1:
+            worker.watch(sock)  # ticks run in the worker: the watch is theirs to set
+        return ticks.calls[0][1] + FAR
+
+    ticks = Ticks(plan)
+    await worker.run_clock(ticks)
+    await ticks.wait_for(1)
+    return ticks
+
+
 def test_data_on_a_watched_socket_runs_the_tick_at_once_and_not_due():
     """A lockstep cycle waits for its answer this way: the datagram itself wakes the worker."""
     async def run():
         worker = await _worker()
         receiver, sender = _udp_pair()
-        far = 30 * MARGIN
-
-        def plan(n, now):
-            if n == 1:
-                worker.watch(receiver)  # ticks run in the worker: the watch is theirs to set
-            return ticks.calls[0][1] + far
-
-        ticks = Ticks(plan)
-        await worker.run_clock(ticks)
-        await ticks.wait_for(1)
+        ticks = await _first_tick_watching(worker, receiver)
         sender.send(b"answer")
         await ticks.wait_for(2)
         (_, t1, _), (due2, t2, thread) = ticks.calls
-        assert not due2 and t2 < t1 + far and thread == "test-physics"
+        assert not due2 and t2 < t1 + FAR and thread == "test-physics"
         assert receiver.recv(64) == b"answer"  # the worker only woke the tick; it read nothing
         await worker.stop()
         receiver.close()
@@ -168,16 +175,7 @@ def test_a_watch_holds_only_until_the_next_tick():
     async def run():
         worker = await _worker()
         receiver, sender = _udp_pair()
-        far = 30 * MARGIN
-
-        def plan(n, now):
-            if n == 1:
-                worker.watch(receiver)
-            return ticks.calls[0][1] + far
-
-        ticks = Ticks(plan)
-        await worker.run_clock(ticks)
-        await ticks.wait_for(1)
+        ticks = await _first_tick_watching(worker, receiver)
         worker.wake()  # the second tick does not watch again
         await ticks.wait_for(2)
         sender.send(b"late")
