@@ -85,7 +85,7 @@ class PhysicsWorker:
         self._jobs.append(job)
         try:
             self._bell.send(b"\0")
-        except BlockingIOError:  # the pair's buffer is full: the worker has wake-ups pending
+        except OSError:  # the pair's buffer is full (wake-ups are pending), or it is stopped
             pass
 
     async def call(self, fn: Callable, *args) -> Any:
@@ -126,8 +126,9 @@ class PhysicsWorker:
         if self._thread.is_alive():
             self._put(_STOP)
             await asyncio.get_running_loop().run_in_executor(None, self._thread.join, 2.0)
-        self._doorbell.close()
-        self._bell.close()
+        if not self._thread.is_alive():  # (a thread stuck in a job keeps its doorbell)
+            self._doorbell.close()
+            self._bell.close()
 
     def _next_job(self) -> Any:
         """The next job (_WAKE when the watched socket has data); None when the deadline came
