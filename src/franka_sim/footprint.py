@@ -43,12 +43,8 @@ class _SSLError(OSError):
     pass
 
 
-def _refuse(*_args, **_kwargs):
-    raise RuntimeError(NO_TLS)
-
-
 class _Refused:
-    """A TLS object (context, memory BIO) that cannot be made here."""
+    """A TLS object (context, memory BIO, default context) that cannot be made here."""
 
     def __init__(self, *_args, **_kwargs) -> None:
         raise RuntimeError(NO_TLS)
@@ -57,8 +53,8 @@ class _Refused:
 def _tls_stand_in() -> types.ModuleType:
     module = types.ModuleType("ssl", NO_TLS)
     module.SSLError = _SSLError
-    module.create_default_context = _refuse
     module.SSLContext = module.MemoryBIO = module.SSLObject = module.SSLSocket = _Refused
+    module.create_default_context = _Refused
     numbers = itertools.count(1000)
 
     def __getattr__(name: str):

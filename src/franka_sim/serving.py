@@ -31,7 +31,12 @@ def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
     settings = {name: value.value if isinstance(value, Enum) else
                 str(value) if isinstance(value, Path) else value
                 for name, value in asdict(config).items()}
-    blob = json.dumps({"config": settings, "rt_priority": rt_priority, "log_level": log_level})
+    _become_serving(json.dumps({"config": settings, "rt_priority": rt_priority,
+                                "log_level": log_level}))
+
+
+def _become_serving(blob: str) -> None:
+    """Replace this process (same pid) with `python -m franka_sim.serving blob`."""
     sys.stdout.flush()
     sys.stderr.flush()
     os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
@@ -80,9 +85,7 @@ def _import_uvloop(blob: str):
         log.warning("uvloop does not import without OpenSSL (%s: %s); starting again with it",
                     type(exc).__name__, exc)
         os.environ[_KEEP_TLS] = "1"
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
+        _become_serving(blob)
     return uvloop
 
 
