@@ -7,14 +7,19 @@ mj_step1 and the next g(q), which no client waits for), and the client's answer 
 (`decode`) and judged (`receive`). `critical` is what a lockstep client waits for: all but
 `finish`. A server runs the same code, but after a sleep between cycles, where this VM
 runs it 2–3× slower (docs/benchmarks.md): read these as the floor, not as the server's CPU.
+`--sleep US` puts that sleep back (a timed `select`, as the physics thread waits, with its timer
+slack) and also prints the thread's CPU time per cycle, the wait's included (and the answer's
+encoding, a few µs of the client's part): what the same work costs when the thread sleeps
+between cycles, still without sockets or a client.
 
-    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint]
+    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint] [--sleep 800]
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import select
 import time
 
 import numpy as np
@@ -23,6 +28,7 @@ from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
+from franka_sim.physics.worker import _tune_this_thread
 from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import Command
@@ -42,7 +48,9 @@ def _move(core: RobotCore, controller: int, generator: int) -> None:
     core.request_move(1, decode_request(Frame(int(Command.Move), 1, data)))
 
 
-def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
+def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[str, float]:
+    """µs per cycle by section; with `sleep` (s) between cycles, also `cpu`: the thread's CPU
+    time per cycle, the sleep included."""
     desc = load_arm_description(default_urdf_text())
     q0 = np.array(READY_POSE)
     backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
@@ -52,10 +60,15 @@ def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
     state = decode_state(core.publish(backend.step(core.joint_command())))
     q_start = np.array(state["q_d"])
     totals = dict.fromkeys(SECTIONS, 0.0)
-    clock = time.perf_counter
+    clock, cpu0 = time.perf_counter, 0.0
+    if sleep:
+        _tune_this_thread()
     for k in range(warmup + cycles):
         if k == warmup:
             totals = dict.fromkeys(SECTIONS, 0.0)
+            cpu0 = time.thread_time()
+        if sleep:
+            select.select((), (), (), sleep)
         t0 = clock()
         joint_command, q_desired = core.joint_command(), core.desired_q
         t1 = clock()
@@ -81,21 +94,31 @@ def run(mode: str, cycles: int, warmup: int = 500) -> dict[str, float]:
         for name, dt in zip(SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4f - t4, t6 - t5,
                                        t7 - t6)):
             totals[name] += dt
-    return {name: total / cycles * 1e6 for name, total in totals.items()}
+    us = {name: total / cycles * 1e6 for name, total in totals.items()}
+    if sleep:
+        us["cpu"] = (time.thread_time() - cpu0) / cycles * 1e6
+    return us
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=5000)
     parser.add_argument("--mode", choices=sorted(MOVES), default="torque")
+    parser.add_argument("--sleep", type=float, default=0.0, metavar="US",
+                        help="µs to sleep before each cycle (0: a tight loop)")
     args = parser.parse_args()
-    us = run(args.mode, args.cycles)
-    print(f"franka-sim cycle work, {args.mode} motion, {args.cycles} cycles in a tight loop "
+    us = run(args.mode, args.cycles, sleep=args.sleep * 1e-6)
+    loop = f"a {args.sleep:g} µs sleep before each" if args.sleep else "a tight loop"
+    print(f"franka-sim cycle work, {args.mode} motion, {args.cycles} cycles, {loop} "
           "(µs per cycle)")
     for name in SECTIONS:
         print(f"  {name:8s} {us[name]:7.1f}")
-    print(f"  {'total':8s} {sum(us.values()):7.1f}")
-    print(f"  {'critical':8s} {sum(us.values()) - us['finish']:7.1f}")
+    total = sum(us[name] for name in SECTIONS)
+    print(f"  {'total':8s} {total:7.1f}")
+    print(f"  {'critical':8s} {total - us['finish']:7.1f}")
+    if args.sleep:
+        print(f"  {'cpu':8s} {us['cpu']:7.1f}   the thread's CPU time, the sleep's included "
+              f"({us['cpu'] / 10:.1f} % of a core at 1 kHz)")
 
 
 if __name__ == "__main__":
