@@ -228,5 +228,24 @@ def _psi_some_us() -> float:
         return float("nan")
 
 
+def idle_behaviour() -> str:
+    """How this machine's CPUs idle, when that changes the figures: a guest whose cpuidle driver
+    is haltpoll with its polling at 0 exits to the host every time a vCPU idles, and the thread
+    that wakes there next runs its work ~2× slower (docs/benchmarks.md § session 8). "" when
+    the machine does not say."""
+    try:
+        with open("/sys/devices/system/cpu/cpuidle/current_driver") as f:
+            driver = f.read().strip()
+        with open("/sys/module/haltpoll/parameters/guest_halt_poll_ns") as f:
+            poll_ns = int(f.read())
+    except (OSError, ValueError):
+        return ""
+    if driver != "haltpoll":
+        return ""
+    if poll_ns == 0:
+        return "; guest halt polling off (an idle vCPU exits to the host at once)"
+    return f"; guest halt polling {poll_ns / 1000:g} µs"
+
+
 def verdict(ok: bool) -> str:
     return "ok" if ok else "MISS"

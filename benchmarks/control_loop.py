@@ -21,8 +21,8 @@ import time
 import numpy as np
 import pylibfranka
 
-from _common import (Load, Server, cpu_seconds, responder_command, serve_command,
-                     thread_cpu_seconds, verdict)
+from _common import (Load, Server, cpu_seconds, idle_behaviour, responder_command,
+                     serve_command, thread_cpu_seconds, verdict)
 from franka_sim.physics.worker import OS_THREAD_NAME
 
 PRIVATE_HOST = "127.0.0.201"
@@ -107,7 +107,7 @@ def main() -> None:
               f"{max(cpu - physics, 0.0):.1f}")
     print(f"  machine: {os.cpu_count()} CPUs; other processes used {other_cpu:.0f} % of a core "
           f"(this client's own process excluded), tasks waited for a CPU {pressure:.0f} % of "
-          "the time")
+          f"the time{idle_behaviour()}")
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from _common import idle_behaviour
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
@@ -118,7 +119,7 @@ def main() -> None:
     print(f"  {'critical':8s} {total - us['finish']:7.1f}")
     if args.sleep:
         print(f"  {'cpu':8s} {us['cpu']:7.1f}   the thread's CPU time, the sleep's included "
-              f"({us['cpu'] / 10:.1f} % of a core at 1 kHz)")
+              f"({us['cpu'] / 10:.1f} % of a core at 1 kHz){idle_behaviour()}")
 
 
 if __name__ == "__main__":

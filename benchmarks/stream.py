@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from _common import (PRIVATE_HOST, Load, RawClient, Server, cpu_percent, cpu_seconds,
-                     memory_mib, reference_command, serve_command, verdict)
+                     idle_behaviour, memory_mib, reference_command, serve_command, verdict)
 
 
 def main() -> None:
@@ -93,7 +93,8 @@ def main() -> None:
     print(f"{what} stream, {args.seconds:g} s window after {args.warmup:g} s warm-up, "
           f"host {host}{'' if server else ' (external server)'}")
     print(f"  machine: {os.cpu_count()} CPUs; during the window other processes used "
-          f"{other_cpu:.0f} % of a core, tasks waited for a CPU {pressure:.0f} % of the time")
+          f"{other_cpu:.0f} % of a core, tasks waited for a CPU {pressure:.0f} % of the time"
+          f"{idle_behaviour()}")
     print(f"  {'':<42} {'recv':>10} {'kernel':>8}   {'target':<11}")
     rows = [
         ("states received", f"{len(t)}", "", None, ""),
