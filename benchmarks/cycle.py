@@ -80,6 +80,7 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
         core.publish(measured, kinematics)
         t4 = clock()
         backend.finish_step()
+        core.run_deferred_checks()
         t4f = clock()
         if mode == "torque":
             answer = encode_command(message_id=core.message_id, tau_J_d=[0.0] * 7)

@@ -54,6 +54,7 @@ class Harness:
             q_d = self.core.desired_q
             kin = None if q_d is None else self.backend.flange_pose_and_jacobian(q_d)
             self.state = decode_state(self.core.publish(measured, kin))
+            self.core.run_deferred_checks()  # as the server does once the state has left
             self.replies += self.core.take_replies()
         return self.state
 

@@ -7,6 +7,8 @@ control_command_success_rate, and — with enforcement — abort after 20 in a r
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
@@ -120,6 +122,20 @@ def test_without_enforcement_losses_are_only_counted_and_the_arm_stops():
     assert not h.state["errors"].any()
     assert np.max(np.abs(h.state["dq"])) < 1e-3  # it came to rest instead of running away
     assert h.state["control_command_success_rate"] < 0.05
+
+
+def test_a_limit_check_that_only_logs_runs_once_the_state_has_left(caplog):
+    """Without enforcement a violation changes nothing a client sees, so its check waits until
+    the state is out (a lockstep client is not kept waiting for it): still logged, and the
+    command still applied."""
+    h = _running_velocity_motion()
+    with caplog.at_level(logging.WARNING, logger="franka_sim.robot.motion_guard"):
+        assert h.send(dq_c=np.full(7, 0.5))  # a jump from rest: a discontinuity
+        assert not caplog.records  # not judged yet
+        h.cycle()
+    assert [r.getMessage() for r in caplog.records if "not enforced" in r.getMessage()]
+    assert h.state["dq_d"] == pytest.approx(np.full(7, 0.5))
+    assert h.state["robot_mode"] == RobotMode.kMove
 
 
 def test_non_finite_command_is_dropped_not_applied():

@@ -80,7 +80,7 @@ class CycleDriver:
         on_cycle: OnCycle | None = None,
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
-        poll_commands: Callable[[], None] = lambda: None,
+        poll_commands: Callable[..., None] = lambda limit=0: None,
         command_socket: Callable[[], object] = lambda: None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
@@ -92,7 +92,7 @@ class CycleDriver:
         self.on_cycle = on_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
-        self.poll_commands = poll_commands  # reads datagrams still on the socket into receive()
+        self.poll_commands = poll_commands  # poll(limit=all) reads queued datagrams into receive()
         self.command_socket = command_socket  # the socket poll_commands reads (or None)
         self.clock = clock  # the worker's clock (monotonic seconds): deadlines are on it
         self.pacer = Pacer()
@@ -186,7 +186,7 @@ class CycleDriver:
         spin_until = clock() + LOCKSTEP_SPIN
         poll, inbox = self.poll_commands, self._inbox
         while True:
-            poll()
+            poll(1)  # the answer, and not a further read that finds the socket empty
             if inbox:
                 return True
             if clock() > spin_until:
@@ -215,6 +215,7 @@ class CycleDriver:
         self._send(prepared)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         backend.finish_step()  # the part of the step no reading needed, now the state is out
+        self.core.run_deferred_checks()  # limit checks that only log (not enforced)
         if due and ready:  # no command can answer an idle state: what came
             self._read_socket()  # (strays, junk) is read once the state has left
         self._unwatched = 0 if self.has_client() else self._unwatched + 1

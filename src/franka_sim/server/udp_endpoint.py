@@ -64,12 +64,12 @@ class UdpEndpoint:
         except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
             log.debug("state not sent: %s", exc)
 
-    def poll(self) -> None:
-        """Take the datagrams queued on the socket now (up to MAX_READ), from any thread."""
+    def poll(self, limit: int = MAX_READ) -> None:
+        """Take the datagrams queued on the socket now (up to `limit`), from any thread."""
         sock = self.sock
         if sock is None:
             return
-        for _ in range(MAX_READ):
+        for _ in range(limit):
             try:
                 data, addr = sock.recvfrom(4096)
             except (BlockingIOError, InterruptedError):
