@@ -8,7 +8,9 @@ their message_id and finished flags. No physics, no checks, no event loop.
 
 Its cycles are released like franka-sim's: on absolute 1 ms deadlines (`--clock realtime`, the
 commands read at each deadline), or during a motion as soon as the open cycle is answered
-(`--clock lockstep`, within a 100 ms window, as franka-sim's). So `control_loop.py --reference`
+(`--clock lockstep`, within a 100 ms window, as franka-sim's; like franka-sim's physics thread
+it reads the socket for the answer for up to 300 µs before it sleeps on it, which more than
+doubles the speed here). So `control_loop.py --reference`
 shows what this machine and this client allow: the CPU one cycle costs without any work, and
 the fastest lockstep any server could reach with this client.
 
@@ -32,6 +34,7 @@ from franka_sim.protocol.enums import (Command, ConnectStatus, ControllerMode, M
 from franka_sim.protocol.framing import FrameReader, decode_request
 from franka_sim.protocol.robot_messages import REQUEST_SIZES, CommandHeader, build_response
 from franka_sim.robot.motion import parse_move
+from franka_sim.server.cycle_driver import LOCKSTEP_SPIN
 from franka_sim.server.pacing import LOCKSTEP_WINDOW
 
 URDF = default_urdf_text().encode()
@@ -70,12 +73,15 @@ class Responder:
         deadline = time.monotonic()
         while True:
             lockstep = self.lockstep and self.running
-            timeout = (deadline + LOCKSTEP_WINDOW if lockstep else deadline) - time.monotonic()
-            readable = [self.tcp, self.udp] if lockstep else [self.tcp]
-            ready, _, _ = select.select(readable, [], [], max(timeout, 0.0))
-            if self.tcp in ready:
-                self.on_tcp()
-            self.read_commands()
+            if lockstep and not self.answered:
+                self.spin_for_answer()
+            if not (lockstep and self.answered):
+                timeout = (deadline + LOCKSTEP_WINDOW if lockstep else deadline) - time.monotonic()
+                readable = [self.tcp, self.udp] if lockstep else [self.tcp]
+                ready, _, _ = select.select(readable, [], [], max(timeout, 0.0))
+                if self.tcp in ready:
+                    self.on_tcp()
+                self.read_commands()
             if lockstep and not self.answered and time.monotonic() < deadline + LOCKSTEP_WINDOW:
                 continue
             if not lockstep and time.monotonic() < deadline:
@@ -103,6 +109,12 @@ class Responder:
                 self.tcp.sendall(build_response(command, frame.command_id, 0, urdf=URDF))
             else:
                 self.after_state.append(build_response(command, frame.command_id, 0))
+
+    def spin_for_answer(self) -> None:
+        """Lockstep: read the socket without sleeping for up to LOCKSTEP_SPIN, as franka-sim."""
+        spin_until = time.monotonic() + LOCKSTEP_SPIN
+        while not self.answered and time.monotonic() < spin_until:
+            self.read_commands()
 
     def read_commands(self) -> None:
         while True:
