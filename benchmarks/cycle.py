@@ -5,9 +5,10 @@ What the physics thread does per cycle, section by section: the core decides the
 packs the state (`publish`), the step finishes once the state is out (`finish`: the rest of
 mj_step1 and the next g(q), and the limit checks that only log, none of which a client waits
 for), and the client's answer is decoded (`decode`) and taken by the core (`receive`: on time?
-which command applies; the limit checks too when they are enforced, not measured here). `critical` is what a lockstep client waits for: all but
-`finish`. A server runs the same code, but after a sleep between cycles, where this VM
-runs it 2–3× slower (docs/benchmarks.md): read these as the floor, not as the server's CPU.
+which command applies; the limit checks too when they are enforced, not measured here).
+`critical` is what a lockstep client waits for: all but `finish`. A server runs the same code,
+but after a sleep between cycles, where this VM runs it 2–3× slower (docs/benchmarks.md): read
+these as the floor, not as the server's CPU.
 `--sleep US` puts that sleep back (a timed `select`, as the physics thread waits, with its timer
 slack) and also prints the thread's CPU time per cycle, the wait's included (and the answer's
 encoding, a few µs of the client's part): what the same work costs when the thread sleeps

@@ -252,8 +252,7 @@ class RobotCore:
         if not self.enforce_motion_limits:
             self._deferred_checks.append((check, *args))
             return False
-        violations = check(*args)
-        return bool(violations) and self._enforce(violations)
+        return self._enforce(check(*args))
 
     def run_deferred_checks(self) -> None:
         """The queued log-only checks (see _judge): the server runs them once the state has
@@ -263,9 +262,7 @@ class RobotCore:
             return
         self._deferred_checks = []
         for check, *args in queued:
-            violations = check(*args)
-            if violations:
-                self._enforce(violations)
+            self._enforce(check(*args))
 
     def _enforce(self, violations) -> bool:
         """Log violations; with enforcement, abort on any that the robot aborts on."""

@@ -80,7 +80,7 @@ class CycleDriver:
         on_cycle: OnCycle | None = None,
         finger_command: Callable[[], object] | None = None,
         has_client: Callable[[], bool] = lambda: True,
-        poll_commands: Callable[..., None] = lambda limit=64: None,
+        poll_commands: Callable[..., None] = lambda *limit: None,
         command_socket: Callable[[], object] = lambda: None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
@@ -92,7 +92,7 @@ class CycleDriver:
         self.on_cycle = on_cycle
         self.finger_command = finger_command  # the gripper's drive command for the next step
         self.has_client = has_client
-        self.poll_commands = poll_commands  # (limit=all) queued datagrams into receive()
+        self.poll_commands = poll_commands  # poll_commands([limit]): datagrams into receive()
         self.command_socket = command_socket  # the socket poll_commands reads (or None)
         self.clock = clock  # the worker's clock (monotonic seconds): deadlines are on it
         self.pacer = Pacer()
