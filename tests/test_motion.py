@@ -142,29 +142,103 @@ def test_without_enforcement_a_stall_only_lowers_the_success_rate(sim):
     assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
 
 
-CRASHING_CLIENT = textwrap.dedent("""
-    import os, sys, pylibfranka
-    robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+def test_in_lockstep_a_descheduled_client_loses_no_cycle(lockstep):
+    """The lockstep counterpart of the stall above: the next cycle waits for the answer, so a
+    client that pauses 50 ms (a busy machine, a slow callback) sees consecutive states and
+    loses nothing."""
+    robot = _robot(lockstep.host)
     control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
     control.readOnce()
+    times, rates = [], []
     for k in range(300):
-        control.readOnce()
+        state, _ = control.readOnce()
+        times.append(round(state.time.to_sec() * 1000))
+        rates.append(state.control_command_success_rate)
+        if k in (100, 200):
+            time.sleep(0.05)
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == 299
+        control.writeOnce(command)
+    assert np.all(np.diff(times) == 1)
+    assert min(rates[100:]) == 1.0
+
+
+CRASHING_CLIENT = textwrap.dedent("""
+    import os, signal, sys, pylibfranka
+    robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    state, _ = control.readOnce()
+    print(state.q[6], flush=True)
+    for k in range(300):
+        state, _ = control.readOnce()
         control.writeOnce(pylibfranka.JointVelocities([0, 0, 0, 0, 0, 0, min(k, 200) * 0.002]))
-    os._exit(3)  # vanish mid-motion, moving at 0.4 rad/s
+    print(state.q[6], flush=True)
+    if sys.argv[2] == "exit":
+        os._exit(3)  # vanish mid-motion, moving at 0.4 rad/s
+    os.kill(os.getpid(), signal.SIGSTOP)  # fall silent mid-motion, the connection still open
 """)
 
 
-def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
-    done = subprocess.run([sys.executable, "-c", CRASHING_CLIENT, sim.host], timeout=60)
-    assert done.returncode == 3
-    assert sim.wait_for_log("disconnected")
-    robot = _robot(sim.host)  # the next client gets in at once
+def _at_rest_where_the_client_left_it(robot, first_q7: float, last_q7: float):
     state = robot.read_once()
     assert state.robot_mode == pylibfranka.RobotMode.Idle
     t0 = state.time.to_sec()
     while state.time.to_sec() - t0 < 0.5:
         state = robot.read_once()
     assert np.max(np.abs(state.dq)) < 1e-3
+    assert last_q7 - first_q7 > 0.07  # the client had turned joint 7 (0.08 rad by its count)
+    # held where it was, not sprung back to where the motion began (braking from 0.4 rad/s
+    # under the hold overshoots by a few mrad)
+    assert abs(state.q[6] - last_q7) < 0.01
+
+
+def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
+    done = subprocess.run([sys.executable, "-c", CRASHING_CLIENT, sim.host, "exit"], timeout=60,
+                          capture_output=True, text=True)
+    assert done.returncode == 3
+    first_q7, last_q7 = map(float, done.stdout.split())
+    assert sim.wait_for_log("disconnected")
+    robot = _robot(sim.host)  # the next client gets in at once
+    _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
+
+
+def test_a_client_silent_mid_motion_is_replaced_by_the_next_one(sim):
+    """UDP silence with the connection open (a frozen process, a vanished host): after 20 lost
+    cycles the arm holds, and the next client to connect takes the silent one's place."""
+    silent = subprocess.Popen([sys.executable, "-c", CRASHING_CLIENT, sim.host, "stop"],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        first_q7, last_q7 = float(silent.stdout.readline()), float(silent.stdout.readline())
+        assert sim.wait_for_log("client silent for 20 cycles", timeout=30)
+        robot = _robot(sim.host)
+        assert sim.wait_for_log("silent mid-motion: closed to admit")
+        _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
+        control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        for k in range(20):  # and it moves the arm as any client does
+            control.readOnce()
+            command = pylibfranka.JointVelocities([0.0] * 7)
+            command.motion_finished = k == 19
+            control.writeOnce(command)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+    finally:
+        silent.kill()
+        silent.wait(timeout=10)
+
+
+def test_a_busy_client_is_not_replaced(lockstep):
+    """Only a silent client is replaced: one that answers keeps the robot, the newcomer is
+    turned away. (Lockstep: the cycles wait while this thread tries to connect.)"""
+    robot = _robot(lockstep.host)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    control.readOnce()
+    with pytest.raises(pylibfranka.NetworkException):
+        _robot(lockstep.host)
+    for k in range(20):
+        control.readOnce()
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == 19
+        control.writeOnce(command)
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
 
 
 def test_after_a_motion_the_idle_arm_comes_exactly_to_rest(lockstep):

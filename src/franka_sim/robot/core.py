@@ -84,8 +84,9 @@ class RobotCore:
         self.cycle = CommandCycle()
         self.publisher = StatePublisher(self.settings)
         self._replies: list[bytes] = []
-        self._recovery: tuple[int, int] | None = None  # (command_id, cycles waited)
-        self._stray_commands = 0
+        # (the command_ids waiting for the answer, cycles waited): a raw client may ask twice
+        self._recovery: tuple[list[int], int] | None = None
+        self._stray_commands = 0  # this session's: each client's first one is logged
         self._stalled_at: np.ndarray | None = None
         self._hold: tuple | None = None
         self.external = ExternalForces()
@@ -357,7 +358,10 @@ class RobotCore:
             return [build_response(Command.AutomaticErrorRecovery, command_id,
                                    AutomaticErrorRecoveryStatus.kSuccess)]
         self.robot_mode = RobotMode.kAutomaticErrorRecovery
-        self._recovery = (command_id, 0)
+        if self._recovery is None:
+            self._recovery = ([command_id], 0)
+        else:  # one more request for the recovery under way: answered with it
+            self._recovery[0].append(command_id)
         return []  # answered once the arm is at rest (see _advance_recovery)
 
     def set_load(self, load: Load) -> None:
@@ -369,7 +373,9 @@ class RobotCore:
 
     # -- the session's view ----------------------------------------------------------------------
     def client_connected(self) -> None:
-        """A client completed Connect; states now stream to it."""
+        """A client completed Connect; states now stream to it (and its first stray command
+        is logged, whatever earlier clients sent)."""
+        self._stray_commands = 0
 
     def client_gone(self) -> None:
         """The client closed TCP: its motion ends as if it went silent, and the arm holds."""
@@ -382,6 +388,12 @@ class RobotCore:
         if self.robot_mode is RobotMode.kAutomaticErrorRecovery:
             self.robot_mode = RobotMode.kReflex
         self._replies.clear()
+
+    @property
+    def client_silent(self) -> bool:
+        """The client went silent mid-motion and its arm is held (enforcement off): as far as
+        the robot can tell it is gone, so a new client may take its place."""
+        return self.motion is not None and self._stalled_at is not None
 
     @property
     def has_replies(self) -> bool:
@@ -429,10 +441,10 @@ class RobotCore:
     def _advance_recovery(self, measured: Measured) -> None:
         if self._recovery is None:
             return
-        command_id, waited = self._recovery
+        command_ids, waited = self._recovery
         at_rest = float(np.max(np.abs(measured.dq))) < RECOVERY_REST_VELOCITY
         if not at_rest and waited < RECOVERY_MAX_CYCLES:
-            self._recovery = (command_id, waited + 1)
+            self._recovery = (command_ids, waited + 1)
             return
         self._recovery = None
         self.errors[:] = False
@@ -440,5 +452,6 @@ class RobotCore:
         self.external.clear_collisions()
         self.robot_mode = RobotMode.kIdle
         self.q_hold = measured.q.copy()
-        self._replies.append(build_response(
-            Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess))
+        self._replies.extend(build_response(
+            Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess)
+            for command_id in command_ids)

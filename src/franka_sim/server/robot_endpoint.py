@@ -1,7 +1,7 @@
 """The TCP side of the robot (port 1337): one client at a time, as on the real FCI.
 
 The FR3 allows a single FCI connection; a second client is closed at once (see single_client.py
-and docs/deviations.md).
+and docs/deviations.md), unless the first has fallen silent mid-motion (RobotCore.client_silent).
 """
 
 from __future__ import annotations
@@ -17,5 +17,7 @@ class RobotEndpoint(SingleClientEndpoint):
     def __init__(self, make_session: Callable[[], Session],
                  on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
-                 lock: AbstractContextManager | None = None) -> None:
-        super().__init__("FCI", make_session, on_handshake, on_disconnect, defer_replies, lock)
+                 lock: AbstractContextManager | None = None,
+                 replaceable: Callable[[], bool] = lambda: False) -> None:
+        super().__init__("FCI", make_session, on_handshake, on_disconnect, defer_replies, lock,
+                         replaceable)

@@ -64,7 +64,8 @@ class FrankaSim:
             self._make_gripper_session, self._on_gripper_disconnect, lock=self.lock)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
-                                   defer_replies=self._defer_replies, lock=self.lock)
+                                   defer_replies=self._defer_replies, lock=self.lock,
+                                   replaceable=self._client_silent)
         self.driver = CycleDriver(
             self.core, self.worker, self.lock, self.udp.send_state,
             lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
@@ -161,6 +162,10 @@ class FrankaSim:
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
         self.udp.target = (peer_ip, udp_port)
         self.core.client_connected()
+
+    def _client_silent(self) -> bool:
+        with self.lock:
+            return self.core.client_silent
 
     def _on_disconnect(self) -> None:
         self.udp.target = None

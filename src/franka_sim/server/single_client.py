@@ -5,7 +5,9 @@ back out, a malformed message closes that connection with one log line, and a se
 while one is connected is closed at once, so libfranka fails fast. A client that closes and
 reconnects at once (a program restarting, a test) may be accepted before the loop has read the
 old connection's EOF; the old socket is checked for that pending EOF first, so the returning
-client is not turned away by its own ghost.
+client is not turned away by its own ghost. A client the owner deems gone though its
+connection is open (the robot: one silent mid-motion, its arm held, see `replaceable`) is
+closed to admit the newcomer, as if it had disconnected.
 """
 
 from __future__ import annotations
@@ -50,6 +52,11 @@ class ClientConnection(asyncio.Protocol):
         if active is not None and _peer_has_left(active.transport):
             active.transport.close()
             active.connection_lost(None)  # its disconnect, now rather than next iteration
+        elif active is not None and active.session is not None and owner.replaceable():
+            log.warning("%s client %s:%s silent mid-motion: closed to admit %s:%s",
+                        owner.what, *active.peer, *self.peer)
+            active.transport.close()
+            active.connection_lost(None)
         if owner.active is not None:
             log.warning("refused %s client %s:%s: already used by %s:%s",
                         owner.what, *self.peer, *owner.active.peer)
@@ -108,6 +115,7 @@ class SingleClientEndpoint:
         on_disconnect: Callable[[], None],
         defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
         lock: "AbstractContextManager | None" = None,
+        replaceable: Callable[[], bool] = lambda: False,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
@@ -118,6 +126,8 @@ class SingleClientEndpoint:
         # Held while the session or on_handshake/on_disconnect run: what they change (the
         # robot core, the Hand) is shared with the physics thread.
         self.lock = lock if lock is not None else nullcontext()
+        # replaceable() → True: the active client counts as gone, and a newcomer replaces it.
+        self.replaceable = replaceable
         self.active: ClientConnection | None = None
         self.server: asyncio.AbstractServer | None = None
 
