@@ -17,9 +17,11 @@ def main(host: str) -> None:
     control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
     state, _ = control.readOnce()
     q_start = list(state.q_d)
+    excursion = [0.0] * 7  # the largest |q - q_start| each joint reached
     time = 0.0
     while True:
         state, period = control.readOnce()
+        excursion = [max(e, abs(q - q0)) for e, q, q0 in zip(excursion, state.q, q_start)]
         time += period.to_sec()
         delta = math.pi / 8.0 * (1 - math.cos(math.pi / 2.5 * time))
         q = list(q_start)
@@ -33,6 +35,7 @@ def main(host: str) -> None:
             break
         control.writeOnce(command)
     print("Finished motion, q =", [round(v, 4) for v in robot.read_once().q])
+    print("Largest excursion per joint =", [round(e, 4) for e in excursion])
 
 
 if __name__ == "__main__":

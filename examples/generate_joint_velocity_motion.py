@@ -19,9 +19,12 @@ def main(host: str) -> None:
     robot.set_joint_impedance([3000, 3000, 3000, 2500, 2500, 2000, 2000])
     control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
     time = 0.0
-    control.readOnce()
+    state, _ = control.readOnce()
+    q_start = list(state.q)
+    excursion = [0.0] * 7  # the largest |q - q_start| each joint reached
     while True:
         state, period = control.readOnce()
+        excursion = [max(e, abs(q - q0)) for e, q, q0 in zip(excursion, state.q, q_start)]
         time += period.to_sec()
         cycle = math.floor(math.pow(-1.0, (time - math.fmod(time, TIME_MAX)) / TIME_MAX))
         omega = cycle * OMEGA_MAX / 2.0 * (1.0 - math.cos(2.0 * math.pi / TIME_MAX * time))
@@ -33,6 +36,7 @@ def main(host: str) -> None:
             break
         control.writeOnce(command)
     print("Finished motion, q =", [round(v, 4) for v in robot.read_once().q])
+    print("Largest excursion per joint =", [round(e, 4) for e in excursion])
 
 
 if __name__ == "__main__":

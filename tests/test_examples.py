@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import math
 import re
 import subprocess
 import sys
@@ -34,9 +36,16 @@ def test_echo_robot_state(lockstep_sim):
     assert out.count("mode=Idle") == 3 and "success_rate=0.0" in out
 
 
-@pytest.mark.parametrize("name", ["generate_joint_position_motion", "generate_joint_velocity_motion"])
-def test_joint_motions_finish(lockstep_sim, name):
-    assert "Finished motion" in _run(name, lockstep_sim.host)
+@pytest.mark.parametrize("name, moved, peak", [
+    ("generate_joint_position_motion", (3, 4, 6), math.pi / 4),  # π/8·(1 − cos π) at 2.5 s
+    ("generate_joint_velocity_motion", (3, 4, 5, 6), 0.5),  # ∫ ½(1 − cos 2πt) dt over 1 s
+])
+def test_joint_motions_swing_and_finish(lockstep_sim, name, moved, peak):
+    out = _run(name, lockstep_sim.host)
+    assert "Finished motion" in out
+    excursion = json.loads(re.search(r"Largest excursion per joint = (\[.*\])", out).group(1))
+    for joint, e in enumerate(excursion):
+        assert e == pytest.approx(peak if joint in moved else 0.0, abs=0.01), joint
 
 
 def test_joint_impedance_control_tracks(lockstep_sim):
