@@ -202,14 +202,24 @@ def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
     _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
 
 
-def test_a_client_silent_mid_motion_is_replaced_by_the_next_one(sim):
+def _stopped(pid: int) -> bool:
+    with open(f"/proc/{pid}/stat") as stat:
+        return stat.read().rsplit(")", 1)[1].split()[0] == "T"
+
+
+def test_a_client_silent_mid_motion_is_replaced_by_the_next_one(lockstep):
     """UDP silence with the connection open (a frozen process, a vanished host): after 20 lost
-    cycles the arm holds, and the next client to connect takes the silent one's place."""
+    cycles the arm holds, and the next client to connect takes the silent one's place.
+    (Lockstep: a busy machine cannot make the client fall silent before it means to.)"""
+    sim = lockstep
     silent = subprocess.Popen([sys.executable, "-c", CRASHING_CLIENT, sim.host, "stop"],
                               stdout=subprocess.PIPE, text=True)
     try:
         first_q7, last_q7 = float(silent.stdout.readline()), float(silent.stdout.readline())
-        assert sim.wait_for_log("client silent for 20 cycles", timeout=30)
+        deadline = time.monotonic() + 30
+        while not _stopped(silent.pid) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert sim.wait_for_log("client silent for 20 cycles", timeout=30)  # 20 × 100 ms
         robot = _robot(sim.host)
         assert sim.wait_for_log("silent mid-motion: closed to admit")
         _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
