@@ -49,14 +49,15 @@ class ClientConnection(asyncio.Protocol):
         self.transport = transport
         self.peer = transport.get_extra_info("peername")[:2]
         owner, active = self.owner, self.owner.active
-        if active is not None and _peer_has_left(active.transport):
-            active.transport.close()
-            active.connection_lost(None)  # its disconnect, now rather than next iteration
-        elif active is not None and active.session is not None and owner.replaceable():
-            log.warning("%s client %s:%s silent mid-motion: closed to admit %s:%s",
-                        owner.what, *active.peer, *self.peer)
-            active.transport.close()
-            active.connection_lost(None)
+        if active is not None:
+            gone = _peer_has_left(active.transport)
+            if not gone and owner.replaceable():
+                log.warning("%s client %s:%s silent mid-motion: closed to admit %s:%s",
+                            owner.what, *active.peer, *self.peer)
+                gone = True
+            if gone:
+                active.transport.close()
+                active.connection_lost(None)  # its disconnect, now rather than next iteration
         if owner.active is not None:
             log.warning("refused %s client %s:%s: already used by %s:%s",
                         owner.what, *self.peer, *owner.active.peer)
