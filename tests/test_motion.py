@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import textwrap
@@ -202,6 +203,47 @@ def test_a_client_that_vanishes_mid_motion_leaves_an_arm_at_rest(sim):
     _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
 
 
+def _still_motion(control, cycles: int = 20) -> None:
+    """A joint-velocity motion that stands still for `cycles` and finishes."""
+    for k in range(cycles):
+        control.readOnce()
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == cycles - 1
+        control.writeOnce(command)
+
+
+PAUSING_CLIENT = textwrap.dedent("""
+    import os, signal, sys, pylibfranka
+    robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    control.readOnce()
+    for k in range(300):
+        control.readOnce()
+        if k == 100:
+            os.kill(os.getpid(), signal.SIGSTOP)  # as a debugger's breakpoint would
+        command = pylibfranka.JointVelocities([0.0] * 7)
+        command.motion_finished = k == 299
+        control.writeOnce(command)
+    print(robot.read_once().robot_mode, flush=True)
+""")
+
+
+def test_a_client_paused_for_seconds_carries_on_when_nobody_replaces_it(sim):
+    paused = subprocess.Popen([sys.executable, "-c", PAUSING_CLIENT, sim.host],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        while not _stopped(paused.pid) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert sim.wait_for_log("client silent for 20 cycles")  # held, not given up
+        time.sleep(1.0)
+        paused.send_signal(signal.SIGCONT)
+        out, _ = paused.communicate(timeout=60)
+    finally:
+        paused.kill()
+    assert paused.returncode == 0 and out.strip() == "RobotMode.Idle"
+
+
 def _stopped(pid: int) -> bool:
     with open(f"/proc/{pid}/stat") as stat:
         return stat.read().rsplit(")", 1)[1].split()[0] == "T"
@@ -223,12 +265,8 @@ def test_a_client_silent_mid_motion_is_replaced_by_the_next_one(lockstep):
         robot = _robot(sim.host)
         assert sim.wait_for_log("silent mid-motion: closed to admit")
         _at_rest_where_the_client_left_it(robot, first_q7, last_q7)
-        control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
-        for k in range(20):  # and it moves the arm as any client does
-            control.readOnce()
-            command = pylibfranka.JointVelocities([0.0] * 7)
-            command.motion_finished = k == 19
-            control.writeOnce(command)
+        _still_motion(robot.start_joint_velocity_control(  # and it moves as any client does
+            pylibfranka.ControllerMode.JointImpedance))
         assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
     finally:
         silent.kill()
@@ -243,11 +281,7 @@ def test_a_busy_client_is_not_replaced(lockstep):
     control.readOnce()
     with pytest.raises(pylibfranka.NetworkException):
         _robot(lockstep.host)
-    for k in range(20):
-        control.readOnce()
-        command = pylibfranka.JointVelocities([0.0] * 7)
-        command.motion_finished = k == 19
-        control.writeOnce(command)
+    _still_motion(control)
     assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
 
 
