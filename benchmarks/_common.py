@@ -51,10 +51,11 @@ def reference_process() -> None:
         pass
 
 
-def responder_command(host: str, clock: str) -> list[str]:
-    """benchmarks/reference_responder.py: a control loop's server doing nothing but the protocol."""
+def responder_command(host: str, clock: str, physics: bool = False) -> list[str]:
+    """benchmarks/reference_responder.py: a control loop's server doing nothing but the protocol
+    (with `physics`, also the stripped torque cycle)."""
     return [sys.executable, str(Path(__file__).with_name("reference_responder.py")),
-            "--host", host, "--clock", clock]
+            "--host", host, "--clock", clock] + (["--physics"] if physics else [])
 
 
 class Server:

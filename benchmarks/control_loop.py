@@ -9,6 +9,7 @@ CPUs during the run is printed: trust a CPU figure only when that load was low.
 
 python benchmarks/control_loop.py [--seconds 10] [--clock realtime|lockstep] [--mode torque|joint]
 python benchmarks/control_loop.py --reference [--clock lockstep]   # the floor: protocol only
+python benchmarks/control_loop.py --reference --physics [--clock lockstep]   # + the stripped cycle
 """
 
 from __future__ import annotations
@@ -70,8 +71,12 @@ def main() -> None:
     parser.add_argument("--host", default=PRIVATE_HOST)
     parser.add_argument("--reference", action="store_true",
                         help="measure reference_responder.py (the protocol alone) instead")
+    parser.add_argument("--physics", action="store_true",
+                        help="with --reference: the responder runs the stripped torque cycle")
     args = parser.parse_args()
-    command = (responder_command(args.host, args.clock) if args.reference
+    if args.physics and not args.reference:
+        parser.error("--physics goes with --reference")
+    command = (responder_command(args.host, args.clock, args.physics) if args.reference
                else serve_command(args.host) + ["--clock", args.clock])
     server = Server(args.host, command)
     server.wait_serving()
@@ -87,6 +92,7 @@ def main() -> None:
         server.stop()
     speed = result["sim"] / result["wall"]
     what = "reference_responder.py" if args.reference else "franka-sim"
+    what += " --physics" if args.physics else ""
     print(f"{what} control loop: {args.mode}, {args.clock} clock, {result['cycles']} cycles")
     if not args.reference:  # the responder reports no success rate
         print(f"  success rate (mean / min after 200 cycles)  {result['mean_rate']:.4f} / "

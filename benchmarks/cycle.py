@@ -9,12 +9,15 @@ which command applies; the limit checks too when they are enforced, not measured
 `critical` is what a lockstep client waits for: all but `finish`. A server runs the same code,
 but after a sleep between cycles, where this VM runs it 2–3× slower (docs/benchmarks.md): read
 these as the floor, not as the server's CPU.
+`--floor` times, in place of franka-sim's cycle, the answer's decode and the stripped torque
+cycle of benchmarks/_floor.py (only the MuJoCo calls a torque cycle cannot skip, and a state
+with five fields): what franka-sim's features cost is the difference.
 `--sleep US` puts that sleep back (a timed `select`, as the physics thread waits, with its timer
 slack) and also prints the thread's CPU time per cycle, the wait's included (and the answer's
 encoding, a few µs of the client's part): what the same work costs when the thread sleeps
 between cycles, still without sockets or a client.
 
-    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint] [--sleep 800]
+    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint] [--floor] [--sleep 800]
 """
 
 from __future__ import annotations
@@ -27,18 +30,20 @@ import time
 import numpy as np
 
 from _common import idle_behaviour
+from _floor import StrippedCycle
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
 from franka_sim.physics.worker import _tune_this_thread
 from franka_sim.protocol import robot_messages as msg
-from franka_sim.protocol.codec import decode_command, decode_state, encode_command
+from franka_sim.protocol.codec import StateBuffer, decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.robot.core import RobotCore
 
 SECTIONS = ("jc", "step", "kin", "publish", "finish", "decode", "receive")
+FLOOR_SECTIONS = ("decode", "step", "publish", "finish")
 MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
 
 
@@ -104,20 +109,57 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     return us
 
 
+def run_floor(cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[str, float]:
+    """µs per section of the stripped torque cycle (`--floor`, benchmarks/_floor.py)."""
+    floor, state = StrippedCycle(), StateBuffer()
+    answer = encode_command(message_id=1, tau_J_d=[0.0] * 7)
+    totals = dict.fromkeys(FLOOR_SECTIONS, 0.0)
+    clock, cpu0 = time.perf_counter, 0.0
+    if sleep:
+        _tune_this_thread()
+    for k in range(warmup + cycles):
+        if k == warmup:
+            totals = dict.fromkeys(FLOOR_SECTIONS, 0.0)
+            cpu0 = time.thread_time()
+        if sleep:
+            select.select((), (), (), sleep)
+        t0 = clock()
+        tau_J_d = decode_command(answer)["tau_J_d"]
+        t1 = clock()
+        floor.step(tau_J_d)
+        t2 = clock()
+        floor.write(state, k)
+        t3 = clock()
+        floor.finish()
+        t4 = clock()
+        for name, dt in zip(FLOOR_SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            totals[name] += dt
+    us = {name: total / cycles * 1e6 for name, total in totals.items()}
+    if sleep:
+        us["cpu"] = (time.thread_time() - cpu0) / cycles * 1e6
+    return us
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=5000)
     parser.add_argument("--mode", choices=sorted(MOVES), default="torque")
+    parser.add_argument("--floor", action="store_true",
+                        help="time the stripped torque cycle instead (see the docstring)")
     parser.add_argument("--sleep", type=float, default=0.0, metavar="US",
                         help="µs to sleep before each cycle (0: a tight loop)")
     args = parser.parse_args()
-    us = run(args.mode, args.cycles, sleep=args.sleep * 1e-6)
     loop = f"a {args.sleep:g} µs sleep before each" if args.sleep else "a tight loop"
-    print(f"franka-sim cycle work, {args.mode} motion, {args.cycles} cycles, {loop} "
-          "(µs per cycle)")
-    for name in SECTIONS:
+    if args.floor:
+        us, sections = run_floor(args.cycles, sleep=args.sleep * 1e-6), FLOOR_SECTIONS
+        print(f"the floor: a stripped torque cycle, {args.cycles} cycles, {loop} (µs per cycle)")
+    else:
+        us, sections = run(args.mode, args.cycles, sleep=args.sleep * 1e-6), SECTIONS
+        print(f"franka-sim cycle work, {args.mode} motion, {args.cycles} cycles, {loop} "
+              "(µs per cycle)")
+    for name in sections:
         print(f"  {name:8s} {us[name]:7.1f}")
-    total = sum(us[name] for name in SECTIONS)
+    total = sum(us[name] for name in sections)
     print(f"  {'total':8s} {total:7.1f}")
     print(f"  {'critical':8s} {total - us['finish']:7.1f}")
     if args.sleep:

@@ -12,9 +12,12 @@ commands read at each deadline), or during a motion as soon as the open cycle is
 it reads the socket for the answer for up to 300 µs before it sleeps on it: 10–13× → 20–21×
 here). So `control_loop.py --reference`
 shows what this machine and this client allow: the CPU one cycle costs without any work, and
-the fastest lockstep any server could reach with this client.
+the fastest lockstep any server could reach with this client. With `--physics` each motion
+cycle also runs the stripped torque cycle of benchmarks/_floor.py under the answer's tau_J_d
+(stepped before the state is sent, finished after): the floor under a server that simulates at
+all, with none of franka-sim's features.
 
-    python benchmarks/reference_responder.py --host 127.0.0.201 [--clock lockstep]
+    python benchmarks/reference_responder.py --host 127.0.0.201 [--clock lockstep] [--physics]
 """
 
 from __future__ import annotations
@@ -27,8 +30,9 @@ import sys
 import time
 
 from _common import reference_process
+from _floor import StrippedCycle
 from franka_sim.description.urdf import default_urdf_text
-from franka_sim.protocol.codec import COMMAND_DTYPE, StateBuffer
+from franka_sim.protocol.codec import COMMAND_DTYPE, StateBuffer, decode_command
 from franka_sim.protocol.enums import (Command, ConnectStatus, ControllerMode, MotionGeneratorMode,
                                        MoveStatus, RobotMode)
 from franka_sim.protocol.framing import FrameReader, decode_request
@@ -43,8 +47,10 @@ _TORQUE_DONE = COMMAND_DTYPE.fields["torque_command_finished"][1]
 
 
 class Responder:
-    def __init__(self, host: str, lockstep: bool) -> None:
+    def __init__(self, host: str, lockstep: bool, physics: bool = False) -> None:
         self.lockstep = lockstep
+        self.physics = StrippedCycle() if physics else None
+        self.tau_J_d = (0.0,) * 7  # the last answer's torque (--physics)
         self.server = socket.create_server((host, 1337))
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.udp.bind((host, 0))
@@ -124,6 +130,8 @@ class Responder:
                 return
             if struct.unpack_from("<Q", data)[0] == self.message_id:
                 self.answered = True
+                if self.physics is not None:
+                    self.tau_J_d = decode_command(data)["tau_J_d"]
                 self.finished = bool(data[_MOTION_DONE] or data[_TORQUE_DONE])
 
     def release(self) -> None:
@@ -144,8 +152,14 @@ class Responder:
         self.message_id += 1
         s.message_id[...] = self.message_id
         self.answered = False
+        physics = self.physics if self.running else None
+        if physics is not None:
+            physics.step(self.tau_J_d)
         if self.target is not None:
-            self.udp.sendto(s.pack(), self.target)
+            self.udp.sendto(s.pack() if physics is None else physics.write(s, self.message_id),
+                            self.target)
+        if physics is not None:
+            physics.finish()
         replies, self.after_state = self.after_state + replies, []
         for reply in replies:
             self.tcp.sendall(reply)
@@ -155,9 +169,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--host", default="127.0.0.201")
     ap.add_argument("--clock", choices=["realtime", "lockstep"], default="realtime")
+    ap.add_argument("--physics", action="store_true",
+                    help="run the stripped torque cycle in each motion cycle")
     args = ap.parse_args()
     reference_process()
-    Responder(args.host, args.clock == "lockstep").serve()
+    Responder(args.host, args.clock == "lockstep", args.physics).serve()
 
 
 if __name__ == "__main__":
