@@ -12,6 +12,8 @@ import pytest
 
 from conftest import running_sim
 
+REALTIME_ATTEMPTS = 5  # runs made to find two that lost no cycle
+
 
 def _velocity_then_torque(host: str) -> tuple[np.ndarray, float]:
     """A joint-velocity swing, then a torque pulse; returns the final q/dq and the worst rate."""
@@ -43,17 +45,30 @@ def _velocity_then_torque(host: str) -> tuple[np.ndarray, float]:
     return np.concatenate([final.q, final.dq, final.tau_J]), worst_rate
 
 
-@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
-def test_same_trajectories_end_bit_identical(clock):
+def test_same_trajectories_end_bit_identical_in_lockstep():
     runs = []
     for _ in range(2):
-        with running_sim("--clock", clock) as sim:
+        with running_sim("--clock", "lockstep") as sim:
             runs.append(_velocity_then_torque(sim.host))
     (a, rate_a), (b, rate_b) = runs
-    if clock == "realtime" and min(rate_a, rate_b) < 1.0:
-        pytest.skip("this machine lost command cycles in realtime; only lockstep is immune")
-    assert rate_a == rate_b == 1.0
+    assert rate_a == rate_b == 1.0  # lockstep loses no cycle, however busy the machine
     assert np.array_equal(a, b)
+
+
+def test_same_trajectories_end_bit_identical_in_realtime():
+    """Given no lost cycles: a run that lost one (a busy machine) is set aside and another is
+    made, up to REALTIME_ATTEMPTS, so a loaded machine rarely skips the comparison."""
+    clean, attempts = [], 0
+    while len(clean) < 2 and attempts < REALTIME_ATTEMPTS:
+        attempts += 1
+        with running_sim("--clock", "realtime") as sim:
+            final, rate = _velocity_then_torque(sim.host)
+        if rate == 1.0:
+            clean.append(final)
+    if len(clean) < 2:
+        pytest.skip(f"this machine lost command cycles in {attempts - len(clean)} of "
+                    f"{attempts} realtime runs; only lockstep is immune")
+    assert np.array_equal(clean[0], clean[1])
 
 
 def _gap_before_next_motion(host: str, pause: float) -> int:
