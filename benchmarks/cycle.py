@@ -56,9 +56,30 @@ def _move(core: RobotCore, controller: int, generator: int) -> None:
     core.request_move(1, decode_request(Frame(int(Command.Move), 1, data)))
 
 
+def _time_cycles(sections: tuple[str, ...], one_cycle, cycles: int, warmup: int,
+                 sleep: float) -> dict[str, float]:
+    """µs per cycle by section (`one_cycle(k)` returns each section's seconds); with `sleep`
+    (s) before each cycle, also `cpu`: the thread's CPU time per cycle, the sleep included."""
+    totals = dict.fromkeys(sections, 0.0)
+    cpu0 = 0.0
+    if sleep:
+        _tune_this_thread()
+    for k in range(warmup + cycles):
+        if k == warmup:
+            totals = dict.fromkeys(sections, 0.0)
+            cpu0 = time.thread_time()
+        if sleep:
+            select.select((), (), (), sleep)
+        for name, dt in zip(sections, one_cycle(k)):
+            totals[name] += dt
+    us = {name: total / cycles * 1e6 for name, total in totals.items()}
+    if sleep:
+        us["cpu"] = (time.thread_time() - cpu0) / cycles * 1e6
+    return us
+
+
 def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[str, float]:
-    """µs per cycle by section; with `sleep` (s) between cycles, also `cpu`: the thread's CPU
-    time per cycle, the sleep included."""
+    """franka-sim's motion cycle, by section (see _time_cycles)."""
     desc = load_arm_description(default_urdf_text())
     q0 = np.array(READY_POSE)
     backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
@@ -67,16 +88,9 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     _move(core, *MOVES[mode])
     state = decode_state(core.publish(backend.step(core.joint_command())))
     q_start = np.array(state["q_d"])
-    totals = dict.fromkeys(SECTIONS, 0.0)
-    clock, cpu0 = time.perf_counter, 0.0
-    if sleep:
-        _tune_this_thread()
-    for k in range(warmup + cycles):
-        if k == warmup:
-            totals = dict.fromkeys(SECTIONS, 0.0)
-            cpu0 = time.thread_time()
-        if sleep:
-            select.select((), (), (), sleep)
+    clock = time.perf_counter
+
+    def one_cycle(k: int) -> tuple[float, ...]:
         t0 = clock()
         joint_command, q_desired = core.joint_command(), core.desired_q
         t1 = clock()
@@ -100,29 +114,18 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
         t6 = clock()
         core.receive_command(command)
         t7 = clock()
-        for name, dt in zip(SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4f - t4, t6 - t5,
-                                       t7 - t6)):
-            totals[name] += dt
-    us = {name: total / cycles * 1e6 for name, total in totals.items()}
-    if sleep:
-        us["cpu"] = (time.thread_time() - cpu0) / cycles * 1e6
-    return us
+        return t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4f - t4, t6 - t5, t7 - t6
+
+    return _time_cycles(SECTIONS, one_cycle, cycles, warmup, sleep)
 
 
 def run_floor(cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[str, float]:
-    """µs per section of the stripped torque cycle (`--floor`, benchmarks/_floor.py)."""
+    """The stripped torque cycle (`--floor`, benchmarks/_floor.py), by section."""
     floor, state = StrippedCycle(), StateBuffer()
     answer = encode_command(message_id=1, tau_J_d=[0.0] * 7)
-    totals = dict.fromkeys(FLOOR_SECTIONS, 0.0)
-    clock, cpu0 = time.perf_counter, 0.0
-    if sleep:
-        _tune_this_thread()
-    for k in range(warmup + cycles):
-        if k == warmup:
-            totals = dict.fromkeys(FLOOR_SECTIONS, 0.0)
-            cpu0 = time.thread_time()
-        if sleep:
-            select.select((), (), (), sleep)
+    clock = time.perf_counter
+
+    def one_cycle(k: int) -> tuple[float, ...]:
         t0 = clock()
         tau_J_d = decode_command(answer)["tau_J_d"]
         t1 = clock()
@@ -132,12 +135,9 @@ def run_floor(cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[str, f
         t3 = clock()
         floor.finish()
         t4 = clock()
-        for name, dt in zip(FLOOR_SECTIONS, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
-            totals[name] += dt
-    us = {name: total / cycles * 1e6 for name, total in totals.items()}
-    if sleep:
-        us["cpu"] = (time.thread_time() - cpu0) / cycles * 1e6
-    return us
+        return t1 - t0, t2 - t1, t3 - t2, t4 - t3
+
+    return _time_cycles(FLOOR_SECTIONS, one_cycle, cycles, warmup, sleep)
 
 
 def main() -> None:
