@@ -3,7 +3,8 @@
 Only the MuJoCo calls a torque cycle cannot skip, on the same scene and model as franka-sim's:
 before the send, the torque with g(q) added, `mj_step2` and the new q's kinematics and flange
 Jacobian; after it, the rest of `mj_step1` and g(q)'s four passes at the new q. The state gets
-five fields (message_id, q, dq, tau_J, the flange pose); nothing is checked, and there are no
+five fields (message_id, q, dq, tau_J, and O_T_EE filled with the flange's xmat and xpos as
+MuJoCo gives them, not reordered); nothing is checked, and there are no
 sensors, fingers, external torque, rates or status. `cycle.py --floor` times it in a tight loop,
 `reference_responder.py --physics` serves with it: what franka-sim's features cost is the
 difference between these and franka-sim's own figures.
@@ -24,7 +25,8 @@ class StrippedCycle:
     def __init__(self) -> None:
         desc = load_arm_description(default_urdf_text())
         self.m = m = build_model(desc, scene_xml=default_scene_path(), fingers=True)
-        self.d, self.s = d, _ = mujoco.MjData(m), mujoco.MjData(m)
+        self.d, self.s = mujoco.MjData(m), mujoco.MjData(m)
+        d = self.d
         d.qpos[:7] = READY_POSE
         mujoco.mj_forward(m, d)
         self.flange, nv = m.site(FLANGE_SITE).id, m.nv
