@@ -51,3 +51,9 @@ def combine_inertials(mass_a: float, com_a, inertia_a, mass_b: float, com_b, ine
         return np.asarray(inertia, float) + m * (d @ d * np.eye(3) - np.outer(d, d))
 
     return mass, com, shifted(mass_a, com_a, inertia_a) + shifted(mass_b, com_b, inertia_b)
+
+
+def flange_to_ee(NE_T_EE: np.ndarray) -> np.ndarray:
+    """F_T_EE: the Hand's flange → nominal-EE transform, then the client's NE_T_EE (SetEEToK's
+    sibling, set with SetNEToEE). Every frame the robot reports past the flange starts here."""
+    return F_T_NE_HAND @ NE_T_EE

@@ -23,7 +23,7 @@ from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import ControllerMode, MotionGeneratorMode
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.robot.controllers import impedance_torque
-from franka_sim.robot.frames import column_major
+from franka_sim.spatial import column_major
 from franka_sim.robot.settings import RobotSettings
 
 if TYPE_CHECKING:
