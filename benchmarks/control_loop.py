@@ -24,10 +24,10 @@ import pylibfranka
 
 from _common import (Load, Server, cpu_seconds, idle_behaviour, responder_command,
                      serve_command, thread_cpu_seconds, verdict)
-from franka_sim.physics.worker import OS_THREAD_NAME
+from franka_sim.server.cycle_thread import OS_THREAD_NAME
 
 PRIVATE_HOST = "127.0.0.201"
-PHYSICS_THREAD = OS_THREAD_NAME.decode()  # the name the physics thread has in /proc
+PHYSICS_THREAD = OS_THREAD_NAME.decode()  # the name the cycle thread has in /proc
 
 
 def control(host: str, seconds: float, mode: str) -> dict:

@@ -1,12 +1,12 @@
 """µs of one motion cycle's own work, in a tight loop, without sockets or threads.
 
-What the physics thread does per cycle, section by section: the core decides the drives' task
-(`jc`), MuJoCo steps (`step`), the desired-side kinematics (`kin`, generators only), the core
-packs the state (`publish`), the step finishes once the state is out (`finish`: the rest of
-mj_step1 and the next g(q), and the limit checks that only log, none of which a client waits
-for), and the client's answer is decoded (`decode`) and taken by the core (`receive`: on time?
-which command applies; the limit checks too when they are enforced, not measured here).
-`critical` is what a lockstep client waits for: all but `finish`. A server runs the same code,
+What the cycle thread does per cycle, through the server's own `RobotCycle`, section by
+section: `release` (the core closes the command window and decides the drives' task, MuJoCo
+steps, the desired-side kinematics, the core packs the state), `complete` (once the state is
+out: the rest of mj_step1 and the next g(q), and the limit checks that only log, none of which
+a client waits for), and the client's answer is decoded (`decode`) and taken by the cycle
+(`receive`: on time? which command applies; the limit checks too when they are enforced, not
+measured here). `critical` is what a lockstep client waits for: all but `complete`. A server runs the same code,
 but after a sleep between cycles, where this VM runs it 2–3× slower (docs/benchmarks.md): read
 these as the floor, not as the server's CPU.
 `--floor` times, in place of franka-sim's cycle, the answer's decode and the stripped torque
@@ -35,14 +35,15 @@ from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
-from franka_sim.physics.worker import _tune_this_thread
+from franka_sim.server.cycle_thread import _tune_this_thread
 from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import StateBuffer, decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.robot.core import RobotCore
+from franka_sim.robot.cycle import RobotCycle
 
-SECTIONS = ("jc", "step", "kin", "publish", "finish", "decode", "receive")
+SECTIONS = ("release", "complete", "decode", "receive")
 FLOOR_SECTIONS = ("decode", "step", "publish", "finish")
 MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
 
@@ -84,37 +85,32 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     q0 = np.array(READY_POSE)
     backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
     core = RobotCore(desc, q0)
-    core.publish(backend.step(core.joint_command()))
+    cycle = RobotCycle(core, backend)
+    cycle.complete(cycle.release())
     _move(core, *MOVES[mode])
-    state = decode_state(core.publish(backend.step(core.joint_command())))
-    q_start = np.array(state["q_d"])
+    released = cycle.release()
+    cycle.complete(released)
+    q_start = np.array(decode_state(released.state)["q_d"])
     clock = time.perf_counter
 
     def one_cycle(k: int) -> tuple[float, ...]:
         t0 = clock()
-        joint_command, q_desired = core.joint_command(), core.desired_q
+        released = cycle.release()
         t1 = clock()
-        measured = backend.step(joint_command)
+        cycle.complete(released)
         t2 = clock()
-        kinematics = None if q_desired is None else backend.flange_pose_and_jacobian(q_desired)
-        t3 = clock()
-        core.publish(measured, kinematics)
-        t4 = clock()
-        backend.finish_step()
-        core.run_deferred_checks()
-        t4f = clock()
         if mode == "torque":
-            answer = encode_command(message_id=core.message_id, tau_J_d=[0.0] * 7)
+            answer = encode_command(message_id=released.message_id, tau_J_d=[0.0] * 7)
         else:  # a slow swing of joint 7, well inside every limit
             q_c = q_start.copy()
             q_c[6] += 0.005 * (1 - math.cos(k * 1e-3))
-            answer = encode_command(message_id=core.message_id, q_c=q_c)
-        t5 = clock()
+            answer = encode_command(message_id=released.message_id, q_c=q_c)
+        t3 = clock()
         command = decode_command(answer)
-        t6 = clock()
-        core.receive_command(command)
-        t7 = clock()
-        return t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4f - t4, t6 - t5, t7 - t6
+        t4 = clock()
+        cycle.receive(command)
+        t5 = clock()
+        return t1 - t0, t2 - t1, t4 - t3, t5 - t4
 
     return _time_cycles(SECTIONS, one_cycle, cycles, warmup, sleep)
 
@@ -161,7 +157,7 @@ def main() -> None:
         print(f"  {name:8s} {us[name]:7.1f}")
     total = sum(us[name] for name in sections)
     print(f"  {'total':8s} {total:7.1f}")
-    print(f"  {'critical':8s} {total - us['finish']:7.1f}")
+    print(f"  {'critical':8s} {total - us['finish' if args.floor else 'complete']:7.1f}")
     if args.sleep:
         print(f"  {'cpu':8s} {us['cpu']:7.1f}   the thread's CPU time, the sleep's included "
               f"({us['cpu'] / 10:.1f} % of a core at 1 kHz){idle_behaviour()}")

@@ -1,7 +1,7 @@
 """Drive the robot core and real physics cycle by cycle, without sockets, threads or clocks.
 
-This is the server's per-cycle data flow in a loop (release → step → publish), so robot
-behaviour can be specified in microseconds and deterministically.
+It runs the server's own cycle (`RobotCycle`) in a loop, so robot behaviour can be specified
+in microseconds and deterministically.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from franka_sim.protocol.codec import decode_command, decode_state, encode_comma
 from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import decode_request, Frame
 from franka_sim.robot.core import RobotCore
+from franka_sim.robot.cycle import RobotCycle
 
 _DESCRIPTION = load_arm_description(default_urdf_text())
 
@@ -41,21 +42,25 @@ def reply_status(reply: bytes) -> tuple[int, int, int]:
 
 class Harness:
     def __init__(self, q0=READY_POSE, **core_kwargs) -> None:
-        self.backend = MujocoBackend(_DESCRIPTION, np.array(q0))
         self.core = RobotCore(_DESCRIPTION, np.array(q0), **core_kwargs)
+        self.robot_cycle = RobotCycle(self.core, MujocoBackend(_DESCRIPTION, np.array(q0)))
         self.state = None
         self.replies: list[bytes] = []
         self.cycle()
 
+    @property
+    def backend(self) -> MujocoBackend:
+        return self.robot_cycle.physics
+
+    @backend.setter
+    def backend(self, backend: MujocoBackend) -> None:  # another scene, the Hand's fingers
+        self.robot_cycle.physics = backend
+
     def cycle(self, n: int = 1):
         for _ in range(n):
-            joint_command = self.core.joint_command()
-            measured = self.backend.step(joint_command)
-            q_d = self.core.desired_q
-            kin = None if q_d is None else self.backend.flange_pose_and_jacobian(q_d)
-            self.state = decode_state(self.core.publish(measured, kin))
-            self.core.run_deferred_checks()  # as the server does once the state has left
-            self.replies += self.core.take_replies()
+            released = self.robot_cycle.release()
+            self.state = decode_state(released.state)
+            self.replies += self.robot_cycle.complete(released).robot
         return self.state
 
     def move(self, *args, **kwargs) -> int:
@@ -65,7 +70,7 @@ class Harness:
     def send(self, message_id=None, **fields) -> bool:
         """A RobotCommand answering the last state (or the given id); True if on time."""
         mid = int(self.state["message_id"]) if message_id is None else message_id
-        return self.core.receive_command(decode_command(encode_command(message_id=mid, **fields)))
+        return self.robot_cycle.receive(decode_command(encode_command(message_id=mid, **fields)))
 
     def statuses(self) -> list[tuple[int, int, int]]:
         out = [reply_status(r) for r in self.replies]

@@ -72,7 +72,7 @@ def test_a_description_libfranka_would_reject_is_refused_on_one_line(tmp_path):
 
 
 def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
-    """--rt-priority: every server thread under SCHED_FIFO (the physics worker inherits it),
+    """--rt-priority: every server thread under SCHED_FIFO (the cycle thread inherits it),
     or, where the OS refuses, one warning and a server that still serves."""
     import os
 
@@ -87,9 +87,9 @@ def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
         assert len(applied) + len(refused) == 1
         names = {int(tid): Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
                  for tid in os.listdir(f"/proc/{pid}/task")}
-        worker = [tid for tid, name in names.items() if name == "fsim-physics"]
+        worker = [tid for tid, name in names.items() if name == "fsim-cycle"]
         assert len(worker) == 1
-        for tid in (pid, worker[0]):  # the event loop's thread and the physics worker
+        for tid in (pid, worker[0]):  # the event loop's thread and the cycle thread
             policy, param = os.sched_getscheduler(tid), os.sched_getparam(tid)
             if applied:
                 assert (policy, param.sched_priority) == (os.SCHED_FIFO, 7)

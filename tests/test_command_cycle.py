@@ -93,7 +93,7 @@ def test_a_late_command_is_applied_but_counts_as_lost():
     assert not h.send(message_id=stale, dq_c=np.full(7, 0.1))
     h.cycle()
     np.testing.assert_allclose(h.state["dq_d"], 0.1, rtol=1e-6)  # applied all the same
-    assert h.core.cycle.lost_total == 2
+    assert h.core.window.lost_total == 2
 
 
 def test_an_id_never_published_answers_nothing():
@@ -101,7 +101,7 @@ def test_an_id_never_published_answers_nothing():
     future = int(h.state["message_id"]) + 5
     assert not h.send(message_id=future, dq_c=np.zeros(7))
     h.cycle()
-    assert h.core.cycle.invented_total == 1 and h.core.cycle.lost_total == 1
+    assert h.core.window.invented_total == 1 and h.core.window.lost_total == 1
 
 
 def test_missed_cycles_extrapolate_at_constant_acceleration():

@@ -32,7 +32,7 @@ def test_answers_on_the_socket_count_while_the_loop_is_blocked():
             client = await asyncio.to_thread(RawClient, host)
             assert await asyncio.to_thread(client.move, 2, 4) == 1  # torque, kMotionStarted
             with sim.lock:
-                before = (sim.core.cycle.answered_total, sim.core.cycle.lost_total)
+                before = (sim.core.window.answered_total, sim.core.window.lost_total)
             answered = []
 
             def answer() -> None:  # from the first motion state on, which move() read
@@ -45,7 +45,7 @@ def test_answers_on_the_socket_count_while_the_loop_is_blocked():
             thread.start()
             thread.join(60)  # blocks the event loop: it reads no datagram meanwhile
             with sim.lock:
-                after = (sim.core.cycle.answered_total, sim.core.cycle.lost_total)
+                after = (sim.core.window.answered_total, sim.core.window.lost_total)
             client.close()
             return before, after, answered
 
@@ -88,4 +88,4 @@ def test_realtime_commands_are_read_by_the_physics_thread_only():
 
     readers = asyncio.run(app())
     assert len(readers) > sent
-    assert set(readers) == {"franka-sim-physics"}
+    assert set(readers) == {"franka-sim-cycle"}

@@ -22,7 +22,7 @@ from franka_sim.protocol.enums import GRIPPER_VERSION, GripperCommand, GripperSt
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
 from franka_sim.robot.gripper import (MAX_SPEED, NOMINAL_MAX_WIDTH, STATE_PERIOD, Gripper)
-from franka_sim.robot.session import GripperSession
+from franka_sim.robot.session import gripper_session
 from franka_sim.robot.session import SessionError
 
 DESC = load_arm_description(default_urdf_text())
@@ -266,11 +266,11 @@ def connect_bytes(version=GRIPPER_VERSION, udp_port=4242) -> bytes:
 
 
 def test_connect_checks_the_version():
-    session = GripperSession(Gripper())
+    session = gripper_session(Gripper())
     (reply,) = session.receive(connect_bytes())
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 0, 3)
     assert session.handshake.udp_port == 4242 and not session.closed
-    old = GripperSession(Gripper())
+    old = gripper_session(Gripper())
     (reply,) = old.receive(connect_bytes(version=2))
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 1, 3)  # kIncompatibleLibraryVersion, v3
     assert old.closed and old.handshake is None
@@ -283,7 +283,7 @@ def test_connect_checks_the_version():
     (struct.pack("<HII", 1, 1, 1 << 30), "absurd size"),
 ])
 def test_malformed_frames_end_the_session(data, why):
-    session = GripperSession(Gripper())
+    session = gripper_session(Gripper())
     session.receive(connect_bytes())
     with pytest.raises(SessionError):
         session.receive(data)
@@ -292,11 +292,11 @@ def test_malformed_frames_end_the_session(data, why):
 
 def test_commands_before_connect_end_the_session():
     with pytest.raises(SessionError):
-        GripperSession(Gripper()).receive(build_gripper_request(Homing, 1))
+        gripper_session(Gripper()).receive(build_gripper_request(Homing, 1))
 
 
 def test_split_and_batched_requests_are_all_answered():
-    session = GripperSession(Gripper())
+    session = gripper_session(Gripper())
     data = connect_bytes() + build_gripper_request(Stop, 1) + build_gripper_request(Stop, 2)
     replies = [r for i in range(len(data)) for r in session.receive(data[i:i + 1])]
     assert [struct.unpack_from("<HI", r) for r in replies] == [(0, 0), (4, 1), (4, 2)]

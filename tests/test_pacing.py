@@ -79,6 +79,13 @@ class _Worker:
         self.watched.append(sock)
 
 
+def driver_for(harness: Harness, *args, **kwargs) -> CycleDriver:
+    """A driver ticking the harness's own cycle (its start() would build one in the thread)."""
+    driver = CycleDriver(lambda physics: harness.robot_cycle, *args, **kwargs)
+    driver.cycle = harness.robot_cycle
+    return driver
+
+
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
     """A thread held up inside a send (preempted, a busy host) sends that state late; the next
     state must still leave at least min_spacing after it, not min_spacing after the late
@@ -92,7 +99,7 @@ def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
         left.append(clock.now)
 
     harness = Harness()
-    driver = CycleDriver(harness.core, _Worker(), threading.Lock(), send_state, clock=clock)
+    driver = driver_for(harness, _Worker(), threading.Lock(), send_state, clock=clock)
     deadline = driver._tick(harness.backend, True)  # anchored at 0
     assert deadline == pytest.approx(PERIOD)
     clock.now = 3.0 * MS  # the next tick woke 2 ms late
@@ -113,7 +120,7 @@ def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
     def send_state(data: bytes) -> None:
         unfinished_at_send.append(harness.backend._unfinished)
 
-    driver = CycleDriver(harness.core, _Worker(), threading.Lock(), send_state,
+    driver = driver_for(harness, _Worker(), threading.Lock(), send_state,
                          clock=_FakeClock())
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
     driver._tick(harness.backend, True)  # the state that shows the motion running
@@ -138,7 +145,7 @@ def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_socket():
         for _ in range(min(limit, len(on_socket))):
             driver.receive(decode_command(on_socket.pop(0)))
 
-    driver = CycleDriver(harness.core, worker, threading.Lock(),
+    driver = driver_for(harness, worker, threading.Lock(),
                          lambda data: sent.append(int(decode_state(data)["message_id"])),
                          lockstep=True, poll_commands=poll_commands,
                          command_socket=lambda: command_socket)

@@ -12,7 +12,7 @@ import asyncio
 import threading
 import time
 
-from franka_sim.physics.worker import PhysicsWorker
+from franka_sim.server.cycle_thread import CycleThread
 
 MARGIN = 1.0  # s between "now" and a deadline in these tests (a busy CI machine)
 
@@ -39,8 +39,8 @@ class Ticks:
             await asyncio.sleep(0.01)
 
 
-async def _worker() -> PhysicsWorker:
-    worker = PhysicsWorker(lambda: "backend", name="test-physics")
+async def _worker() -> CycleThread:
+    worker = CycleThread(lambda: "backend", name="test-physics")
     await worker.start()
     return worker
 

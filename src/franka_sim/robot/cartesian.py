@@ -15,7 +15,8 @@ import math
 
 import numpy as np
 
-DT = 1e-3
+from franka_sim.protocol.timing import CYCLE_PERIOD as DT
+
 # λ of the damped least squares: negligible against the ready pose's smallest singular value
 # (≈ 0.23) and keeps the step bounded near singularities.
 DLS_DAMPING = 1e-3

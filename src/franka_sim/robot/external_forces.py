@@ -21,10 +21,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from franka_sim.description.hand import flange_to_ee
+from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.robot.cartesian import ee_jacobian
-from franka_sim.robot.settings import CollisionThresholds
+from franka_sim.robot.settings import CollisionThresholds, RobotSettings
 
-DT = 1e-3
 # The robot's estimator cutoff is unpublished (fr3_facts §8). 20 Hz: a step in force is 95 % in
 # after 24 ms, fast enough for the reflex to follow an impact within a few cycles, and it smooths
 # MuJoCo's contact solver from step to step.
@@ -98,6 +99,7 @@ class ExternalForces:
         self._collision = np.zeros(13, dtype=bool)  # latched until clear_collisions()
         self._active = False  # the estimate is not all zero
         self._stacked: tuple | None = None  # (thresholds, lower (13,), upper (13,))
+        self._F_T_K: tuple | None = None  # (NE_T_EE, EE_T_K, F_T_K), rebuilt when they change
         self.version = 0
 
     joint_contact = property(lambda self: self._contact[:7])
@@ -109,6 +111,21 @@ class ExternalForces:
         """Nothing touches the arm and the estimate has decayed: an update would change nothing."""
         # any() of a list: ndarray.any() costs ~1 µs per cycle through its Python wrapper
         return not self._active and (tau_ext is None or not any(tau_ext.tolist()))
+
+    def estimate(self, measured, settings: RobotSettings, ddq_d: np.ndarray | None) -> list[str]:
+        """One cycle's estimate and flags under the client's thresholds and frames; the
+        reflexes a collision calls for. `ddq_d`: the generator's acceleration (None: none)."""
+        thresholds = active_thresholds(settings.collision, accelerating(ddq_d))
+        return self.update(measured.tau_ext, measured.O_T_F, measured.J_F,
+                           self._flange_to_K(settings), thresholds)
+
+    def _flange_to_K(self, settings: RobotSettings) -> np.ndarray:
+        cached = self._F_T_K
+        if (cached is None or cached[0] is not settings.NE_T_EE
+                or cached[1] is not settings.EE_T_K):
+            cached = self._F_T_K = (settings.NE_T_EE, settings.EE_T_K,
+                                    flange_to_ee(settings.NE_T_EE) @ settings.EE_T_K)
+        return cached[2]
 
     def update(self, tau_ext: np.ndarray | None, O_T_F: np.ndarray, J_F: np.ndarray | None,
                F_T_K: np.ndarray, thresholds: Thresholds) -> list[str]:

@@ -38,10 +38,10 @@ from franka_sim.physics.backend import FingerCommand, FingerState
 from franka_sim.protocol.codec import GripperStateBuffer
 from franka_sim.protocol.enums import GripperCommand, GripperStatus
 from franka_sim.protocol.gripper_messages import build_gripper_response
+from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 
 log = logging.getLogger(__name__)
 
-DT = 1e-3  # s per robot cycle
 STATE_PERIOD = 100  # cycles between GripperStates: 10 Hz
 NOMINAL_MAX_WIDTH = 0.08  # m, the datasheet opening: max_width until a homing measures it
 MAX_SPEED = 0.1  # m/s of opening

@@ -28,8 +28,8 @@ from franka_sim.protocol.enums import (
     MoveMotionGeneratorMode,
     MoveStatus,
 )
+from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 
-DT = 1e-3
 MAX_EXTRAPOLATED_CYCLES = 20
 # A finished motion must end at rest: |dq_d| above this on the finishing cycle is "still moving".
 FINISH_VELOCITY_TOLERANCE = 0.05  # rad/s

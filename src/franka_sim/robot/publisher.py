@@ -12,6 +12,7 @@ them ~6× faster than numpy would here.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,16 +23,17 @@ from franka_sim.physics.backend import Measured
 from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import ControllerMode, MotionGeneratorMode
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
+from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.robot.controllers import impedance_torque
-from franka_sim.spatial import column_major
 from franka_sim.robot.settings import RobotSettings
+from franka_sim.spatial import column_major
 
 if TYPE_CHECKING:
-    from franka_sim.robot.core import RobotCore
+    from franka_sim.robot.external_forces import ExternalForces
     from franka_sim.robot.motion import Motion
+    from franka_sim.robot.status import RobotStatus
 
 GRAVITY = np.array([0.0, 0.0, -9.81])
-DT = 1e-3
 IDLE_MODES = (MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance)
 # Fields copied as they are, from a Measured and from ExternalForces (same names in the state).
 MEASURED_FIELDS = ("q", "dq", "tau_J", "dtau_J", "theta", "dtheta")
@@ -58,6 +60,30 @@ def ee_twist(O_T_F: np.ndarray, J_F: np.ndarray, F_T_EE: np.ndarray, dq: np.ndar
     twist[1] = vy + (wz * rx - wx * rz)
     twist[2] = vz + (wx * ry - wy * rx)
     return twist
+
+
+@dataclass(eq=False, slots=True)
+class CycleFacts:
+    """What one cycle's state reports, as the core decided it: one value, refilled in place
+    each cycle (no allocation on the hot path)."""
+
+    status: "RobotStatus"
+    external: "ExternalForces"
+    message_id: int = 0
+    motion: "Motion | None" = None  # the running motion (None: idle)
+    success_rate: float = 0.0
+    measured: Measured | None = None
+    desired_kinematics: tuple | None = None  # (O_T_F_d, J_F_d) at q_d, or None
+
+
+@dataclass(frozen=True)
+class PublishedStart:
+    """What the last published state showed of the arm: where a Move's checks start, since
+    libfranka's generators start from it."""
+
+    q: np.ndarray  # (7,)
+    O_T_EE: np.ndarray  # (16,), column-major as on the wire
+    elbow: np.ndarray  # (2,)
 
 
 class StatePublisher:
@@ -92,12 +118,12 @@ class StatePublisher:
         self._O_T_EE = np.eye(4)
         self._idle_for: Measured | None = None  # the Measured the idle signals were written for
         self._status: tuple | None = None  # (motion, robot_mode) whose modes the buffer holds
-        self._flags_version = -1  # core.flags_version whose error bits the buffer holds
+        self._flags_version = -1  # RobotStatus.flags_version whose error bits the buffer holds
         self._rate = 0.0  # control_command_success_rate in the buffer
 
-    def pack(self, core: "RobotCore", m: Measured, desired_kinematics) -> bytes:
-        s = self.buffer
-        s.message_id[...] = core.message_id
+    def pack(self, facts: CycleFacts) -> bytes:
+        s, m = self.buffer, facts.measured
+        s.message_id[...] = facts.message_id
         F_T_EE = self._configured_frames()
         written = self._written
         if written is None or written[0] is not m or written[1] is not F_T_EE:
@@ -112,31 +138,34 @@ class StatePublisher:
             self._idle_for = None
         O_T_EE = self._O_T_EE
 
-        motion = core.motion
-        if motion is not None and not motion.running:
-            motion = None
+        motion = facts.motion
         if motion is None:
             self._idle_signals(m, O_T_EE)
         else:
-            self._motion_signals(core, motion, m, O_T_EE, F_T_EE, desired_kinematics)
-        self._write_status(core, motion)
-        self._external_forces(core.external)
+            self._motion_signals(motion, m, O_T_EE, F_T_EE, facts.desired_kinematics)
+        self._write_status(facts.status, motion, facts.success_rate)
+        self._external_forces(facts.external)
         return s.pack()
 
-    def _write_status(self, core: "RobotCore", motion: "Motion | None") -> None:
+    def published_start(self) -> PublishedStart:
+        """The arm as the last state showed it (fresh arrays, safe to keep)."""
+        q = self._written[0].q.copy()
+        return PublishedStart(q, column_major(self._O_T_EE).copy(),
+                              np.array(elbow_of(q), dtype=float))
+
+    def _write_status(self, status: "RobotStatus", motion: "Motion | None", rate: float) -> None:
         """Modes, error bits and the success rate: rewritten only when they changed."""
-        s, robot_mode, written = self.buffer, core.robot_mode, self._status
+        s, robot_mode, written = self.buffer, status.robot_mode, self._status
         if written is None or written[0] is not motion or written[1] is not robot_mode:
             self._status = (motion, robot_mode)
             mg, ctrl = IDLE_MODES if motion is None else motion.spec.state_modes
             s.motion_generator_mode[...] = int(mg)
             s.controller_mode[...] = int(ctrl)
             s.robot_mode[...] = int(robot_mode)
-        if core.flags_version != self._flags_version:
-            self._flags_version = core.flags_version
-            s.errors[:] = core.errors
-            s.reflex_reason[:] = core.reflex_reason
-        rate = 0.0 if motion is None else core.cycle.success_rate
+        if status.flags_version != self._flags_version:
+            self._flags_version = status.flags_version
+            s.errors[:] = status.errors
+            s.reflex_reason[:] = status.reflex_reason
         if rate != self._rate:
             self._rate = rate
             s.control_command_success_rate[...] = rate
@@ -174,7 +203,7 @@ class StatePublisher:
         self._delbow_c = (0.0, 0.0)
         self._idle_for = m
 
-    def _motion_signals(self, core, motion, m: Measured, O_T_EE, F_T_EE, desired_kinematics):
+    def _motion_signals(self, motion, m: Measured, O_T_EE, F_T_EE, desired_kinematics):
         """A motion runs: desired signals from its generator, commanded ones from the client."""
         s = self.buffer
         self._idle_written = False
@@ -215,7 +244,7 @@ class StatePublisher:
                 or configured[1] is not settings.EE_T_K or configured[2] is not settings.load):
             s = self.buffer
             self._configured = (settings.NE_T_EE, settings.EE_T_K, settings.load)
-            self._F_T_EE = hand.F_T_NE_HAND @ settings.NE_T_EE
+            self._F_T_EE = hand.flange_to_ee(settings.NE_T_EE)
             s.F_T_EE[:] = column_major(self._F_T_EE)
             s.NE_T_EE[:] = column_major(settings.NE_T_EE)
             s.EE_T_K[:] = column_major(settings.EE_T_K)

@@ -121,11 +121,11 @@ class Session:
                                       version=service.version)
 
 
-def RobotSession(handler) -> Session:  # noqa: N802 - reads as the class it stands for
+def robot_session(handler) -> Session:
     """The robot's conversation: requests go to a RequestHandler."""
     return Session(ROBOT, handler.handle)
 
 
-def GripperSession(gripper) -> Session:  # noqa: N802
+def gripper_session(gripper) -> Session:
     """The Hand's conversation: requests go to the Gripper state machine."""
     return Session(GRIPPER, gripper.request)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-PERIOD = 1e-3
+from franka_sim.protocol.timing import CYCLE_PERIOD as PERIOD
+
 LOCKSTEP_WINDOW = 0.1  # s of wall time a lockstep cycle waits for its answer
 
 

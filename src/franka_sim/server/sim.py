@@ -1,7 +1,8 @@
 """FrankaSim: one simulated FR3 on one address, usable as `async with FrankaSim(...)`.
 
-It wires the pieces and nothing else: description + scene → physics worker, robot core, the TCP
-and UDP endpoints, the Hand (gripper state machine + its endpoint), and the cycle driver. Works
+It wires the pieces and nothing else: description + scene → the cycle thread (which owns the
+physics), robot core, the TCP and UDP endpoints, the Hand (gripper state machine + its
+endpoint), the robot's cycle and the driver that paces it. Works
 on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
 """
 
@@ -10,20 +11,19 @@ from __future__ import annotations
 import errno
 import logging
 import threading
-from typing import Callable
-
 import numpy as np
 
 from franka_sim.config import ClockMode, Config
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import check_scene, default_scene_path
-from franka_sim.physics.worker import PhysicsWorker
 from franka_sim.robot.core import RobotCore
+from franka_sim.robot.cycle import Replies, RobotCycle
 from franka_sim.robot.gripper import Gripper
 from franka_sim.robot.requests import RequestHandler
-from franka_sim.robot.session import GripperSession, RobotSession, Session
+from franka_sim.robot.session import gripper_session, robot_session, Session
 from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.gripper_endpoint import GripperEndpoint
 from franka_sim.server.robot_endpoint import RobotEndpoint
 from franka_sim.server.udp_endpoint import UdpEndpoint
@@ -53,7 +53,7 @@ class FrankaSim:
         )
         self.scene = config.scene if config.scene is not None else default_scene_path()
         check_scene(self.description, self.scene, fingers=config.gripper)  # SceneError: say so now
-        self.worker = PhysicsWorker(lambda: MujocoBackend(
+        self.worker = CycleThread(lambda: MujocoBackend(
             self.description, q0, scene_xml=self.scene, fingers=config.gripper))
         # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
         self.gripper = Gripper() if config.gripper else None
@@ -67,9 +67,8 @@ class FrankaSim:
                                    defer_replies=self._defer_replies, lock=self.lock,
                                    replaceable=self._client_silent)
         self.driver = CycleDriver(
-            self.core, self.worker, self.lock, self.udp.send_state,
-            lockstep=config.clock is ClockMode.lockstep, on_cycle=self._on_cycle,
-            finger_command=(lambda: self.gripper.command) if self.gripper is not None else None,
+            self._make_cycle, self.worker, self.lock, self.udp.send_state,
+            lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
             has_client=self._has_client, poll_commands=self.udp.poll,
             command_socket=lambda: self.udp.sock,
         )
@@ -147,11 +146,11 @@ class FrankaSim:
     # -- wiring --------------------------------------------------------------------------------
     def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
-        return RobotSession(RequestHandler(self.core, self.urdf_text.encode()))
+        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
 
     def _make_gripper_session(self) -> Session:
         self.driver.resume()
-        return GripperSession(self.gripper)
+        return gripper_session(self.gripper)
 
     def _defer_replies(self, deliver) -> bool:
         return self.driver.after_next_state(deliver)  # see CycleDriver.after_next_state
@@ -174,28 +173,18 @@ class FrankaSim:
     def _on_command(self, command) -> None:
         self.driver.receive(command)
 
-    def _on_cycle(self, cycle: int, measured) -> "Callable[[], None] | None":
-        """The rest of a cycle (physics thread, lock held): the Hand moves on; the replies
-        the robot and the Hand produced, to send once the state has left."""
-        replies = self.core.take_replies()
-        gripper = self.gripper
-        hand_replies, hand_state = [], None
-        if gripper is not None:
-            gripper.advance(cycle, measured.fingers)
-            hand_replies = gripper.take_replies()
-            if gripper.state_due(cycle) and self.gripper_endpoint.state_target is not None:
-                hand_state = gripper.pack_state(cycle)
-        if not (replies or hand_replies or hand_state):
-            return None
+    def _make_cycle(self, physics) -> RobotCycle:
+        return RobotCycle(self.core, physics, self.gripper,
+                          hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
 
-        def deliver() -> None:  # on the loop
-            for reply in replies:
-                self.robot.send(reply)
-            for reply in hand_replies:
-                self.gripper_endpoint.send(reply)
-            if hand_state is not None:
-                self.gripper_endpoint.send_state(hand_state)
-        return deliver
+    def _deliver(self, replies: Replies) -> None:
+        """A cycle's replies, on the loop, once its state has left."""
+        for reply in replies.robot:
+            self.robot.send(reply)
+        for reply in replies.hand:
+            self.gripper_endpoint.send(reply)
+        if replies.hand_state is not None:
+            self.gripper_endpoint.send_state(replies.hand_state)
 
     def _on_gripper_disconnect(self) -> None:
         self.gripper.client_gone()

@@ -1,4 +1,4 @@
-"""The one thread that owns the MuJoCo data, fed through a queue — and the robot's pacemaker.
+"""The cycle thread: the one thread that owns the MuJoCo data, and the robot's pacemaker.
 
 MuJoCo steps in this thread so the event loop never blocks on physics; every access to the
 backend (a cycle, a model query, a parameter change) runs here, so the MjData is only ever
@@ -39,7 +39,7 @@ _STOP = object()
 _WAKE = object()  # run the tick now, ahead of its deadline
 _PR_SET_NAME = 15
 _PR_SET_TIMERSLACK = 29
-OS_THREAD_NAME = b"fsim-physics"  # what top, ps -L and /proc show for this thread
+OS_THREAD_NAME = b"fsim-cycle"  # what top, ps -L and /proc show for this thread
 
 # tick(backend, due) -> the monotonic time of the next tick, or None: only when woken.
 # `due`: the deadline came (False: woken early; the tick decides whether that releases a cycle).
@@ -56,8 +56,8 @@ def _tune_this_thread() -> None:
         pass
 
 
-class PhysicsWorker:
-    def __init__(self, make_backend: Callable[[], Any], name: str = "franka-sim-physics") -> None:
+class CycleThread:
+    def __init__(self, make_backend: Callable[[], Any], name: str = "franka-sim-cycle") -> None:
         self._make_backend = make_backend
         self._jobs: collections.deque = collections.deque()
         # A byte on _bell after each job: what the worker's select wakes on.

@@ -1,4 +1,4 @@
-"""Command-cycle accounting: which published state each RobotCommand answered.
+"""The command window: which published state each RobotCommand answered.
 
 Every published state opens a cycle; a command echoing that state's message_id that arrives
 before the next cycle is released closes it on time. The release of the next cycle is the end
@@ -19,7 +19,7 @@ from collections import deque
 WINDOW = 100
 
 
-class CommandCycle:
+class CommandWindow:
     def __init__(self) -> None:
         self.open_id: int | None = None  # message_id of the cycle awaiting its answer
         self._answered = False

@@ -1,0 +1,124 @@
+"""One arm's control cycle, sans-IO: release it, send its state, complete it.
+
+This is the only place the sequence of a cycle is written; the server's cycle thread, the test
+harness and the benchmarks all run it through `RobotCycle`:
+
+1. `receive(command)` for each RobotCommand that arrived (an on-time answer closes the open
+   cycle's command window at once);
+2. `release()`: the core closes the window if still open and says what the drives do, the
+   physics steps once (with the Hand's finger command), the desired-side kinematics are taken
+   at q_d when a generator sets it, and the core packs the RobotState;
+3. the caller sends the state;
+4. `complete(released)`: the Hand advances on the new finger reading, the part of the physics
+   step that no reading needed is done, the log-only limit checks run, and the replies the cycle
+   produced (robot and Hand) are handed back to be written to TCP.
+
+Work that a client does not wait for comes after the send, so a lockstep client gets its state
+as early as possible; doing it later gives the same bits (physics/mujoco_backend.py, "Step
+structure"). Time is the cycle number; no clock is read here.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+from franka_sim.physics.backend import Backend, Measured
+from franka_sim.robot.core import RobotCore
+from franka_sim.robot.gripper import Gripper
+from franka_sim.thinned_log import worth_logging
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Released:
+    """A released cycle: its message_id, its RobotState bytes (None: packing failed, nothing
+    to send), and the measurement it published."""
+
+    message_id: int
+    state: bytes | None
+    measured: Measured
+
+
+@dataclass(frozen=True)
+class Replies:
+    """What a completed cycle leaves to write: robot replies, Hand replies, a GripperState."""
+
+    robot: list[bytes]
+    hand: list[bytes]
+    hand_state: bytes | None
+
+    def __bool__(self) -> bool:
+        return bool(self.robot or self.hand or self.hand_state)
+
+
+class RobotCycle:
+    def __init__(self, core: RobotCore, physics: Backend, hand: Gripper | None = None, *,
+                 hand_state_wanted=lambda: True) -> None:
+        self.core = core
+        self.physics = physics
+        self.hand = hand
+        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
+        self._failures = 0
+
+    # -- questions a pacer asks ----------------------------------------------------------------
+    @property
+    def message_id(self) -> int:
+        """The last published state's id."""
+        return self.core.message_id
+
+    @property
+    def in_motion(self) -> bool:
+        """A Move was admitted and has not ended (its first state may not be out yet)."""
+        return self.core.motion is not None
+
+    @property
+    def lockstep_applies(self) -> bool:
+        """The client answers every state now, so a lockstep pacer may wait for it."""
+        return self.core.streams_commands
+
+    # -- the cycle -------------------------------------------------------------------------------
+    def receive(self, command) -> bool:
+        """A decoded RobotCommand; True if it answered the open cycle in time."""
+        return self.core.receive_command(command)
+
+    def release(self) -> Released:
+        core, physics = self.core, self.physics
+        joint_command = core.release_cycle()
+        q_d = core.desired_q
+        if self.hand is None:
+            measured = physics.step(joint_command)
+        else:
+            measured = physics.step(joint_command, self.hand.command)
+        kinematics = None if q_d is None else physics.flange_pose_and_jacobian(q_d)
+        try:
+            state = core.publish(measured, kinematics)
+        except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+            self._failed()
+            state = None
+        return Released(core.message_id, state, measured)
+
+    def complete(self, released: Released) -> Replies:
+        """After the state has left: the Hand, the rest of the step, the log-only checks. A
+        cycle whose state could not be packed leaves its replies for the next one's state."""
+        core, hand = self.core, self.hand
+        robot_replies, hand_replies, hand_state = [], [], None
+        if released.state is not None:
+            robot_replies = core.take_replies()
+            if hand is not None:
+                try:
+                    hand.advance(released.message_id, released.measured.fingers)
+                    hand_replies = hand.take_replies()
+                    if hand.state_due(released.message_id) and self.hand_state_wanted():
+                        hand_state = hand.pack_state(released.message_id)
+                except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+                    self._failed()
+        self.physics.finish_step()
+        core.run_deferred_checks()
+        return Replies(robot_replies, hand_replies, hand_state)
+
+    def _failed(self) -> None:
+        self._failures += 1
+        if worth_logging(self._failures):
+            log.exception("cycle %d failed (%d so far)", self.core.message_id, self._failures)
