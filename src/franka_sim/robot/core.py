@@ -39,9 +39,9 @@ from franka_sim.robot.cartesian import (
     ee_jacobian,
     smallest_singular_value,
 )
+from franka_sim.robot.checks import LimitPolicy, MotionGuard
 from franka_sim.robot.controllers import cartesian_impedance_torque
 from franka_sim.robot.external_forces import ExternalForces, accelerating, active_thresholds
-from franka_sim.robot.motion_guard import MotionGuard, ViolationLog, error_names
 from franka_sim.robot.motion import (
     CARTESIAN_GENERATORS,
     MAX_EXTRAPOLATED_CYCLES,
@@ -67,10 +67,9 @@ class RobotCore:
                  enforce_comm_constraints: bool = False, enforce_motion_limits: bool = False,
                  joint_discontinuity_scale: float = 1.0, first_message_id: int = 1) -> None:
         self.desc = desc
-        self.enforce_motion_limits = enforce_motion_limits
+        self.limit_policy = LimitPolicy(enforce_motion_limits)
         self.joint_discontinuity_scale = joint_discontinuity_scale
         self.guard: MotionGuard | None = None
-        self.violations = ViolationLog()
         self.settings = RobotSettings()
         self.enforce_comm_constraints = enforce_comm_constraints
         self.message_id = first_message_id - 1  # id of the last published state
@@ -94,9 +93,6 @@ class RobotCore:
         self._F_T_K: tuple | None = None  # (NE_T_EE, EE_T_K, F_T_K), rebuilt when they change
         self._motion_F_T_K: tuple | None = None  # (motion, EE_T_K, its F_T_EE @ EE_T_K)
         self._window_closed = False  # the open cycle's command window was closed early
-        # Limit checks whose only outcome is a log line (limits not enforced): (check, *args),
-        # run once the state has left (run_deferred_checks), in the order they were queued.
-        self._deferred_checks: list[tuple] = []
 
     # -- the cycle ---------------------------------------------------------------------------
     def joint_command(self) -> JointCommand:
@@ -220,7 +216,7 @@ class RobotCore:
         return self.cycle.success_rate if self.motion_running else 0.0
 
     def _close_cycle(self, motion: Motion) -> None:
-        self.run_deferred_checks()  # the last cycle's first: the checks difference samples
+        self.limit_policy.run_deferred()  # the last cycle's first: the checks difference samples
         command = self.cycle.close()
         lost = self.cycle.consecutive_lost
         guard = self.guard
@@ -247,34 +243,17 @@ class RobotCore:
             self._finish(motion)
 
     def _judge(self, check, *args) -> bool:
-        """Run a limit check now if its violations abort the motion (True: it aborted);
-        otherwise queue it: its only outcome is a log line, which need not hold up the state
-        a client is waiting for (a lockstep cycle is ~7 % faster without them)."""
-        if not self.enforce_motion_limits:
-            self._deferred_checks.append((check, *args))
-            return False
-        return self._enforce(check(*args))
-
-    def run_deferred_checks(self) -> None:
-        """The queued log-only checks (see _judge): the server runs them once the state has
-        left; the next cycle runs any left over first, so their order never changes."""
-        queued = self._deferred_checks
-        if not queued:
-            return
-        self._deferred_checks = []
-        for check, *args in queued:
-            self._enforce(check(*args))
-
-    def _enforce(self, violations) -> bool:
-        """Log violations; with enforcement, abort on any that the robot aborts on."""
-        if not violations:
-            return False
-        self.violations.report(violations, self.enforce_motion_limits)
-        names = error_names(violations)
-        if names and self.enforce_motion_limits:
+        """A limit check under the limit policy (True: it aborted the motion)."""
+        names = self.limit_policy.judge(check, *args)
+        if names:
             self._reflex(names)
             return True
         return False
+
+    def run_deferred_checks(self) -> None:
+        """The log-only limit checks queued so far (see LimitPolicy): the server runs them once
+        the state has left."""
+        self.limit_policy.run_deferred()
 
     # -- UDP commands ----------------------------------------------------------------------------
     def receive_command(self, command) -> bool:
