@@ -173,7 +173,7 @@ def test_a_limit_check_that_only_logs_runs_once_the_state_has_left(caplog):
     the state is out (a lockstep client is not kept waiting for it): still logged, and the
     command still applied."""
     h = _running_velocity_motion()
-    with caplog.at_level(logging.WARNING, logger="franka_sim.robot.motion_guard"):
+    with caplog.at_level(logging.WARNING, logger="franka_sim.robot.checks"):
         assert h.send(dq_c=np.full(7, 0.5))  # a jump from rest: a discontinuity
         assert not caplog.records  # not judged yet
         h.cycle()

@@ -6,7 +6,7 @@ import numpy as np
 
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
-from franka_sim.robot.ik_limits import IkJointSideChecker
+from franka_sim.robot.checks import IkJointSideChecker
 from franka_sim.robot.motion import JointReference
 
 DESC = load_arm_description(default_urdf_text())

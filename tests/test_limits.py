@@ -1,7 +1,7 @@
 """The limit tables: the datasheet figures, libfranka's constants and the served URDF agree.
 
 The published figures are restated here as data (fr3_facts.md §1.3–§1.4, protocol_v10.md §7),
-so a typo in `limits.py` or in the URDF cannot hide behind the code that consumes it. When the
+so a typo in the figures or in the URDF cannot hide behind the code that consumes it. When the
 shared reference is present, the restatement itself is checked against its markdown tables.
 """
 
@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
-from franka_sim.robot import limits as L
+from franka_sim.robot.checks import figures as L
+from franka_sim.robot.checks.joint_table import joint_limits
+from franka_sim.robot.checks.measuring import frame_defect
 
 DESC = load_arm_description(default_urdf_text())
 FACTS = Path("/work/shared/reference/fr3_facts.md")
@@ -65,7 +67,7 @@ def test_libfrankas_limiter_uses_the_same_figures_so_what_it_produces_passes():
 
 
 def test_per_joint_figures_come_from_the_served_urdf():
-    table = L.joint_limits(DESC)
+    table = joint_limits(DESC)
     expected = np.array(JOINTS, dtype=float)
     np.testing.assert_array_equal(table.lower, expected[:, 0])
     np.testing.assert_array_equal(table.upper, expected[:, 1])
@@ -79,9 +81,9 @@ def test_per_joint_figures_come_from_the_served_urdf():
 def test_a_different_served_urdf_means_different_limits():
     text = default_urdf_text().replace('effort="87.0" velocity="2.62"',
                                        'effort="50.0" velocity="2.0"', 1)
-    table = L.joint_limits(load_arm_description(text))
+    table = joint_limits(load_arm_description(text))
     assert (table.velocity[0], table.effort[0]) == (2.0, 50.0)
-    assert L.joint_limits(DESC).velocity[0] == 2.62  # cached per description, not shared
+    assert joint_limits(DESC).velocity[0] == 2.62  # cached per description, not shared
 
 
 def _law(q, lower, upper, v_max, decel, offset):
@@ -92,7 +94,7 @@ def _law(q, lower, upper, v_max, decel, offset):
 
 
 def test_the_position_based_velocity_law_matches_its_published_form():
-    table = L.joint_limits(DESC)
+    table = joint_limits(DESC)
     rng = np.random.default_rng(7)
     for _ in range(200):
         q = rng.uniform(table.lower - 0.1, table.upper + 0.1)
@@ -103,7 +105,7 @@ def test_the_position_based_velocity_law_matches_its_published_form():
 
 
 def test_the_law_reaches_zero_where_the_fact_sheet_says():
-    table = L.joint_limits(DESC)
+    table = joint_limits(DESC)
     zero_at = np.array([row[2] for row in VELOCITY_LAW])
     _, up = table.velocity_range(zero_at - 1e-4)
     assert np.all((up > 0) & (up < 0.02))
@@ -129,11 +131,11 @@ def test_the_float32_echo_slack_is_a_few_percent_at_most():
 def test_the_frame_check_accepts_rigid_transforms_only():
     T = np.eye(4)
     T[:3, 3] = (0.3, 0.0, 0.5)
-    assert L.frame_defect(T.ravel(order="F").tolist()) is None
-    assert L.frame_defect(T.astype(np.float32).astype(float).ravel(order="F").tolist()) is None
-    assert L.frame_defect([0.0] * 16)[2] == "deviation from a rigid transform"
+    assert frame_defect(T.ravel(order="F").tolist()) is None
+    assert frame_defect(T.astype(np.float32).astype(float).ravel(order="F").tolist()) is None
+    assert frame_defect([0.0] * 16)[2] == "deviation from a rigid transform"
     mirrored = np.diag([-1.0, 1.0, 1.0, 1.0])
-    assert L.frame_defect(mirrored.ravel(order="F").tolist())[:2] == (-1.0, 1.0)
+    assert frame_defect(mirrored.ravel(order="F").tolist())[:2] == (-1.0, 1.0)
 
 
 # -- the restatement above against the shared reference ---------------------------------------

@@ -17,7 +17,7 @@ from franka_sim.description.kinematics import elbow, flange_pose
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.protocol.codec import decode_command, encode_command
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
-from franka_sim.robot.safety import RAISED_ERRORS, MotionLimitChecker, Violation, check_measured
+from franka_sim.robot.checks import RAISED_ERRORS, Violation, check_measured, command_checker_for
 
 DESC = load_arm_description(default_urdf_text())
 DT = 1e-3
@@ -39,13 +39,13 @@ def command(**fields):
 
 
 def joint_checker(generator=Gen.kJointPosition, torque=False, q_start=HOME):
-    return MotionLimitChecker(DESC, generator, torque, q_start=q_start, O_T_EE_start=None,
-                              elbow_start=None)
+    return command_checker_for(DESC, generator, torque, q_start=q_start, O_T_EE_start=None,
+                               elbow_start=None)
 
 
 def cartesian_checker(generator=Gen.kCartesianPosition, torque=False, elbow=ELBOW_HOME):
-    return MotionLimitChecker(DESC, generator, torque, q_start=HOME, O_T_EE_start=T_HOME,
-                              elbow_start=elbow)
+    return command_checker_for(DESC, generator, torque, q_start=HOME, O_T_EE_start=T_HOME,
+                               elbow_start=elbow)
 
 
 def run(checker, commands, cycles=None) -> list[tuple[int, Violation]]:

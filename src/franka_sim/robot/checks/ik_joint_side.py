@@ -8,29 +8,36 @@ errors cartesian_motion_generator_joint_*. Thresholds are the joint envelope tim
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
-from franka_sim.robot import limits as L
-from franka_sim.robot.limits import SpeedLimitFloor, joint_limits
-from franka_sim.robot.motion import DT, JointReference
-from franka_sim.robot.safety import Violation
+from franka_sim.protocol.timing import CYCLE_PERIOD
+from franka_sim.robot.checks.figures import (
+    IK_JOINT_NAMES, IK_JOINT_RANGE_ERROR, JOINT_ACCELERATION, JOINT_JERK,
+)
+from franka_sim.robot.checks.joint_table import SpeedLimitFloor, joint_limits
+from franka_sim.robot.checks.violation import Violation
 
-_CMG = "cartesian_motion_generator_joint_"
+if TYPE_CHECKING:
+    from franka_sim.robot.motion import JointReference
 
 
 class IkJointSideChecker:
+    """One Cartesian motion's IK output against the (scaled) joint limits; a fresh one per Move."""
+
     def __init__(self, desc: ArmDescription, scale: float = 1.0) -> None:
         self._table = joint_limits(desc)
-        self._acceleration = L.JOINT_ACCELERATION * scale
-        self._jerk = L.JOINT_JERK * scale
+        self._acceleration = JOINT_ACCELERATION * scale
+        self._jerk = JOINT_JERK * scale
         self._ddq_prev = np.zeros(7)
         self._floor: SpeedLimitFloor | None = None
         self._proof_thresholds = None
 
     def check(self, ref: JointReference) -> list[Violation]:
         """Judge this cycle's IK output (q_d, dq_d, ddq_d of the Cartesian motion)."""
-        jerk = (ref.ddq_d - self._ddq_prev) / DT
+        jerk = (ref.ddq_d - self._ddq_prev) / CYCLE_PERIOD
         self._ddq_prev = ref.ddq_d.copy()
         # The usual case in one comparison: in range and within the floor's reach, under the
         # floor of the velocity law, and under the acceleration and jerk limits.
@@ -49,18 +56,18 @@ class IkJointSideChecker:
     def _violations(self, ref: JointReference, jerk: np.ndarray) -> list[Violation]:
         table, out = self._table, []
         for i, limit in table.ends_passed(table.signed(ref.q_d)):
-            out.append(Violation(_CMG + "position_limits_violation", f"joint {i + 1}",
+            out.append(Violation(IK_JOINT_RANGE_ERROR, f"joint {i + 1}",
                                  float(ref.q_d[i]), limit, quantity="position", unit="rad"))
         lower, upper = table.velocity_range(ref.q_d)
         for i in np.flatnonzero((ref.dq_d > upper) | (ref.dq_d < lower)):
             limit = float(upper[i] if ref.dq_d[i] > 0 else lower[i])
-            out.append(Violation(_CMG + "velocity_limits_violation", f"joint {i + 1}",
+            out.append(Violation(IK_JOINT_NAMES.velocity, f"joint {i + 1}",
                                  float(ref.dq_d[i]), limit, quantity="velocity", unit="rad/s"))
         for i in np.flatnonzero(np.abs(ref.ddq_d) > self._acceleration):
-            out.append(Violation(_CMG + "velocity_discontinuity", f"joint {i + 1}",
+            out.append(Violation(IK_JOINT_NAMES.acceleration, f"joint {i + 1}",
                                  float(abs(ref.ddq_d[i])), self._acceleration,
                                  quantity="acceleration", unit="rad/s²"))
         for i in np.flatnonzero(np.abs(jerk) > self._jerk):
-            out.append(Violation(_CMG + "acceleration_discontinuity", f"joint {i + 1}",
+            out.append(Violation(IK_JOINT_NAMES.jerk, f"joint {i + 1}",
                                  float(abs(jerk[i])), self._jerk, quantity="jerk", unit="rad/s³"))
         return out

@@ -1,0 +1,144 @@
+"""The joint interfaces' command streams: q_c (joint position) and dq_c (joint velocity).
+
+Both are held to the URDF range and velocity law (joint_table.py) and the joint acceleration
+and jerk limits, on signed 14-vectors [x, −x] (see JointLimitTable). Each signal's history
+starts at rest at q_start, the start the robot holds (what the state showed as the motion
+began): the first command must equal it, and the stream must accelerate from zero.
+
+The usual in-limits cycle is proven inside every limit against a SpeedLimitFloor laid at the
+previous command (where the law applies): one comparison of the stacked [next start,
+velocity − floor, acceleration, jerk] against their thresholds. Only when that fails is the
+law evaluated and the step explained; the floor then moves to the new start. Either way the
+verdict is the law's own (see SpeedLimitFloor).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from franka_sim.description.urdf import ArmDescription
+from franka_sim.robot.checks.checker import CommandChecker, first_over
+from franka_sim.robot.checks.figures import (
+    JOINT_ACCELERATION, JOINT_JERK, JOINT_POSITION_MAGNITUDE, JOINT_POSITION_NAMES,
+    JOINT_RANGE_ERROR, JOINT_START_ERROR, JOINT_START_TOLERANCE, JOINT_VELOCITY_MAGNITUDE,
+    JOINT_VELOCITY_NAMES, Envelope, ErrorNames, derivative_thresholds,
+)
+from franka_sim.robot.checks.joint_table import SpeedLimitFloor, joint_limits
+from franka_sim.robot.checks.measuring import SampleGrid
+from franka_sim.robot.checks.violation import Violation
+
+_JOINT = Envelope(0.0, JOINT_ACCELERATION, JOINT_JERK)
+
+
+class _JointStream(CommandChecker):
+    """What both joint interfaces share: the signed history, the floor and the explanation."""
+
+    # The next start must stay within the floor's reach; the position check also needs it in
+    # range (it judges the range itself, the velocity check leaves that to the law).
+    _reach_in_range: bool
+
+    def __init__(self, desc: ArmDescription, q_start, magnitude: float, order: int) -> None:
+        if q_start is None:
+            raise ValueError("a joint motion needs q_start")
+        self._table = table = joint_limits(desc)
+        self._grid = SampleGrid()
+        self._q = table.signed(q_start)
+        self._v, self._a = np.zeros(14), np.zeros(14)
+        self._v_slack, self._a_thr, self._j_thr = derivative_thresholds(_JOINT, magnitude, order)
+        self._move_floor(self._q)
+
+    def _move_floor(self, q_start: np.ndarray) -> None:
+        floor = self._floor = SpeedLimitFloor(self._table, q_start)
+        reach = floor.reach_in_range if self._reach_in_range else floor.reach
+        self._proof_thresholds = np.concatenate(
+            [reach] + [np.full(14, x) for x in (self._v_slack, self._a_thr, self._j_thr)])
+
+    def _proven_inside(self, q_next, v, a, j) -> bool:
+        """The step is inside the limits, and q_next (the next step's start) within the floor's
+        reach; False says nothing (NaN included), the law decides then."""
+        stacked = np.concatenate((q_next, v - self._floor.limits, a, j))
+        return all((stacked <= self._proof_thresholds).tolist())
+
+    def _explain(self, out: list, names: ErrorNames, v, a, j, limits) -> None:
+        for i in range(7):
+            speed_limit = limits[i] if v[i] >= 0 else limits[i + 7]
+            first_over(out, names, f"joint {i + 1}", "rad", (
+                (abs(a[i]), self._a_thr, JOINT_ACCELERATION),
+                (abs(j[i]), self._j_thr, JOINT_JERK),
+                (abs(v[i]), speed_limit + self._v_slack, speed_limit)))
+
+
+class JointPositionChecker(_JointStream):
+    """q_c: its range, and its first three derivatives."""
+
+    _reach_in_range = True
+
+    def __init__(self, desc: ArmDescription, q_start) -> None:
+        super().__init__(desc, q_start, JOINT_POSITION_MAGNITUDE, 0)
+        self._first = True
+
+    def judge(self, command, n: int, out: list) -> None:
+        first, self._first = self._first, False
+        table = self._table
+        q = table.signed(command["q_c"])
+        s1, s2, s3 = self._grid.spacings(n)
+        v = (q - self._q) / s1
+        a = (v - self._v) / s2
+        j = (a - self._a) / s3
+        if first and self._start_pose_invalid(q, out):
+            v = a = np.zeros(14)  # the jump is reported as what it is; judge on from here
+            self._report_range(q, out)
+            self._move_floor(q)
+        elif first or not self._proven_inside(q, v, a, j):
+            limits = table.speed_limits(self._q)  # the law where the step starts, as libfranka
+            excess = np.maximum(v - limits - self._v_slack, q - table.ends)
+            excess = np.maximum(excess, np.maximum(a - self._a_thr, j - self._j_thr))
+            if not max(excess.tolist()) <= 0.0:
+                self._report_range(q, out)
+                self._explain(out, JOINT_POSITION_NAMES, v, a, j, limits)
+            self._move_floor(q)
+        self._q, self._v, self._a = q, v, a
+        self._grid.advance(n)
+
+    def _start_pose_invalid(self, q: np.ndarray, out: list) -> bool:
+        offset = np.abs(q[:7] - self._q[:7])
+        bad = np.flatnonzero(~(offset <= JOINT_START_TOLERANCE))
+        out.extend(Violation(JOINT_START_ERROR, f"joint {i + 1}", float(offset[i]),
+                             JOINT_START_TOLERANCE, quantity="start offset", unit="rad")
+                   for i in bad)
+        return len(bad) > 0
+
+    def _report_range(self, q: np.ndarray, out: list) -> None:
+        out.extend(Violation(JOINT_RANGE_ERROR, f"joint {i + 1}", float(q[i]), limit,
+                             quantity="position", unit="rad")
+                   for i, limit in self._table.ends_passed(q))
+
+
+class JointVelocityChecker(_JointStream):
+    """dq_c: the velocity law at the integrated position, and the next two derivatives.
+
+    No range check of its own: the law allows 0 rad/s toward an end before the end is
+    reached, so a stream that would leave the range breaks the velocity limit first.
+    """
+
+    _reach_in_range = False
+
+    def __init__(self, desc: ArmDescription, q_start) -> None:
+        super().__init__(desc, q_start, JOINT_VELOCITY_MAGNITUDE, 1)
+
+    def judge(self, command, n: int, out: list) -> None:
+        dq = self._table.signed(command["dq_c"])
+        s1, s2, _ = self._grid.spacings(n)
+        a = (dq - self._v) / s1
+        j = (a - self._a) / s2
+        q_next = self._q + dq * s1  # the robot integrates dq_c into q_d; the law applies there
+        if not self._proven_inside(q_next, dq, a, j):
+            limits = self._table.speed_limits(self._q)
+            excess = np.maximum(dq - limits - self._v_slack,
+                                np.maximum(a - self._a_thr, j - self._j_thr))
+            if not max(excess.tolist()) <= 0.0:
+                self._explain(out, JOINT_VELOCITY_NAMES, dq, a, j, limits)
+            self._move_floor(q_next)
+        self._q = q_next
+        self._v, self._a = dq, a
+        self._grid.advance(n)
