@@ -232,8 +232,8 @@ def _psi_some_us() -> float:
 def idle_behaviour() -> str:
     """How this machine's CPUs idle, when that changes the figures: a guest whose cpuidle driver
     is haltpoll with its polling at 0 exits to the host every time a vCPU idles, and the thread
-    that wakes there next runs its work ~2× slower (docs/benchmarks.md § session 8). "" when
-    the machine does not say."""
+    that wakes there next runs its work ~2× slower (docs/benchmarks.md, "What bounds the
+    figures"). "" when the machine does not say."""
     try:
         with open("/sys/devices/system/cpu/cpuidle/current_driver") as f:
             driver = f.read().strip()
