@@ -1,8 +1,9 @@
 """The limit tables: the datasheet figures, libfranka's constants and the served URDF agree.
 
-The published figures are restated here as data (fr3_facts.md §1.3–§1.4, protocol_v10.md §7),
-so a typo in `limits.py` or in the URDF cannot hide behind the code that consumes it. When the
-shared reference is present, the restatement itself is checked against its markdown tables.
+The published figures are restated here as data (FR3 datasheet figures as listed in fr3_facts.md
+§1.3–§1.4, and libfranka's constants from protocol_v10.md §7), so a typo in `limits.py` or in
+the URDF cannot hide behind the code that consumes it. The restatement itself is checked against
+the same figures as tables in tests/data/fr3_limits.md, so a typo there shows too.
 """
 
 from __future__ import annotations
@@ -18,10 +19,10 @@ from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.robot import limits as L
 
 DESC = load_arm_description(default_urdf_text())
-FACTS = Path("/work/shared/reference/fr3_facts.md")
+FACTS = Path(__file__).resolve().parent / "data" / "fr3_limits.md"
 
-# fr3_facts §1.3, per joint: q range of libfranka's test URDF <limit> (pre-5.9), q̇ max, q̈ max,
-# jerk max, τ max, τ̇ max.
+# FR3 datasheet figures as listed in fr3_facts.md §1.3, per joint: q range of libfranka's test
+# URDF <limit> (pre-5.9), q̇ max, q̈ max, jerk max, τ max, τ̇ max.
 JOINTS = [
     (-2.7501, 2.7501, 2.62, 10, 5000, 87, 1000),
     (-1.7918, 1.7918, 2.62, 10, 5000, 87, 1000),
@@ -136,7 +137,7 @@ def test_the_frame_check_accepts_rigid_transforms_only():
     assert L.frame_defect(mirrored.ravel(order="F").tolist())[:2] == (-1.0, 1.0)
 
 
-# -- the restatement above against the shared reference ---------------------------------------
+# -- the restatement above against the tables of tests/data ----------------------------------------------
 def _table(text: str, header_start: str) -> list[list[str]]:
     """Rows of the first markdown table whose header line starts with `header_start`."""
     lines = text.splitlines()
@@ -155,17 +156,17 @@ def _numbers(cell: str) -> list[float]:
     return [-values[0], values[0]] if cell.startswith("±") else values
 
 
-@pytest.mark.skipif(not FACTS.exists(), reason="shared reference not present")
 def test_the_restated_figures_are_those_of_fr3_facts():
     text = FACTS.read_text(encoding="utf-8")
     joints = _table(text, "| Joint | q min/max")
     assert len(joints) == 7
     for row, expected in zip(joints, JOINTS):
-        assert _numbers(row[2]) == list(expected[:2])  # the libfranka test URDF <limit> column
-        assert [float(x) for x in row[4:9]] == list(expected[2:])
+        assert _numbers(row[1]) == list(expected[:2])  # the libfranka test URDF <limit> range
+        assert [float(x) for x in row[2:7]] == list(expected[2:])
     law = _table(text, "| Joint | q̈dec")
+    assert len(law) == 7
     for row, (decel, offset, zero_at) in zip(law, VELOCITY_LAW):
-        assert (float(row[1]), float(row[2]), _numbers(row[4])[0]) == (decel, offset, zero_at)
+        assert (float(row[1]), float(row[2]), _numbers(row[3])[0]) == (decel, offset, zero_at)
     cartesian = {row[0]: tuple(_numbers(" ".join(row[1:])))
                  for row in _table(text, "| Quantity | Velocity")}
     assert cartesian == CARTESIAN
