@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pylibfranka
 
-from conftest import ServerProcess, fresh_loopback_address
+from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "fr3.urdf"
 
@@ -76,7 +76,7 @@ def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
     or, where the OS refuses, one warning and a server that still serves."""
     import os
 
-    from conftest import running_sim
+    from franka_sim.testing import running_sim
 
     with running_sim("--rt-priority", "7", env={"FRANKA_SIM_LOG_LEVEL": "info"}) as sim:
         pid = sim.proc.pid
@@ -102,7 +102,7 @@ def test_the_server_runs_without_the_cli_machinery():
     """`serve` parses its flags, then becomes franka_sim.serving in the same process: the
     flag parser's libraries (typer, click, rich, pydantic) are not resident in the server, nor
     is MuJoCo's renderer (a server never draws), nor OpenSSL (the FCI has no TLS)."""
-    from conftest import running_sim
+    from franka_sim.testing import running_sim
 
     with running_sim("--clock", "lockstep") as sim:
         pid = sim.proc.pid

@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 franka = pytest.importorskip("franka", reason="franka-rs is not installed")
 if not hasattr(franka, "Robot") or not hasattr(franka.Robot, "joint_targets"):

@@ -21,7 +21,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 READY = [0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4]
 SINGULAR_POSE = [0.0, 0.0, 0.0, -0.5, 0.0, 1.0, math.pi / 4]  # wrist centre over joint 1

@@ -16,10 +16,9 @@ import asyncio
 import threading
 import time
 
-from conftest import fresh_loopback_address
 from franka_sim import FrankaSim
 from franka_sim.config import ClockMode
-from raw_client import RawClient
+from franka_sim.testing import RawClient, fresh_loopback_address
 
 ANSWERS = 5
 

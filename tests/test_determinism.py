@@ -10,7 +10,7 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 REALTIME_ATTEMPTS = 5  # runs made to find two that lost no cycle
 

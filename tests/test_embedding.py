@@ -7,8 +7,8 @@ import subprocess
 import sys
 import textwrap
 
-from conftest import fresh_loopback_address
 from franka_sim import FrankaSim
+from franka_sim.testing import fresh_loopback_address
 
 CLIENT = textwrap.dedent("""
     import sys, pylibfranka

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -13,8 +13,8 @@ import numpy as np
 import pylibfranka
 import pytest
 
+from franka_sim.testing import running_sim
 from clients import connect, move_to, pose
-from conftest import running_sim
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 import pick_and_place as pp  # noqa: E402  (its offline IK)

@@ -83,7 +83,7 @@ def test_a_uvloop_the_stand_in_does_not_satisfy_gets_the_real_tls(tmp_path):
     """A future uvloop might read something off `ssl` the stand-in lacks: the serving process
     then starts again with OpenSSL (one warning) instead of failing to serve."""
     import pylibfranka
-    from conftest import running_sim
+    from franka_sim.testing import running_sim
 
     fake = tmp_path / "uvloop"
     fake.mkdir()

@@ -15,10 +15,10 @@ from pathlib import Path
 import pylibfranka
 import pytest
 
-from conftest import running_sim
 from franka_sim.protocol.codec import decode_gripper_state
 from franka_sim.protocol.enums import GripperCommand
 from franka_sim.protocol.gripper_messages import GRIPPER_STATE_SIZE, build_gripper_request
+from franka_sim.testing import running_sim
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 import pick_and_place  # noqa: E402  (the IK and joint-motion helpers)

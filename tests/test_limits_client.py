@@ -9,8 +9,8 @@ import numpy as np
 import pylibfranka
 import pytest
 
+from franka_sim.testing import running_sim
 from clients import connect, pose
-from conftest import running_sim
 
 JI = pylibfranka.ControllerMode.JointImpedance
 

@@ -8,10 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from conftest import running_sim
 from franka_sim.protocol.errors import ERROR_NAMES
+from franka_sim.testing import RawClient, running_sim
 from clients import recover
-from raw_client import RawClient
 
 MOVE, MOTION_STARTED, SUCCESS, REFLEX_ABORTED = 1, 1, 0, 8
 

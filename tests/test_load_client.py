@@ -11,9 +11,9 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from clients import connect
 from franka_sim.description import hand
-from conftest import running_sim
+from franka_sim.testing import running_sim
+from clients import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 import pick_and_place as pp  # noqa: E402

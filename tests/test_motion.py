@@ -12,7 +12,7 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 
 def _robot(host):

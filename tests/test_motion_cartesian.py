@@ -12,10 +12,10 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from clients import cartesian_pose_motion, connect, move_to, pose
-from conftest import running_sim
 from franka_sim.robot.cartesian import exp_rotation
 from franka_sim.robot.settings import CollisionThresholds
+from franka_sim.testing import running_sim
+from clients import cartesian_pose_motion, connect, move_to, pose
 from harness import Harness
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

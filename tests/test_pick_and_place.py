@@ -18,7 +18,7 @@ from pathlib import Path
 import pylibfranka
 import pytest
 
-from conftest import running_sim
+from franka_sim.testing import running_sim
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 sys.path.insert(0, str(EXAMPLES))

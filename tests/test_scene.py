@@ -10,7 +10,6 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from conftest import fresh_loopback_address, running_sim
 from franka_sim.config import READY_POSE
 from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose
@@ -18,6 +17,7 @@ from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
+from franka_sim.testing import fresh_loopback_address, running_sim
 
 DESC = load_arm_description(default_urdf_text())
 READY = np.array(READY_POSE)
