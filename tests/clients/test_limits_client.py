@@ -10,7 +10,7 @@ import pylibfranka
 import pytest
 
 from franka_sim.testing import running_sim
-from clients import connect, pose
+from support.clients import connect, pose
 
 JI = pylibfranka.ControllerMode.JointImpedance
 

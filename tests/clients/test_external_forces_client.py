@@ -14,9 +14,9 @@ import pylibfranka
 import pytest
 
 from franka_sim.testing import running_sim
-from clients import connect, move_to, pose
+from support.clients import connect, move_to, pose
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import pick_and_place as pp  # noqa: E402  (its offline IK)
 
 PAD_BOTTOM = 0.0175  # m under the TCP: where the fingers first touch the table
@@ -136,7 +136,7 @@ def test_a_collision_over_lowered_thresholds_aborts_with_cartesian_reflex(over_t
 
 
 def test_the_press_on_table_example_prints_the_estimate_next_to_the_spring():
-    examples = Path(__file__).resolve().parents[1] / "examples"
+    examples = Path(__file__).resolve().parents[2] / "examples"
     with running_sim("--clock", "lockstep") as server:
         done = subprocess.run([sys.executable, str(examples / "press_on_table.py"), server.host],
                               capture_output=True, text=True, timeout=120)

@@ -288,7 +288,7 @@ def test_a_busy_client_is_not_replaced(lockstep):
 def test_after_a_motion_the_idle_arm_comes_exactly_to_rest(lockstep):
     """The idle hold's standstill band: an arm that has moved stops trembling (at ~1e-13 rad/s
     of round-off) and holds bit-exactly still, as an arm that never moved does."""
-    from clients import move_to
+    from support.clients import move_to
 
     robot = _robot(lockstep.host)
     target = np.array([0.1, -0.6, 0.1, -2.2, 0.05, 1.7, 0.9])

@@ -13,9 +13,9 @@ import pytest
 
 from franka_sim.description import hand
 from franka_sim.testing import running_sim
-from clients import connect
+from support.clients import connect
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import pick_and_place as pp  # noqa: E402
 
 K_THETA = np.array([3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0])

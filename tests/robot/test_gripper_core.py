@@ -206,7 +206,7 @@ def test_a_blocked_move_answers_unsuccessful():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     import pick_and_place
 
     _, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)
@@ -222,7 +222,7 @@ def test_grasping_the_cube_squeezes_with_the_commanded_force():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     import pick_and_place
 
     _, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)

@@ -13,7 +13,7 @@ import pylibfranka
 
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 
-URDF = Path(__file__).resolve().parents[1] / "urdf" / "fr3.urdf"
+URDF = Path(__file__).resolve().parents[2] / "urdf" / "fr3.urdf"
 
 
 def test_help_names_every_flag_and_its_environment_variable():

@@ -11,7 +11,7 @@ import pytest
 
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.testing import RawClient, running_sim
-from clients import recover
+from support.clients import recover
 
 MOVE, MOTION_STARTED, SUCCESS, REFLEX_ABORTED = 1, 1, 0, 8
 EXTERNAL, JOINT_IMPEDANCE = 2, 0

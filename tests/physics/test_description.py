@@ -191,7 +191,7 @@ def test_rejects_what_libfranka_rejects(text, message):
 def test_default_text_is_the_repository_file():
     from pathlib import Path
 
-    repo_file = Path(__file__).resolve().parents[1] / "urdf" / "fr3.urdf"
+    repo_file = Path(__file__).resolve().parents[2] / "urdf" / "fr3.urdf"
     assert default_urdf_text() == repo_file.read_text(encoding="utf-8")
 
 

@@ -15,7 +15,7 @@ from franka_sim.protocol.enums import MoveStatus
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD, Pacer
 
-from harness import Harness
+from support.harness import Harness
 
 MS = 1e-3
 

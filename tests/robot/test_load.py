@@ -9,7 +9,7 @@ from franka_sim.config import READY_POSE
 from franka_sim.description import hand
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.robot.settings import DEFAULT_K_THETA, Load
-from harness import Harness, move_request
+from support.harness import Harness, move_request
 
 MASS = 1.5
 COM = np.array([0.02, -0.01, 0.12])  # in the flange frame

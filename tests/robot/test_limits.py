@@ -19,7 +19,7 @@ from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.robot import limits as L
 
 DESC = load_arm_description(default_urdf_text())
-FACTS = Path(__file__).resolve().parent / "data" / "fr3_limits.md"
+FACTS = Path(__file__).resolve().parents[1] / "data" / "fr3_limits.md"
 
 # FR3 datasheet figures as listed in fr3_facts.md §1.3, per joint: q range of libfranka's test
 # URDF <limit> (pre-5.9), q̇ max, q̈ max, jerk max, τ max, τ̇ max.

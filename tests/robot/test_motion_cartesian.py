@@ -15,10 +15,10 @@ import pytest
 from franka_sim.robot.cartesian import exp_rotation
 from franka_sim.robot.settings import CollisionThresholds
 from franka_sim.testing import running_sim
-from clients import cartesian_pose_motion, connect, move_to, pose
-from harness import Harness
+from support.clients import cartesian_pose_motion, connect, move_to, pose
+from support.harness import Harness
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 SINGULAR_POSE = [0.0, 0.0, 0.0, -0.5, 0.0, 1.0, np.pi / 4]  # wrist centre over joint 1
 
 

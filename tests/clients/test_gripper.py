@@ -20,7 +20,7 @@ from franka_sim.protocol.enums import GripperCommand
 from franka_sim.protocol.gripper_messages import GRIPPER_STATE_SIZE, build_gripper_request
 from franka_sim.testing import running_sim
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import pick_and_place  # noqa: E402  (the IK and joint-motion helpers)
 
 

@@ -77,7 +77,7 @@ def test_palm_plus_fingers_reproduces_the_composite_exactly():
 
 
 def test_libfranka_model_equals_the_fingered_physics(robot):
-    """tests/test_model.py's comparison, against the physics the server runs (fingers + scene)."""
+    """tests/physics/test_model.py's comparison, against the physics the server runs (fingers + scene)."""
     model, state = robot.load_model(), robot.read_once()
     backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), fingers=True)
     for width in (0.0, 0.081):

@@ -13,7 +13,7 @@ import pytest
 
 from franka_sim.testing import running_sim
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def _run(name: str, host: str, *args: str) -> str:

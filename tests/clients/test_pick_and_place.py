@@ -20,7 +20,7 @@ import pytest
 
 from franka_sim.testing import running_sim
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 sys.path.insert(0, str(EXAMPLES))
 import pick_and_place as pp  # noqa: E402
 

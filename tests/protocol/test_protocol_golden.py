@@ -24,7 +24,7 @@ from franka_sim.protocol import (
     encode_command,
 )
 
-SPECS = Path(__file__).resolve().parents[1] / "protocol_specs"
+SPECS = Path(__file__).resolve().parents[2] / "protocol_specs"
 GOLDEN_FILES = sorted((SPECS / "golden").glob("*.json"))
 
 

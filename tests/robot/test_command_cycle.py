@@ -19,7 +19,7 @@ from franka_sim.protocol.enums import (
     RobotMode,
 )
 from franka_sim.protocol.errors import error_index
-from harness import Harness
+from support.harness import Harness
 
 COMM = error_index("communication_constraints_violation")
 
@@ -236,7 +236,7 @@ def test_a_second_motion_is_refused_while_one_runs():
 def test_stop_move_preempts_the_motion_and_is_always_answered():
     h = _running_velocity_motion()
     replies = h.core.request_stop(8)
-    from harness import reply_status
+    from support.harness import reply_status
 
     assert [reply_status(r) for r in replies] == [
         (Command.Move, 5, MoveStatus.kPreempted), (Command.StopMove, 8, 0)]

@@ -31,9 +31,9 @@ from franka_sim.robot.external_forces import (
     active_thresholds,
 )
 from franka_sim.robot.settings import CollisionThresholds
-from harness import Harness, reply_status
+from support.harness import Harness, reply_status
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import pick_and_place as pp  # noqa: E402  (its offline IK)
 
 ARM = load_arm_description(default_urdf_text())
