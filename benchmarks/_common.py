@@ -1,39 +1,20 @@
-"""Shared helpers for the benchmarks: spawn/stop `franka-sim serve`, a raw v10 client, /proc stats.
+"""Shared helpers for the benchmarks: the reference servers' commands, /proc readings, the
+machine's load. The server process and the raw v10 client are franka_sim.testing's.
 
-Not a benchmark itself. Everything here uses only the standard library so the figures do not
-depend on the package under test (except for spawning its console script).
+Not a benchmark itself. Everything here uses only the standard library.
 """
 
 from __future__ import annotations
 
 import ctypes
 import os
-import shutil
 import signal
-import socket
-import struct
-import subprocess
 import sys
-import sysconfig
-import threading
 import time
 from pathlib import Path
 
 PRIVATE_HOST = "127.0.0.200"
-ROBOT_PORT = 1337
-STATE_SIZE = 1377
 CLK_TCK = os.sysconf("SC_CLK_TCK")
-_CMSG_SPACE = socket.CMSG_SPACE(16)  # one struct timespec
-SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux value; Python lacks the name
-
-
-def serve_command(host: str) -> list[str]:
-    """The `franka-sim` console script of *this* interpreter (skips pyenv's shim), then PATH."""
-    script = Path(sysconfig.get_path("scripts")) / "franka-sim"
-    exe = str(script) if script.exists() else shutil.which("franka-sim")
-    if exe is None:
-        sys.exit("franka-sim not found: pip install -e . first")
-    return [exe, "serve", "--host", host]
 
 
 def reference_command(host: str) -> list[str]:
@@ -56,94 +37,6 @@ def responder_command(host: str, clock: str, physics: bool = False) -> list[str]
     (with `physics`, also the stripped torque cycle)."""
     return [sys.executable, str(Path(__file__).with_name("reference_responder.py")),
             "--host", host, "--clock", clock] + (["--physics"] if physics else [])
-
-
-class Server:
-    """A `franka-sim serve` subprocess (or another `command`); a thread drains its stderr.
-
-    `serving_at` is the perf_counter() instant the "serving on" log line was read.
-    """
-
-    def __init__(self, host: str = PRIVATE_HOST, command: list[str] | None = None) -> None:
-        self.host = host
-        self.spawned_at = time.perf_counter()
-        self.proc = subprocess.Popen(
-            command or serve_command(host), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE, text=True, bufsize=1,
-        )
-        self.pid = self.proc.pid
-        self.serving_at: float | None = None
-        self.log: list[str] = []
-        self._serving = threading.Event()
-        threading.Thread(target=self._drain, daemon=True).start()
-
-    def _drain(self) -> None:
-        for line in self.proc.stderr:
-            if self.serving_at is None and "serving on" in line:
-                self.serving_at = time.perf_counter()
-                self._serving.set()
-            if len(self.log) < 200:
-                self.log.append(line.rstrip())
-        self._serving.set()  # EOF: the process died before serving
-
-    def wait_serving(self, timeout: float = 20.0) -> float:
-        """Seconds from spawn to the "serving on" line."""
-        if not self._serving.wait(timeout) or self.serving_at is None:
-            self.stop()
-            sys.exit("server did not start:\n" + "\n".join(self.log[-20:]))
-        return self.serving_at - self.spawned_at
-
-    def stop(self, timeout: float = 10.0) -> float:
-        """SIGTERM, wait for exit; seconds it took (inf if it had to be killed after `timeout`)."""
-        if self.proc.poll() is not None:
-            return 0.0
-        # A blocking wait: Popen.wait(timeout) polls with growing sleeps and would quantise this.
-        watchdog = threading.Timer(timeout, self.proc.kill)
-        watchdog.start()
-        t0 = time.perf_counter()
-        self.proc.send_signal(signal.SIGTERM)
-        self.proc.wait()
-        took = time.perf_counter() - t0
-        watchdog.cancel()
-        return took if self.proc.returncode != -signal.SIGKILL else float("inf")
-
-
-class RawClient:
-    """The minimal v10 client: TCP Connect handshake, then a UDP socket receiving RobotState."""
-
-    def __init__(self, host: str, timeout: float = 2.0) -> None:
-        self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.udp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-        # Kernel arrival timestamps: tell server-side jitter from this client's own scheduling.
-        self.udp.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
-        self.udp.bind((host, 0))
-        self.udp.settimeout(timeout)
-        udp_port = self.udp.getsockname()[1]
-        # The server streams to the TCP peer's IP, so TCP must leave from the UDP socket's IP.
-        self.tcp = socket.create_connection((host, ROBOT_PORT), timeout, source_address=(host, 0))
-        self.tcp.sendall(struct.pack("<IIIHH", 0, 0, 16, 10, udp_port))
-        reply = b""
-        while len(reply) < 15:
-            chunk = self.tcp.recv(15 - len(reply))
-            if not chunk:
-                raise ConnectionError("server closed the connection during Connect")
-            reply += chunk
-        status = struct.unpack("<IIIBH", reply)[3]
-        if status != 0:
-            raise ConnectionError(f"Connect rejected with status {status}")
-
-    def recv_state(self) -> tuple[int, int, int]:
-        """(perf_counter_ns right after recv, message_id, kernel arrival ns) of the next state."""
-        data, anc, _, _ = self.udp.recvmsg(2048, _CMSG_SPACE)
-        t = time.perf_counter_ns()
-        if len(data) != STATE_SIZE:
-            raise ValueError(f"RobotState datagram of {len(data)} bytes, expected {STATE_SIZE}")
-        sec, nsec = struct.unpack("<qq", anc[0][2]) if anc else (0, 0)
-        return t, struct.unpack_from("<Q", data)[0], sec * 1_000_000_000 + nsec
-
-    def close(self) -> None:
-        self.tcp.close()
-        self.udp.close()
 
 
 def _stat(path: str) -> tuple[str, float]:
@@ -232,8 +125,8 @@ def _psi_some_us() -> float:
 def idle_behaviour() -> str:
     """How this machine's CPUs idle, when that changes the figures: a guest whose cpuidle driver
     is haltpoll with its polling at 0 exits to the host every time a vCPU idles, and the thread
-    that wakes there next runs its work ~2× slower (docs/benchmarks.md § session 8). "" when
-    the machine does not say."""
+    that wakes there next runs its work ~2× slower (docs/benchmarks.md, "What bounds the
+    figures"). "" when the machine does not say."""
     try:
         with open("/sys/devices/system/cpu/cpuidle/current_driver") as f:
             driver = f.read().strip()

@@ -22,9 +22,10 @@ import time
 import numpy as np
 import pylibfranka
 
-from _common import (Load, Server, cpu_seconds, idle_behaviour, responder_command,
-                     serve_command, thread_cpu_seconds, verdict)
+from _common import (Load, cpu_seconds, idle_behaviour, responder_command, thread_cpu_seconds,
+                     verdict)
 from franka_sim.server.cycle_thread import OS_THREAD_NAME
+from franka_sim.testing import ServerProcess
 
 PRIVATE_HOST = "127.0.0.201"
 PHYSICS_THREAD = OS_THREAD_NAME.decode()  # the name the cycle thread has in /proc
@@ -76,10 +77,12 @@ def main() -> None:
     args = parser.parse_args()
     if args.physics and not args.reference:
         parser.error("--physics goes with --reference")
-    command = (responder_command(args.host, args.clock, args.physics) if args.reference
-               else serve_command(args.host) + ["--clock", args.clock])
-    server = Server(args.host, command)
-    server.wait_serving()
+    if args.reference:
+        server = ServerProcess(args.host, command=responder_command(args.host, args.clock,
+                                                                     args.physics))
+    else:
+        server = ServerProcess(args.host, "--clock", args.clock)
+    server.wait_ready()
     try:
         cpu0, threads0 = cpu_seconds(server.pid), thread_cpu_seconds(server.pid)
         load = Load(exclude={server.pid})

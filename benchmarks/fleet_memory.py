@@ -15,7 +15,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from _common import Server, memory_mib
+from _common import memory_mib
+from franka_sim.testing import ServerProcess
 
 
 def mem_available_mib() -> float:
@@ -33,14 +34,14 @@ def main() -> None:
     args = ap.parse_args()
     if not 1 <= args.servers <= 50:
         ap.error("--servers must be 1..50")
-    servers: list[Server] = []
+    servers: list[ServerProcess] = []
     try:
         print(f"{'server':<16} {'MemAvailable drop MiB':>22} {'RSS MiB':>9} {'anonymous MiB':>14}")
         for k in range(args.servers):
             before = mem_available_mib()
-            server = Server(f"127.0.0.{201 + k}")
+            server = ServerProcess(f"127.0.0.{201 + k}")
             servers.append(server)
-            server.wait_serving()
+            server.wait_ready()
             time.sleep(args.settle)
             drop = before - mem_available_mib()
             rss, anon = memory_mib(server.pid)

@@ -9,8 +9,8 @@ their message_id and finished flags. No physics, no checks, no event loop.
 Its cycles are released like franka-sim's: on absolute 1 ms deadlines (`--clock realtime`, the
 commands read at each deadline), or during a motion as soon as the open cycle is answered
 (`--clock lockstep`, within a 100 ms window, as franka-sim's; like franka-sim's physics thread
-it reads the socket for the answer for up to 300 µs before it sleeps on it: 10–13× → 20–21×
-here). So `control_loop.py --reference`
+it reads the socket for the answer for up to 300 µs before it sleeps on it, which here makes it
+about twice as fast as sleeping at once). So `control_loop.py --reference`
 shows what this machine and this client allow: the CPU one cycle costs without any work, and
 the fastest lockstep any server could reach with this client. With `--physics` each motion
 cycle also runs the stripped torque cycle of benchmarks/_floor.py under the answer's tau_J_d

@@ -12,7 +12,8 @@ import argparse
 import statistics
 import time
 
-from _common import PRIVATE_HOST, RawClient, Server
+from _common import PRIVATE_HOST
+from franka_sim.testing import RawClient, ServerProcess
 
 
 def main() -> None:
@@ -23,11 +24,11 @@ def main() -> None:
 
     serving, first, stop = [], [], []
     for _ in range(args.runs):
-        server = Server(args.host)
+        server = ServerProcess(args.host)
         try:
-            serving.append(server.wait_serving())
-            client = RawClient(args.host)
-            client.recv_state()
+            serving.append(server.wait_ready().serving_after)
+            client = RawClient(args.host, first_state=False)
+            client.recv_timed()
             first.append(time.perf_counter() - server.spawned_at)
             stop.append(server.stop())
             client.close()

@@ -18,8 +18,9 @@ import time
 
 import numpy as np
 
-from _common import (PRIVATE_HOST, Load, RawClient, Server, cpu_percent, cpu_seconds,
-                     idle_behaviour, memory_mib, reference_command, serve_command, verdict)
+from _common import (PRIVATE_HOST, Load, cpu_percent, cpu_seconds, idle_behaviour, memory_mib,
+                     reference_command, verdict)
+from franka_sim.testing import RawClient, ServerProcess
 
 
 def main() -> None:
@@ -38,28 +39,27 @@ def main() -> None:
     args = ap.parse_args()
 
     if args.reference:
-        command = reference_command(PRIVATE_HOST)
-    elif args.rt_priority:
-        command = serve_command(PRIVATE_HOST) + ["--rt-priority", str(args.rt_priority)]
+        command, serve_args = reference_command(PRIVATE_HOST), []
     else:
         command = None
+        serve_args = ["--rt-priority", str(args.rt_priority)] if args.rt_priority else []
     if args.rt_priority:
         try:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.rt_priority))
         except OSError as exc:
             print(f"client stays at normal priority: {exc}")
-    server = None if args.host else Server(PRIVATE_HOST, command)
+    server = None if args.host else ServerProcess(PRIVATE_HOST, *serve_args, command=command)
     host = args.host or PRIVATE_HOST
     pid = server.pid if server else args.pid
     try:
         if server:
-            server.wait_serving()  # "serving on": franka-sim's log line, also printed by the reference
+            server.wait_ready()  # "serving on": franka-sim's log line, also printed by the reference
             time.sleep(1.0)  # let start-up work settle before the idle figure
         idle_cpu = cpu_percent(pid, args.idle_seconds) if pid and args.idle_seconds > 0 else None
 
-        client = RawClient(host)
+        client = RawClient(host, first_state=False, receive_buffer=4 << 20)
         t_end = time.perf_counter_ns() + int(args.warmup * 1e9)
-        while client.recv_state()[0] < t_end:
+        while client.recv_timed()[0] < t_end:
             pass
         times, ids, ktimes = [], [], []
         cpu0 = cpu_seconds(pid) if pid else None
@@ -68,7 +68,7 @@ def main() -> None:
         t_end = w0 + int(args.seconds * 1e9)
         t = w0
         while t < t_end:
-            t, mid, kt = client.recv_state()
+            t, mid, kt = client.recv_timed()
             times.append(t)
             ids.append(mid)
             ktimes.append(kt)

@@ -90,7 +90,7 @@ def _import_uvloop(blob: str):
 
 
 def _realtime_scheduling(priority: int) -> None:
-    """SCHED_FIFO for this thread and every thread it starts later (the physics worker)."""
+    """SCHED_FIFO for this thread and every thread it starts later (the cycle thread)."""
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except (OSError, AttributeError) as exc:  # no permission, or not Linux

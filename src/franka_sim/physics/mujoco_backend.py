@@ -119,7 +119,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class MujocoBackend:
-    """Owns one MjModel/MjData pair; not thread-safe (the physics worker serialises access)."""
+    """Owns one MjModel/MjData pair; not thread-safe (the cycle thread serialises access)."""
 
     def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | os.PathLike | None = None,
                  armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:

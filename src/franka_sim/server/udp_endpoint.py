@@ -5,7 +5,7 @@ socket, so a datagram from any other address is not the client's and is dropped 
 
 The event loop opens and closes the socket; the physics thread sends every state on it and reads
 the commands (`poll`) when a cycle needs them: at its deadline, and in lockstep as soon as the
-answer is there (the physics worker watches the socket then). The loop never reads it: a
+answer is there (the cycle thread watches the socket then). The loop never reads it: a
 datagram wakes one thread, the one that runs the cycle, and on a 2-core VM every further
 wake-up (a reader in the loop) cost more than a cycle's own work and, in lockstep, ~10 % of
 the speed, taking the interpreter from the thread that runs the cycle.

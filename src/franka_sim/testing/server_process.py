@@ -1,0 +1,113 @@
+"""`franka-sim serve` as a subprocess, for tests and benchmarks.
+
+A subprocess, not a thread: pylibfranka's blocking calls hold the GIL, so a server in the
+client's process would starve while the client waits for it. Its log lines are collected for
+assertions, and "serving on" is the moment it accepts clients.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+
+_counter = itertools.count()
+
+
+def fresh_loopback_address() -> str:
+    """A loopback address of its own (127.<pid-derived>.<n>.<m>, never 127.0.0.1): servers do
+    not collide with each other, with a concurrent run, or with a server left on the default."""
+    n = next(_counter)
+    return f"127.{20 + os.getpid() % 200}.{n // 250}.{n % 250 + 2}"
+
+
+class ServerProcess:
+    """`python -m franka_sim serve --host H *args` (or another `command` that logs "serving on"
+    to stderr, such as a benchmark's reference server); a thread collects its stderr lines."""
+
+    def __init__(self, host: str, *args: str, env: dict | None = None,
+                 command: list[str] | None = None) -> None:
+        self.host = host
+        self.lines: list[str] = []
+        self.serving_at: float | None = None  # perf_counter() when "serving on" was read
+        self._ready = threading.Event()
+        self.spawned_at = time.perf_counter()
+        self.proc = subprocess.Popen(
+            command or [sys.executable, "-m", "franka_sim", "serve", "--host", host, *args],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+            text=True, bufsize=1, env={**os.environ, **(env or {})},
+        )
+        self.pid = self.proc.pid
+        self._reader = threading.Thread(target=self._drain, daemon=True)
+        self._reader.start()
+
+    def _drain(self) -> None:
+        for line in self.proc.stderr:
+            serving = self.serving_at is None and "serving on" in line
+            if serving:
+                self.serving_at = time.perf_counter()
+            self.lines.append(line.rstrip("\n"))
+            if serving:
+                self._ready.set()
+        self._ready.set()  # EOF: it exited, maybe before serving
+
+    def wait_ready(self, timeout: float = 60.0) -> ServerProcess:
+        """Wait for "serving on"; stop it and raise with its log if that does not come."""
+        ready = self._ready.wait(timeout) and self.serving_at is not None
+        if not ready or self.proc.poll() is not None:
+            self.stop()
+            raise RuntimeError("franka-sim did not start:\n" + "\n".join(self.lines))
+        return self
+
+    @property
+    def serving_after(self) -> float:
+        """Seconds from spawn to the "serving on" line."""
+        assert self.serving_at is not None, "not serving yet"
+        return self.serving_at - self.spawned_at
+
+    def log_matching(self, text: str) -> list[str]:
+        return [line for line in self.lines if text in line]
+
+    def wait_for_log(self, text: str, timeout: float = 10.0) -> list[str]:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            found = self.log_matching(text)
+            if found:
+                return found
+            time.sleep(0.01)
+        return []
+
+    def stop(self, timeout: float = 10.0) -> float:
+        """SIGTERM and wait for the exit: the seconds that took (inf when it had to be killed
+        after `timeout`; 0 when it had already exited)."""
+        if self.proc.poll() is not None:
+            took = 0.0
+        else:
+            # A blocking wait: Popen.wait(timeout) polls with growing sleeps and would quantise
+            # the time it took.
+            watchdog = threading.Timer(timeout, self.proc.kill)
+            watchdog.start()
+            t0 = time.perf_counter()
+            self.proc.send_signal(signal.SIGTERM)
+            self.proc.wait()
+            took = time.perf_counter() - t0
+            watchdog.cancel()
+            if self.proc.returncode == -signal.SIGKILL:
+                took = float("inf")
+        self._reader.join(2)
+        return took
+
+
+@contextmanager
+def running_sim(*args: str, host: str | None = None, env: dict | None = None):
+    """A served robot on a fresh loopback address for the `with` block."""
+    server = ServerProcess(host or fresh_loopback_address(), *args, env=env).wait_ready()
+    try:
+        yield server
+    finally:
+        server.stop()

@@ -1,0 +1,544 @@
+"""franky-control 2.0.0 against the simulator: libfranka 0.21.2 underneath, Ruckig trajectories on top.
+
+franky and pylibfranka each register pybind11 types of the same name (`Duration`), so the two
+cannot be imported into one process, and the rest of this suite imports pylibfranka. Each test
+therefore runs one *scenario* below in a child Python (`python test_client_franky.py SCENARIO
+HOST`), which drives the robot with franky and prints its observations as one JSON line; the test
+asserts on them. The simulator is a `running_sim` subprocess as everywhere else, with the
+lockstep clock for every motion, and every assertion is on robot state or robot time.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import re
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from franka_sim.testing import running_sim
+
+READY = [0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4]
+SINGULAR_POSE = [0.0, 0.0, 0.0, -0.5, 0.0, 1.0, math.pi / 4]  # wrist centre over joint 1
+RESULT = "RESULT "
+
+if importlib.util.find_spec("franky") is None:  # find, never import: see the module docstring
+    pytest.skip("franky-control is not installed", allow_module_level=True)
+
+
+# -- the client side (child process) ---------------------------------------------------------------
+
+def _connect(host: str):
+    import franky
+
+    robot = franky.Robot(host, realtime_config=franky.RealtimeConfig.Ignore)
+    robot.relative_dynamics_factor = 0.2
+    return robot
+
+
+def _fresh(robot):
+    """A state published after this call began. Idle, `robot.state` is libfranka's readOnce, which
+    keeps the newest *queued* datagram — and a socket nobody read for a while holds old ones (it
+    drops the newest when it overflows). The first read drains them; the second is current."""
+    robot.state
+    return robot.state
+
+
+def _ms(state) -> int:
+    return int(state.time.to_msec())
+
+
+def _wait_robot_ms(robot, ms: int, sample=None) -> None:
+    """Let `ms` of robot time pass while an asynchronous motion runs (polling its state)."""
+    t0 = _ms(robot.state)
+    deadline = time.monotonic() + 120  # a safety net against a dead server, not a timing bound
+    while _ms(robot.state) - t0 < ms:
+        if sample is not None:
+            sample(robot.state)
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"robot time did not advance {ms} ms")
+        time.sleep(0.002)
+
+
+def _settled(robot, ms: int = 300):
+    """The state once `ms` of robot time passed idle: the hold has taken out the tracking lag."""
+    _wait_robot_ms(robot, ms)
+    return _fresh(robot)
+
+
+def _affine(values) -> list:
+    return np.asarray(values.matrix).tolist()
+
+
+def scenario_state(host: str) -> dict:
+    from franky import Frame
+
+    robot = _connect(host)
+    s = _fresh(robot)
+    later = robot.state
+    model = robot.model
+    return {
+        "q": list(s.q), "q_d": list(s.q_d), "dq": list(s.dq), "robot_mode": s.robot_mode.name,
+        "times": [_ms(s), _ms(later)], "O_T_EE": _affine(s.O_T_EE), "F_T_EE": _affine(s.F_T_EE),
+        "m_ee": s.m_ee, "has_errors": robot.has_errors, "current_errors": str(s.current_errors),
+        "tau_J": list(s.tau_J), "gravity": np.asarray(model.gravity(s)).tolist(),
+        "model_pose": _affine(model.pose(Frame.EndEffector, s)),
+        "jacobian_shape": list(np.asarray(model.zero_jacobian(Frame.EndEffector, s)).shape),
+        "urdf_robot_names": re.findall(r'<robot\s+name="([^"]*)"', robot.model_urdf),
+        "urdf_has_link8": 'name="link8"' in robot.model_urdf,
+        "joint_position": np.asarray(robot.current_joint_positions).tolist(),
+        "ee_translation": np.asarray(robot.current_pose.end_effector_pose.translation).tolist(),
+    }
+
+
+def scenario_joint_motions(host: str) -> dict:
+    from franky import JointMotion, JointWaypoint, JointWaypointMotion, ReferenceType
+
+    robot = _connect(host)
+    out = {}
+    ready = np.array(READY)
+    target = ready + np.array([0.1, -0.1, 0.1, 0.1, -0.1, 0.1, 0.2])
+    t0 = _ms(robot.state)
+    robot.move(JointMotion(target.tolist()))
+    s = robot.state
+    out["joint_motion"] = {"target": target.tolist(), "q_end": list(s.q), "mode": s.robot_mode.name,
+                           "elapsed_ms": _ms(s) - t0, "q": list(_settled(robot).q)}
+    robot.move(JointMotion([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.2], ReferenceType.Relative))
+    out["relative"] = {"expected": (target + [0, 0, 0, 0, 0, 0, -0.2]).tolist(),
+                       "q": list(_settled(robot).q)}
+    via = ready + np.array([-0.1, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    robot.move(JointWaypointMotion([JointWaypoint(via.tolist()), JointWaypoint(READY)]))
+    s = _settled(robot)
+    out["waypoints"] = {"q": list(s.q), "mode": s.robot_mode.name}
+    # Two asynchronous motions in a row: franky switches targets inside one running control loop.
+    first, second = ready + [0.2, 0, 0, 0, 0, 0, 0], ready + [0, 0, 0, 0, 0, 0, 0.3]
+    robot.move(JointMotion(first.tolist()), asynchronous=True)
+    _wait_robot_ms(robot, 200)
+    robot.move(JointMotion(second.tolist()), asynchronous=True)
+    robot.join_motion()
+    s = _settled(robot)
+    out["blended"] = {"target": second.tolist(), "q": list(s.q), "mode": s.robot_mode.name,
+                      "has_errors": robot.has_errors}
+    return out
+
+
+def scenario_cartesian_motions(host: str) -> dict:
+    from franky import Affine, CartesianMotion, CartesianWaypoint, CartesianWaypointMotion, ReferenceType
+
+    robot = _connect(host)
+    out = {}
+    T0 = robot.current_pose.end_effector_pose
+    offset = np.array([0.05, 0.02, -0.03])  # in the EE frame: franky composes relative targets on the right
+    robot.move(CartesianMotion(Affine(offset.tolist()), ReferenceType.Relative))
+    T1 = robot.current_pose.end_effector_pose
+    out["relative"] = {"start": _affine(T0), "end": _affine(T1), "offset_ee": offset.tolist(),
+                       "mode": robot.state.robot_mode.name}
+    goal = Affine((np.asarray(T0.translation) + [0.0, 0.05, 0.0]).tolist(), np.asarray(T0.quaternion).tolist())
+    robot.move(CartesianMotion(goal))
+    out["absolute"] = {"goal": _affine(goal), "end": _affine(robot.current_pose.end_effector_pose)}
+    via = Affine((np.asarray(T0.translation) + [0.0, 0.0, 0.05]).tolist(), np.asarray(T0.quaternion).tolist())
+    robot.move(CartesianWaypointMotion([CartesianWaypoint(via), CartesianWaypoint(T0)]))
+    out["waypoints"] = {"goal": _affine(T0), "end": _affine(robot.current_pose.end_effector_pose),
+                        "mode": robot.state.robot_mode.name}
+    return out
+
+
+def scenario_velocity_motions(host: str) -> dict:
+    from franky import CartesianVelocityMotion, Duration, JointVelocityMotion, Twist
+
+    robot = _connect(host)
+    out = {}
+    s0 = robot.state
+    robot.move(JointVelocityMotion([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, -0.1], duration=Duration(500)))
+    s1 = robot.state
+    out["joint"] = {"dq_total": (np.array(s1.q) - np.array(s0.q)).tolist(), "dq_end": list(s1.dq),
+                    "elapsed_ms": _ms(s1) - _ms(s0), "mode": s1.robot_mode.name}
+    p0 = np.asarray(robot.current_pose.end_effector_pose.translation)
+    t0 = _ms(robot.state)
+    robot.move(CartesianVelocityMotion(Twist([0.05, 0.0, 0.0], [0.0, 0.0, 0.0]), duration=Duration(500)))
+    s2 = robot.state
+    p1 = np.asarray(robot.current_pose.end_effector_pose.translation)
+    out["cartesian"] = {"dp": (p1 - p0).tolist(), "elapsed_ms": _ms(s2) - t0,
+                        "mode": s2.robot_mode.name, "dq_end": list(s2.dq)}
+    return out
+
+
+def scenario_torque(host: str) -> dict:
+    from franky import JointImpedanceMotion, SimpleTorqueMotion, TorqueStopMotion
+
+    robot = _connect(host)
+    out = {}
+    q0 = np.array(robot.state.q)
+    seen = {"dev": 0.0, "modes": set(), "tau_J_d": 0.0}
+
+    def sample(state):
+        seen["dev"] = max(seen["dev"], float(np.abs(np.array(state.q) - q0).max()))
+        seen["modes"].add(state.robot_mode.name)
+        seen["tau_J_d"] = max(seen["tau_J_d"], float(np.abs(state.tau_J_d).max()))
+
+    robot.move(SimpleTorqueMotion(signal_timeout=None), asynchronous=True)  # zero torque
+    _wait_robot_ms(robot, 1000, sample)
+    robot.move(TorqueStopMotion(), asynchronous=True)
+    robot.join_motion()
+    s = robot.state
+    out["zero_torque"] = {"max_deviation": seen["dev"], "modes": sorted(seen["modes"]),
+                          "max_tau_J_d": seen["tau_J_d"], "mode_after": s.robot_mode.name,
+                          "deviation_after": float(np.abs(np.array(s.q) - q0).max())}
+    target = q0 + np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    robot.move(JointImpedanceMotion(target.tolist()), asynchronous=True)
+    _wait_robot_ms(robot, 2000)
+    reached = list(robot.state.q)
+    robot.move(TorqueStopMotion(), asynchronous=True)
+    robot.join_motion()
+    out["joint_impedance"] = {"target": target.tolist(), "q": reached,
+                              "mode_after": robot.state.robot_mode.name}
+    return out
+
+
+def scenario_setters(host: str) -> dict:
+    import franky
+
+    robot = _connect(host)
+    out = {}
+    robot.set_collision_behavior([30.0] * 7, [30.0] * 6)
+    robot.set_collision_behavior([20.0] * 7, [40.0] * 7, [20.0] * 6, [40.0] * 6)
+    robot.set_collision_behavior([20.0] * 7, [40.0] * 7, [10.0] * 7, [30.0] * 7,
+                                 [20.0] * 6, [40.0] * 6, [10.0] * 6, [30.0] * 6)
+    robot.set_joint_impedance([3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0])
+    robot.set_cartesian_impedance([3000.0, 3000.0, 3000.0, 300.0, 300.0, 300.0])
+    robot.set_guiding_mode([True] * 6, False)
+    before = _fresh(robot)
+    NE_T_EE = np.eye(4)
+    NE_T_EE[2, 3] = 0.05
+    EE_T_K = np.eye(4)
+    EE_T_K[2, 3] = 0.02
+    robot.set_ee(NE_T_EE.ravel(order="F").tolist())
+    robot.set_k(EE_T_K.ravel(order="F").tolist())
+    inertia = [1e-3, 0.0, 0.0, 0.0, 2e-3, 0.0, 0.0, 0.0, 3e-3]
+    robot.set_load(0.5, [0.0, 0.0, 0.05], inertia)
+    s = _fresh(robot)
+    out["frames"] = {
+        "F_T_EE_before": _affine(before.F_T_EE), "F_T_EE": _affine(s.F_T_EE),
+        "NE_T_EE": _affine(s.NE_T_EE), "EE_T_K": _affine(s.EE_T_K),
+        "O_T_EE_before": _affine(before.O_T_EE), "O_T_EE": _affine(s.O_T_EE),
+    }
+    out["load"] = {"m_load": s.m_load, "F_x_Cload": list(s.F_x_Cload),
+                   "I_load": np.asarray(s.I_load).ravel(order="F").tolist(),
+                   "m_ee": s.m_ee, "m_total": s.m_total}
+    # The robot refuses Set* while a motion runs; libfranka turns that into a CommandException.
+    robot.move(franky.JointMotion((np.array(READY) + [0.2, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    _wait_robot_ms(robot, 100)
+    try:
+        robot.set_joint_impedance([3000.0] * 7)
+        out["during_motion"] = None
+    except franky.CommandException as exc:
+        out["during_motion"] = str(exc)
+    robot.join_motion()
+    robot.set_ee(np.eye(4).ravel(order="F").tolist())
+    robot.set_k(np.eye(4).ravel(order="F").tolist())
+    robot.set_load(0.0, [0.0, 0.0, 0.0], [0.0] * 9)
+    s = _fresh(robot)
+    out["reset"] = {"F_T_EE": _affine(s.F_T_EE), "m_load": s.m_load}
+    return out
+
+
+def scenario_stop(host: str) -> dict:
+    import franky
+
+    robot = _connect(host)
+    out = {}
+    robot.move(franky.JointMotion((np.array(READY) + [0.3, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    _wait_robot_ms(robot, 200)
+    robot.stop()
+    try:
+        robot.join_motion()
+        out["preempted"] = None
+    except franky.ControlException as exc:
+        out["preempted"] = str(exc)
+    s = _fresh(robot)
+    out["after"] = {"mode": s.robot_mode.name, "has_errors": robot.has_errors,
+                    "q0": float(s.q[0]), "dq": list(s.dq)}
+    robot.move(franky.JointMotion(READY))
+    out["moved_again"] = list(robot.state.q)
+    return out
+
+
+def scenario_singular(host: str) -> dict:
+    import franky
+
+    robot = _connect(host)
+    out = {}
+    robot.move(franky.JointMotion(SINGULAR_POSE))
+    before = _fresh(robot)
+    out["at"] = list(before.q)
+    try:
+        robot.move(franky.CartesianMotion(franky.Affine([0.0, 0.0, 0.02]), franky.ReferenceType.Relative))
+        out["refused"] = None
+    except franky.CommandException as exc:
+        out["refused"] = f"{type(exc).__name__}: {exc}"
+    s = _fresh(robot)
+    out["after"] = {"mode": s.robot_mode.name, "has_errors": robot.has_errors, "q": list(s.q),
+                    "last_motion_errors": str(s.last_motion_errors)}
+    robot.move(franky.JointMotion(READY))
+    out["back"] = list(robot.state.q)
+    return out
+
+
+def scenario_reflex_recovery(host: str) -> dict:
+    """Needs a server with --enforce-motion-limits: a 2 Nm torque step in one cycle is 2000 Nm/s."""
+    import franky
+
+    robot = _connect(host)
+    out = {}
+    # franky ramps torques by max_delta_tau per cycle and libfranka low-passes them at 100 Hz by
+    # default; both are opened up so that the step reaches the robot as commanded.
+    motion = franky.SimpleTorqueMotion(signal_timeout=None, max_delta_tau=10.0)
+    robot.move(motion, asynchronous=True, cutoff_frequency=1000.0)
+    _wait_robot_ms(robot, 100)
+    motion.set_torque([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0])
+    try:
+        robot.join_motion()
+        out["aborted"] = None
+    except franky.ControlException as exc:
+        out["aborted"] = str(exc)
+    s = _fresh(robot)
+    out["reflex"] = {"mode": s.robot_mode.name, "has_errors": robot.has_errors,
+                     "current_errors": str(s.current_errors),
+                     "last_motion_errors": str(s.last_motion_errors)}
+    try:
+        robot.move(franky.JointMotion(list(s.q)))
+        out["move_in_reflex"] = None
+    except franky.CommandException as exc:
+        out["move_in_reflex"] = str(exc)
+    out["recovered"] = robot.recover_from_errors()
+    s = _fresh(robot)
+    out["after"] = {"mode": s.robot_mode.name, "has_errors": robot.has_errors,
+                    "current_errors": str(s.current_errors)}
+    # A motion is accepted again. It stays where the arm is: under --enforce-motion-limits a
+    # cycle lost to host load while the generator moves would itself be a discontinuity.
+    robot.move(franky.JointMotion(list(s.q)))
+    out["moved_again"] = robot.state.robot_mode.name
+    return out
+
+
+def scenario_gripper(host: str) -> dict:
+    import franky
+
+    gripper = franky.Gripper(host)
+    out = {"server_version": gripper.server_version, "initial": [gripper.width, gripper.max_width]}
+    out["homing"] = gripper.homing()
+    out["max_width"] = gripper.max_width
+    out["move"] = gripper.move(0.04, 0.05)
+    out["width_after_move"] = gripper.width
+    out["grasp_nothing"] = gripper.grasp(0.02, 0.05, 20.0)
+    out["after_grasp"] = [gripper.width, gripper.is_grasped]
+    out["open"] = gripper.open(0.1)
+    out["width_open"] = gripper.width
+    try:
+        gripper.move(0.5, 0.05)
+        out["too_wide"] = None
+    except franky.CommandException as exc:
+        out["too_wide"] = str(exc)
+    # Stop a running move: wait (on the hand's own states) until the fingers are under way.
+    start = gripper.width
+    future = gripper.move_async(0.01, 0.02)
+    deadline = time.monotonic() + 60
+    while gripper.width > start - 0.002 and time.monotonic() < deadline:
+        pass  # each read blocks for the next 10 Hz GripperState
+    out["stop"] = gripper.stop()
+    try:
+        out["stopped_move"] = future.get()
+    except franky.CommandException as exc:
+        out["stopped_move"] = str(exc)
+    out["width_after_stop"] = gripper.width
+    times = [gripper.state.time.to_msec() for _ in range(3)]
+    out["state_times"] = times
+    return out
+
+
+SCENARIOS = {name[len("scenario_"):]: fn for name, fn in globals().items() if name.startswith("scenario_")}
+
+
+# -- the test side ---------------------------------------------------------------------------------
+
+def _run(scenario: str, host: str) -> dict:
+    done = subprocess.run([sys.executable, __file__, scenario, host],
+                          capture_output=True, text=True, timeout=300)
+    lines = [line for line in done.stdout.splitlines() if line.startswith(RESULT)]
+    assert done.returncode == 0 and lines, f"franky scenario {scenario} failed:\n{done.stdout}{done.stderr}"
+    return json.loads(lines[-1][len(RESULT):])
+
+
+@pytest.fixture
+def lockstep_sim():
+    with running_sim("--clock", "lockstep") as sim:
+        yield sim
+
+
+def _translation(matrix) -> np.ndarray:
+    return np.asarray(matrix)[:3, 3]
+
+
+def _rotation_angle(a, b) -> float:
+    """Angle between two rotations (from the chord, exact near zero where arccos(trace) is not)."""
+    chord = np.linalg.norm(np.asarray(a)[:3, :3] - np.asarray(b)[:3, :3]) / (2 * math.sqrt(2))
+    return float(2 * np.arcsin(min(chord, 1.0)))
+
+
+def test_connect_state_and_model(lockstep_sim):
+    out = _run("state", lockstep_sim.host)
+    assert np.allclose(out["q"], READY, atol=1e-3)
+    assert np.allclose(out["joint_position"], READY, atol=1e-3)
+    assert np.allclose(out["q_d"], out["q"], atol=1e-6)
+    assert np.abs(out["dq"]).max() < 1e-3
+    assert out["robot_mode"] == "Idle"
+    assert not out["has_errors"] and out["current_errors"] == "[]"
+    assert out["times"][1] > out["times"][0] > 0  # message_id is the robot's ms clock
+    T = np.asarray(out["O_T_EE"])
+    assert np.allclose(T[3], [0, 0, 0, 1]) and np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-5)
+    assert np.allclose(out["ee_translation"], T[:3, 3], atol=1e-6)
+    assert out["m_ee"] == pytest.approx(0.73, abs=0.01)  # the Franka Hand
+    # libfranka's model (built from the served URDF) agrees with what the robot publishes.
+    assert np.allclose(out["model_pose"], T, atol=1e-5)
+    assert np.allclose(out["gravity"], out["tau_J"], atol=0.05)
+    assert out["jacobian_shape"] == [6, 7]
+    assert len(out["urdf_robot_names"]) == 1 and out["urdf_has_link8"]  # served by GetRobotModel
+
+
+def test_joint_motions_reach_their_targets(lockstep_sim):
+    out = _run("joint_motions", lockstep_sim.host)
+    jm = out["joint_motion"]
+    assert np.allclose(jm["q_end"], jm["target"], atol=3e-3)  # when the motion finished
+    assert np.allclose(jm["q"], jm["target"], atol=1e-3)  # and once the arm settled
+    assert jm["mode"] == "Idle" and jm["elapsed_ms"] > 100
+    assert np.allclose(out["relative"]["q"], out["relative"]["expected"], atol=1e-3)
+    assert np.allclose(out["waypoints"]["q"], READY, atol=1e-3) and out["waypoints"]["mode"] == "Idle"
+    bl = out["blended"]
+    assert np.allclose(bl["q"], bl["target"], atol=1e-3)
+    assert bl["mode"] == "Idle" and not bl["has_errors"]
+
+
+def test_cartesian_motions_move_the_end_effector(lockstep_sim):
+    out = _run("cartesian_motions", lockstep_sim.host)
+    rel = out["relative"]
+    start, end = np.asarray(rel["start"]), np.asarray(rel["end"])
+    expected = start[:3, :3] @ np.asarray(rel["offset_ee"])
+    assert np.linalg.norm(_translation(end) - _translation(start) - expected) < 3e-3
+    assert _rotation_angle(start, end) < 5e-3
+    assert rel["mode"] == "Idle"
+    ab = out["absolute"]
+    assert np.linalg.norm(_translation(ab["end"]) - _translation(ab["goal"])) < 3e-3
+    assert _rotation_angle(ab["goal"], ab["end"]) < 5e-3
+    wp = out["waypoints"]
+    assert np.linalg.norm(_translation(wp["end"]) - _translation(wp["goal"])) < 3e-3
+    assert wp["mode"] == "Idle"
+
+
+def test_velocity_motions(lockstep_sim):
+    out = _run("velocity_motions", lockstep_sim.host)
+    joint = out["joint"]
+    # 0.1 rad/s held for 0.5 s, plus the ramps: 0.05 rad and a bit on joints 1 and 7, opposite signs.
+    assert 0.045 < joint["dq_total"][0] < 0.06 and -0.06 < joint["dq_total"][6] < -0.045
+    assert np.abs(joint["dq_total"][1:6]).max() < 2e-3
+    assert np.abs(joint["dq_end"]).max() < 0.01 and joint["mode"] == "Idle"
+    assert joint["elapsed_ms"] >= 500
+    cart = out["cartesian"]
+    assert 0.022 < cart["dp"][0] < 0.03  # 0.05 m/s for 0.5 s along base x, plus the ramps
+    assert abs(cart["dp"][1]) < 2e-3 and abs(cart["dp"][2]) < 2e-3
+    assert cart["elapsed_ms"] >= 500 and cart["mode"] == "Idle"
+
+
+def test_torque_control(lockstep_sim):
+    out = _run("torque", lockstep_sim.host)
+    zero = out["zero_torque"]
+    assert "Move" in zero["modes"]
+    assert zero["max_tau_J_d"] < 1e-6
+    assert zero["max_deviation"] < 1e-3  # gravity is the robot's business: zero torque holds still
+    assert zero["mode_after"] == "Idle" and zero["deviation_after"] < 1e-3
+    imp = out["joint_impedance"]
+    assert np.allclose(imp["q"], imp["target"], atol=2e-3)
+    assert imp["mode_after"] == "Idle"
+
+
+def test_setters(lockstep_sim):
+    out = _run("setters", lockstep_sim.host)
+    fr = out["frames"]
+    assert _translation(fr["NE_T_EE"])[2] == pytest.approx(0.05, abs=1e-6)
+    assert _translation(fr["EE_T_K"])[2] == pytest.approx(0.02, abs=1e-6)
+    # F_T_EE = F_T_NE · NE_T_EE: the tool lengthens the flange-to-EE offset by 5 cm...
+    assert _translation(fr["F_T_EE"])[2] - _translation(fr["F_T_EE_before"])[2] == pytest.approx(0.05, abs=1e-6)
+    # ...and O_T_EE moves with it (the EE points down at the ready pose).
+    shift = _translation(fr["O_T_EE"]) - _translation(fr["O_T_EE_before"])
+    assert np.allclose(shift, [0.0, 0.0, -0.05], atol=1e-4)
+    load = out["load"]
+    assert load["m_load"] == pytest.approx(0.5)
+    assert np.allclose(load["F_x_Cload"], [0.0, 0.0, 0.05], atol=1e-7)
+    assert np.allclose(load["I_load"], [1e-3, 0, 0, 0, 2e-3, 0, 0, 0, 3e-3], atol=1e-9)
+    assert load["m_total"] == pytest.approx(load["m_ee"] + 0.5, abs=1e-6)
+    assert out["during_motion"] is not None and "command not possible" in out["during_motion"]
+    assert np.allclose(out["reset"]["F_T_EE"], fr["F_T_EE_before"], atol=1e-6)
+    assert out["reset"]["m_load"] == 0.0
+
+
+def test_stop_preempts_a_running_motion(lockstep_sim):
+    out = _run("stop", lockstep_sim.host)
+    assert out["preempted"] is not None and "preempted" in out["preempted"]
+    after = out["after"]
+    assert after["mode"] == "Idle" and not after["has_errors"]
+    assert 0.0 < after["q0"] < 0.3  # stopped part-way
+    assert np.allclose(out["moved_again"], READY, atol=2e-3)
+
+
+def test_cartesian_motion_from_a_singular_pose_is_refused(lockstep_sim):
+    out = _run("singular", lockstep_sim.host)
+    assert np.allclose(out["at"], SINGULAR_POSE, atol=2e-3)
+    assert out["refused"] is not None
+    assert out["refused"].startswith("CommandException") and "singular pose" in out["refused"]
+    after = out["after"]
+    assert after["mode"] == "Idle" and not after["has_errors"]  # refused, not aborted
+    assert np.allclose(after["q"], out["at"], atol=1e-4)
+    assert np.allclose(out["back"], READY, atol=2e-3)
+
+
+def test_reflex_then_automatic_error_recovery():
+    with running_sim("--clock", "lockstep", "--enforce-motion-limits") as sim:
+        out = _run("reflex_recovery", sim.host)
+        assert sim.log_matching("controller_torque_discontinuity")
+    assert out["aborted"] is not None and "controller_torque_discontinuity" in out["aborted"]
+    reflex = out["reflex"]
+    assert reflex["mode"] == "Reflex" and reflex["has_errors"]
+    assert "controller_torque_discontinuity" in reflex["current_errors"]
+    assert "controller_torque_discontinuity" in reflex["last_motion_errors"]
+    assert out["move_in_reflex"] is not None and "Reflex" in out["move_in_reflex"]
+    assert out["recovered"] is True
+    after = out["after"]
+    assert after["mode"] == "Idle" and not after["has_errors"] and after["current_errors"] == "[]"
+    assert out["moved_again"] == "Idle"
+
+
+def test_gripper(lockstep_sim):
+    out = _run("gripper", lockstep_sim.host)
+    assert out["server_version"] == 3
+    assert out["homing"] is True
+    assert 0.079 <= out["max_width"] <= 0.083
+    assert out["move"] is True and out["width_after_move"] == pytest.approx(0.04, abs=1e-3)
+    assert out["grasp_nothing"] is False  # nothing between the fingers: kUnsuccessful
+    width, grasped = out["after_grasp"]
+    assert not grasped and width < 0.02 - 0.005
+    assert out["open"] is True and out["width_open"] == pytest.approx(out["max_width"], abs=1e-3)
+    assert out["too_wide"] is not None and "Command failed" in out["too_wide"]
+    assert out["stop"] is True
+    assert isinstance(out["stopped_move"], str) and "Command aborted" in out["stopped_move"]
+    assert out["width_after_stop"] > 0.01 + 0.005  # stopped before its goal
+    times = out["state_times"]
+    assert times == sorted(times) and len(set(times)) == 3
+
+
+if __name__ == "__main__":
+    result = SCENARIOS[sys.argv[1]](sys.argv[2])
+    print(RESULT + json.dumps(result), flush=True)

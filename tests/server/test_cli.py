@@ -1,0 +1,118 @@
+"""`franka-sim serve`: flags, environment variables, clean stop, another description."""
+
+from __future__ import annotations
+
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pylibfranka
+
+from franka_sim.testing import ServerProcess, fresh_loopback_address
+
+URDF = Path(__file__).resolve().parents[2] / "urdf" / "fr3.urdf"
+
+
+def test_help_names_every_flag_and_its_environment_variable():
+    out = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--help"],
+                         capture_output=True, text=True, env={"COLUMNS": "200"}, timeout=60).stdout
+    for flag, env in [("--host", "FRANKA_SIM_HOST"), ("--urdf", "FRANKA_SIM_URDF"),
+                      ("--clock", "FRANKA_SIM_CLOCK"), ("--log-level", "FRANKA_SIM_LOG_LEVEL"),
+                      ("--enforce-comm-constraints", "FRANKA_SIM_ENFORCE_COMM_CONSTRAINTS"),
+                      ("--rt-priority", "FRANKA_SIM_RT_PRIORITY")]:
+        assert flag in out and env in out
+
+
+def test_host_from_the_environment_and_sigterm_stops_cleanly():
+    host = fresh_loopback_address()
+    proc = subprocess.Popen([sys.executable, "-m", "franka_sim", "serve"],
+                            env={**__import__("os").environ, "FRANKA_SIM_HOST": host},
+                            stderr=subprocess.PIPE, text=True)
+    for line in proc.stderr:
+        if "serving on" in line:
+            assert host in line
+            break
+    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+    del robot
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(10) == 0
+    proc.stderr.close()
+
+
+def test_another_description_is_served_and_simulated(tmp_path):
+    heavier = re.sub(r'(<link name="link7">.*?<mass value=")([0-9.]+)',
+                     lambda m: m.group(1) + "1.627143", URDF.read_text(), count=1, flags=re.S)
+    assert heavier != URDF.read_text()
+    path = tmp_path / "heavy_fr3.urdf"
+    path.write_text(heavier)
+    server = ServerProcess(fresh_loopback_address(), "--urdf", str(path)).wait_ready()
+    try:
+        robot = pylibfranka.Robot(server.host, pylibfranka.RealtimeConfig.kIgnore)
+        state = robot.read_once()
+        gravity = np.array(robot.load_model().gravity(state))
+        # The client's model is the heavier arm, and the simulated arm holds still with it.
+        np.testing.assert_allclose(state.tau_J, gravity, atol=1e-3 * np.abs(gravity).max())
+    finally:
+        server.stop()
+
+
+def test_a_description_libfranka_would_reject_is_refused_on_one_line(tmp_path):
+    path = tmp_path / "bad.urdf"
+    path.write_text(URDF.read_text().replace("position_based_velocity_limits", "nothing_here"))
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                           fresh_loopback_address(), "--urdf", str(path)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode != 0
+    assert "position_based_velocity_limits" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_rt_priority_runs_the_server_under_sched_fifo_or_says_why_not():
+    """--rt-priority: every server thread under SCHED_FIFO (the cycle thread inherits it),
+    or, where the OS refuses, one warning and a server that still serves."""
+    import os
+
+    from franka_sim.testing import running_sim
+
+    with running_sim("--rt-priority", "7", env={"FRANKA_SIM_LOG_LEVEL": "info"}) as sim:
+        pid = sim.proc.pid
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        applied = sim.log_matching("running under SCHED_FIFO priority 7")
+        refused = sim.log_matching("--rt-priority 7 not applied")
+        assert len(applied) + len(refused) == 1
+        names = {int(tid): Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
+                 for tid in os.listdir(f"/proc/{pid}/task")}
+        worker = [tid for tid, name in names.items() if name == "fsim-cycle"]
+        assert len(worker) == 1
+        for tid in (pid, worker[0]):  # the event loop's thread and the cycle thread
+            policy, param = os.sched_getscheduler(tid), os.sched_getparam(tid)
+            if applied:
+                assert (policy, param.sched_priority) == (os.SCHED_FIFO, 7)
+            else:
+                assert policy == os.SCHED_OTHER
+        del robot
+
+
+def test_the_server_runs_without_the_cli_machinery():
+    """`serve` parses its flags, then becomes franka_sim.serving in the same process: the
+    flag parser's libraries (typer, click, rich, pydantic) are not resident in the server, nor
+    is MuJoCo's renderer (a server never draws), nor OpenSSL (the FCI has no TLS)."""
+    from franka_sim.testing import running_sim
+
+    with running_sim("--clock", "lockstep") as sim:
+        pid = sim.proc.pid
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        assert b"franka_sim.serving" in cmdline
+        assert b'"clock": "lockstep"' in b" ".join(cmdline)
+        maps = Path(f"/proc/{pid}/maps").read_text()
+        assert "pydantic_core" not in maps and "mujoco" in maps
+        assert "mujoco/_render" not in maps and "glfw" not in maps
+        assert "libcrypto" not in maps and "_ssl." not in maps
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del robot

@@ -1,0 +1,42 @@
+"""FrankaSim embedded in an existing asyncio application (plain asyncio, no uvloop)."""
+
+from __future__ import annotations
+
+import asyncio
+import subprocess
+import sys
+import textwrap
+
+from franka_sim import FrankaSim
+from franka_sim.testing import fresh_loopback_address
+
+CLIENT = textwrap.dedent("""
+    import sys, pylibfranka
+    robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+    state = robot.read_once()
+    print(state.robot_mode.name, round(state.m_ee, 3))
+""")
+
+
+def test_async_with_serves_a_real_client_and_shuts_down_cleanly():
+    host = fresh_loopback_address()
+
+    async def app():
+        assert "uvloop" not in type(asyncio.get_running_loop()).__module__
+        async with FrankaSim(host=host) as sim:
+            assert sim.address == (host, 1337)
+            # pylibfranka blocks and holds the GIL, so the client runs in its own process.
+            proc = await asyncio.create_subprocess_exec(
+                sys.executable, "-c", CLIENT, host, stdout=asyncio.subprocess.PIPE)
+            out, _ = await asyncio.wait_for(proc.communicate(), 60)
+            ticks = sim.core.message_id
+        return out.decode(), ticks, asyncio.all_tasks()
+
+    out, ticks, tasks = asyncio.run(app())
+    assert out.split() == ["Idle", "0.73"]
+    assert ticks > 0
+    assert len(tasks) == 1  # only app() itself: the simulator left nothing running
+    # The address is free again at once.
+    again = subprocess.run(
+        [sys.executable, "-c", f"import socket; s=socket.socket(); s.bind(('{host}', 1337))"])
+    assert again.returncode == 0

@@ -1,0 +1,100 @@
+"""The serving process leaves out what a robot server never calls (franka_sim.footprint).
+
+Each check runs in a fresh interpreter: what a process has imported cannot be undone."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+
+def _run(code: str) -> str:
+    done = subprocess.run([sys.executable, "-c", textwrap.dedent(code)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def test_without_tls_the_event_loop_serves_udp_and_openssl_is_never_loaded():
+    out = _run("""
+        from franka_sim.footprint import leave_out_tls
+        leave_out_tls()
+        import asyncio, hashlib, construct, uvloop
+
+        async def echo_once():
+            loop = asyncio.get_running_loop()
+            got = loop.create_future()
+
+            class Echo(asyncio.DatagramProtocol):
+                def datagram_received(self, data, addr):
+                    got.set_result(data)
+
+            transport, _ = await loop.create_datagram_endpoint(
+                Echo, local_addr=("127.0.0.1", 0))
+            sender, _ = await loop.create_datagram_endpoint(
+                asyncio.DatagramProtocol, remote_addr=transport.get_extra_info("sockname"))
+            sender.sendto(b"state")
+            data = await asyncio.wait_for(got, 10)
+            sender.close(); transport.close()
+            return data
+
+        assert uvloop.run(echo_once()) == b"state"
+        assert hashlib.sha256(b"x").hexdigest().startswith("2d711642")
+        maps = open("/proc/self/maps").read()
+        print("libcrypto" in maps, "_ssl." in maps, "_hashlib." in maps)
+    """)
+    assert out.split() == ["False", "False", "False"]
+
+
+def test_anything_that_would_use_tls_says_why_it_cannot():
+    out = _run("""
+        from franka_sim.footprint import NO_TLS, leave_out_tls
+        leave_out_tls()
+        import ssl
+        for make in (ssl.create_default_context, ssl.SSLContext, ssl.MemoryBIO):
+            try:
+                make()
+            except RuntimeError as exc:
+                assert str(exc) == NO_TLS, exc
+            else:
+                raise AssertionError(f"{make} made a TLS object")
+        assert issubclass(ssl.SSLWantReadError, ssl.SSLError)
+        assert ssl.SSL_ERROR_WANT_READ != ssl.SSL_ERROR_WANT_WRITE
+        print("refused")
+    """)
+    assert out.strip() == "refused"
+
+
+def test_a_process_that_already_loaded_tls_keeps_the_real_one():
+    out = _run("""
+        import ssl
+        from franka_sim.footprint import leave_out_tls
+        leave_out_tls()
+        import sys
+        print(sys.modules["ssl"] is ssl, ssl.create_default_context() is not None)
+    """)
+    assert out.split() == ["True", "True"]
+
+
+def test_a_uvloop_the_stand_in_does_not_satisfy_gets_the_real_tls(tmp_path):
+    """A future uvloop might read something off `ssl` the stand-in lacks: the serving process
+    then starts again with OpenSSL (one warning) instead of failing to serve."""
+    import pylibfranka
+    from franka_sim.testing import running_sim
+
+    fake = tmp_path / "uvloop"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import asyncio, ssl\n"
+        "ssl.OPENSSL_VERSION.split()  # a string on the real module\n"
+        "run = asyncio.run\n")
+    env = {"PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    with running_sim(env=env) as sim:
+        assert len(sim.log_matching("uvloop does not import without OpenSSL")) == 1
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del robot
+        assert "libcrypto" in Path(f"/proc/{sim.proc.pid}/maps").read_text()
