@@ -64,7 +64,8 @@ from franka_sim.description import hand
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
 from franka_sim.physics import fingers as fg
 from franka_sim.physics.backend import FingerCommand, FingerState, JointCommand, Measured, Payload
-from franka_sim.physics.scene import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3, build_model
+from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, ROTOR_INERTIA_FR3
+from franka_sim.physics.scene import build_model
 
 JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
 SETTLE = 1e-9  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
