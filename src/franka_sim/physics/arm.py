@@ -60,12 +60,13 @@ class Arm:
         self._gcomp = gravity[self.vs]
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
-        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange)
+        base = placement.base_frame()
+        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
         self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
         self.fingers = Fingers(model, data, gravity, prefix, self._hand) \
             if placement.fingers else None
-        self.queries = Queries(model, data, scratch, self.qs, self.vs, flange)
+        self.queries = Queries(model, data, scratch, self.qs, self.vs, flange, base)
         self.cmd: JointCommand | None = None  # what the drives do, until replaced
         self._finger_cmd: FingerCommand | None = None  # a new finger command (None: keep)
         self._last_cmd: JointCommand | None = None  # the command of the last step taken

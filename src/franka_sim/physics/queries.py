@@ -1,7 +1,7 @@
 """An arm's kinematics and dynamics at a given q, computed on the world's scratch data.
 
 The queries never disturb the state: they run on a second MjData, with every other body (other
-arms, scene objects) where it is and at rest.
+arms, scene objects) where it is and at rest. Poses and Jacobians are in the arm's base frame.
 """
 
 from __future__ import annotations
@@ -13,11 +13,13 @@ from franka_sim.physics.readings import FlangeBlock
 
 
 class Queries:
-    """Model queries for the arm whose joints are `qs` (qpos) / `vs` (dofs), flange site `site`."""
+    """Model queries for the arm whose joints are `qs` (qpos) / `vs` (dofs), flange site `site`
+    and base frame `base` ((R, p) in the world frame; None: the world's)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, scratch: mujoco.MjData,
-                 qs: slice, vs: slice, site: int) -> None:
-        self._model, self._data, self._scratch = model, data, scratch
+                 qs: slice, vs: slice, site: int,
+                 base: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        self._model, self._data, self._scratch, self._base = model, data, scratch, base
         self._qs, self._vs, self._site = qs, vs, site
         self._qpos, self._scratch_qpos = data.qpos, scratch.qpos
         self._scratch_arm_q = scratch.qpos[qs]
@@ -57,7 +59,11 @@ class Queries:
         s, nv = self._at(q), self._model.nv
         jacp, jacr = np.zeros((3, nv)), np.zeros((3, nv))
         mujoco.mj_jacSite(self._model, s, jacp, jacr, self._site)
-        return np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
+        J = np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
+        if self._base is not None:
+            R = self._base[0]
+            J = np.vstack([R.T @ J[:3], R.T @ J[3:]])
+        return J
 
     def flange_pose(self, q) -> np.ndarray:
         """O_T_F at q computed by MuJoCo (for cross-checks against the numpy kinematics)."""
@@ -65,6 +71,10 @@ class Queries:
         pose = np.eye(4)
         pose[:3, :3] = s.site_xmat[self._site].reshape(3, 3)
         pose[:3, 3] = s.site_xpos[self._site]
+        if self._base is not None:
+            R, p = self._base
+            pose[:3, :3] = R.T @ pose[:3, :3]
+            pose[:3, 3] = R.T @ (pose[:3, 3] - p)
         return pose
 
     def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
@@ -77,5 +87,7 @@ class Queries:
         mujoco.mj_jacSite(m, s, block.jacp, block.jacr, self._site)
         block.mat[:] = self._scratch_flange_mat
         block.pos[:] = self._scratch_flange_pos
+        if self._base is not None:
+            block.to_base(self._base)
         r = self._work[block.index]
         return r[:16].reshape(4, 4), r[16:].reshape(6, 7)

@@ -47,6 +47,15 @@ class FlangeBlock:
                  mat + 6, mat + 7, mat + 8, pos + 2, *range(self.last_row, jac)]
         J_F = jac + nv * np.arange(6)[:, None] + dof + np.arange(7)
         self.index = np.concatenate([O_T_F, J_F.ravel()])  # J_F at 16: 16-byte aligned
+        self._mat33 = self.mat.reshape(3, 3)
+
+    def to_base(self, base: tuple[np.ndarray, np.ndarray]) -> None:
+        """Express the block in the arm's base frame, given as (R, p) in the world frame."""
+        R, p = base
+        self._mat33[:] = R.T @ self._mat33
+        self.pos[:] = R.T @ (self.pos - p)
+        self.jacp[:] = R.T @ self.jacp
+        self.jacr[:] = R.T @ self.jacr
 
     @staticmethod
     def size(nv: int) -> int:
@@ -55,15 +64,17 @@ class FlangeBlock:
 
 class Readings:
     """One arm's readings: the work array, its views (the arm computes ddq and tau_ext into
-    them) and `record`, which makes the Measured of the step just taken."""
+    them) and `record`, which makes the Measured of the step just taken. `base`: the arm's
+    base frame (R, p) in the world frame, None if they are the same."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, desc: ArmDescription,
-                 prefix: str, qs: slice, vs: slice, flange: int) -> None:
+                 prefix: str, qs: slice, vs: slice, flange: int,
+                 base: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         nv = model.nv
         sensors = _ROWS + FlangeBlock.size(nv)
         self._work = work = np.zeros(sensors + model.nsensordata)
         self._flange = block = FlangeBlock(work, _ROWS, nv, vs.start)
-        self.jac = block.jac  # (6, nv) flange Jacobian at the new q
+        self.jac = block.jac  # (6, nv) flange Jacobian at the new q, world frame till record
         self._work_sensors = work[sensors:]
         # Accelerometers: (top, bottom) × joints 1..6 × xyz; a sensor the description lacks
         # reads a 0 of O_T_F's last row.
@@ -81,7 +92,7 @@ class Readings:
         self.tau_ext = work[_TAU_EXT]
         self._previous = np.zeros(15)  # the last step's tau_J and theta (views of its readings)
         # Where the readings come from: views into MjData (its buffers never move).
-        self._model, self._data, self._site = model, data, flange
+        self._model, self._data, self._site, self._base = model, data, flange, base
         self._q, self._dq, self._applied = data.qpos[qs], data.qvel[vs], data.qfrc_applied[vs]
         self._flange_mat, self._flange_pos = data.site_xmat[flange], data.site_xpos[flange]
         self._sensordata = data.sensordata
@@ -115,6 +126,8 @@ class Readings:
         self._work_dq[:] = self._dq
         self._flange.mat[:] = self._flange_mat
         self._flange.pos[:] = self._flange_pos
+        if self._base is not None:  # the world's frame is not this arm's
+            self._flange.to_base(self._base)
         self._work_sensors[:] = self._sensordata
         r = self._work[self._gather]
         self._previous = r[_TAU_J_THETA]

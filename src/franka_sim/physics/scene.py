@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
@@ -28,7 +29,9 @@ class ArmPlacement:
 
     `name` prefixes every name the arm adds ("left" → "left/flange"); the empty name keeps the
     arm's own names, for a world of one arm. `base` is (x, y, z, yaw) of the arm's root frame
-    in the world frame (m, rad); None: the world origin.
+    in the world frame (m, rad); None: the world origin. A base turns about the vertical only,
+    so gravity stays along the base's −z, as the robot's model assumes; what the arm reports
+    (O_T_F, J_F) is in its base frame, as a robot reports it.
     """
 
     desc: ArmDescription
@@ -40,6 +43,14 @@ class ArmPlacement:
     @property
     def prefix(self) -> str:
         return f"{self.name}/" if self.name else ""
+
+    def base_frame(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(R, p): the base's rotation and position in the world frame; None at the origin."""
+        if self.base is None:
+            return None
+        x, y, z, yaw = self.base
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([x, y, z])
 
 
 def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
