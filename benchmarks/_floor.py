@@ -17,7 +17,8 @@ import numpy as np
 
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
-from franka_sim.physics.scene import FLANGE_SITE, build_model, default_scene_path
+from franka_sim.physics.arm_model import FLANGE_SITE
+from franka_sim.physics.scene import build_model, default_scene_path
 from franka_sim.protocol.codec import StateBuffer
 
 

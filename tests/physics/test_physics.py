@@ -19,9 +19,11 @@ from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose, frame_pose
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP,
                                          default_urdf_text, load_arm_description)
+from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, collision_bits
 from franka_sim.physics.backend import JointCommand, Payload
-from franka_sim.physics.mujoco_backend import JOINT_STIFFNESS, MujocoBackend
-from franka_sim.physics.scene import ROTOR_INERTIA_FR3, build_model, collision_bits
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.readings import JOINT_STIFFNESS
+from franka_sim.physics.scene import build_model
 
 PI = math.pi
 DESC = load_arm_description(default_urdf_text())

@@ -1,4 +1,5 @@
-"""Physics: the Backend protocol and its MuJoCo implementation (synchronous; one owner thread)."""
+"""Physics: the Backend protocol, the MuJoCo world of N arms and the one-arm Backend over it
+(synchronous; one owner thread)."""
 
 import os
 

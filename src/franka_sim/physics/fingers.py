@@ -29,6 +29,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.description import hand
+from franka_sim.physics.backend import FingerCommand, FingerState
 
 FINGER_JOINTS = ("finger_joint1", "finger_joint2")
 FINGER_BODIES = ("finger1", "finger2")
@@ -124,3 +125,90 @@ class Palm:
         model.body_mass[body] = self.mass
         np.dot(k, self._com_coeffs, out=model.body_ipos[body])
         model.body_inertia[body] = self._eigval
+
+
+def _clip(f: float, limit: float) -> float:
+    return limit if f > limit else (-limit if f < -limit else f)
+
+
+class Fingers:
+    """One Hand's two finger joints in the world's data: their drive, their standstill and the
+    palm that keeps palm + fingers the reported end effector.
+
+    `gravity` is the world's g(q) vector (all dofs), of which the fingers take their own part.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, gravity: np.ndarray,
+                 prefix: str, hand_body: int) -> None:
+        jids = [model.joint(prefix + name).id for name in FINGER_JOINTS]
+        qadr = [int(a) for a in model.jnt_qposadr[jids]]
+        vadr = [int(a) for a in model.jnt_dofadr[jids]]
+        if qadr[1] != qadr[0] + 1 or vadr[1] != vadr[0] + 1:
+            raise RuntimeError("finger joints must be contiguous in qpos/qvel")
+        fq, fv = slice(qadr[0], qadr[0] + 2), slice(vadr[0], vadr[0] + 2)
+        self._q, self._v = data.qpos[fq], data.qvel[fv]
+        self._applied, self._gravity = data.qfrc_applied[fv], gravity[fv]
+        self._model, self._hand = model, hand_body
+        self._palm = Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+        self._palm_at: list[float] | None = None  # finger positions the palm is for
+        self.command = FingerCommand(OPEN_WIDTH, 0.0, MAX_FINGER_FORCE)
+        self._drive = (0.0, 0.0)
+
+    def drive(self, command: FingerCommand | None) -> None:
+        """Finger forces for this step: a force-limited PD on each finger plus its gravity load.
+        `command` replaces the last one; None keeps it."""
+        if command is not None:
+            self.command = command
+        c = self.command
+        target, velocity = 0.5 * c.width, 0.5 * c.speed
+        limit = max(0.0, min(c.force, MAX_FINGER_FORCE))
+        (x1, x2), (v1, v2) = self._q.tolist(), self._v.tolist()
+        f1 = _clip(FINGER_KP * (target - x1) + FINGER_KD * (velocity - v1), limit)
+        f2 = _clip(FINGER_KP * (target - x2) + FINGER_KD * (velocity - v2), limit)
+        g1, g2 = self._gravity.tolist()
+        self._applied[0], self._applied[1] = f1 + g1, f2 + g2
+        self._drive = (f1, f2)
+
+    def settle(self, command: FingerCommand | None, band: float) -> bool:
+        """A finger within `band` of a standing command's opening, and slower than `band`, is
+        put exactly there, at rest. True if a position changed."""
+        c = command or self.command
+        if c.speed != 0.0:
+            return False
+        moved = False
+        target, fq, fv = 0.5 * c.width, self._q, self._v
+        for i, (x, v) in enumerate(zip(fq.tolist(), fv.tolist())):
+            if abs(x - target) < band and abs(v) < band:
+                moved = moved or x != target
+                fq[i], fv[i] = target, 0.0
+        return moved
+
+    def update_palm(self) -> None:
+        """Rewrite the palm for the fingers' new positions, so the hand stays the reported body."""
+        x = self._q.tolist()
+        if x != self._palm_at:
+            self._palm.write(self._model, self._hand, *x)
+            self._palm_at = x
+
+    def state(self) -> FingerState:
+        (x1, x2), (v1, v2) = self._q.tolist(), self._v.tolist()
+        f1, f2 = self._drive
+        return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
+
+    def open(self) -> None:
+        """Open, at rest, commanded to stay so, the palm matching (in freshly reset data)."""
+        self._q[:] = 0.5 * OPEN_WIDTH
+        self.command = FingerCommand(OPEN_WIDTH, 0.0, MAX_FINGER_FORCE)
+        self._drive = (0.0, 0.0)
+        self._palm_at = None
+        self.update_palm()
+
+    def hold(self) -> None:
+        """Their gravity load alone, as the drive at rest (g(q) must be current)."""
+        self._applied[:] = self._gravity
+
+    def set_composite(self, mass: float, com, inertia) -> None:
+        """Palm + fingers become the given rigid body (mass, CoM in F, inertia about it)."""
+        self._palm.set_composite(mass, com, inertia)
+        self._palm_at = None
+        self.update_palm()

@@ -1,215 +1,101 @@
-"""Build the MuJoCo model of the arm from the same ArmDescription the client receives.
+"""Compile the world: one or several arms (physics/arm_model.py), optionally inside a scene.
 
-The client's `franka::Model` is Pinocchio over the served URDF; we build MuJoCo's model from
-that same parsed URDF (not from a hand-written MJCF) so kinematic origins, masses, CoMs, full
-inertia tensors and joint axes agree by construction. MuJoCo is told to take the inertials
-verbatim (inertiafromgeom off, no balancing), and it stores each tensor in principal axes,
-which is an exact change of basis.
-
-What the URDF does not say and the physics needs is added here, each as a named table:
-rotor inertia (armature), the Franka Hand (one rigid body, or a palm and two driven fingers,
-physics/fingers.py), collision primitives and the sensor sites. A scene (MJCF: a table,
-objects) can be attached around the arm; the package ships one (scenes/default.xml).
+The options are the robot's: one physics step per published state, the implicit-fast
+integrator, gravity, and sleeping for resting scene objects. A scene (MJCF: a table, objects)
+can be attached around the arms; the package ships one (scenes/default.xml).
 """
 
 from __future__ import annotations
 
 import importlib.resources
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from franka_sim.description import hand
-from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, FLANGE_LINK,
-                                         ArmDescription)
-from franka_sim.physics import fingers as fg
+from franka_sim.description.urdf import ArmDescription
+from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
+from franka_sim.protocol.timing import CYCLE_PERIOD
 
-TIMESTEP = 0.001  # the robot's control cycle: one physics step per published state
 GRAVITY = (0.0, 0.0, -9.81)
-
-# Motor rotor inertia reflected through the gearbox, kg·m², per joint. libfranka's Model (the
-# URDF's rigid bodies) leaves it out, but the physics needs it: without it joint 7 is so light
-# that an explicit 1 kHz impedance loop diverges. Figures: the MuJoCo Menagerie FR3 model's
-# armature (identified in torque control per its changelog, fr3_facts §2). Drake quotes ~3×
-# larger "reflected inertia provided by Franka"; the sources are not reconciled, and we take
-# the smaller, torque-control-identified set.
-ROTOR_INERTIA_FR3 = (0.195, 0.195, 0.195, 0.195, 0.074, 0.074, 0.074)
-
-FLANGE_SITE = "flange"
-HAND_BODY = "hand"
-
-# Collision capsules (from, to, radius) in each link's own frame, m. Rough envelopes of the
-# FR3's housings, our own sizing: good enough for contact with the environment and gross
-# self-collision, not for clearance checks. The served URDF carries no collision geometry.
-Capsule = tuple[tuple[float, float, float], tuple[float, float, float], float]
-COLLISION_CAPSULES: dict[str, tuple[Capsule, ...]] = {
-    "link0": (((-0.04, 0, 0.05), (0, 0, 0.16), 0.09),),  # base column
-    "link1": (((0, 0, -0.19), (0, 0, -0.05), 0.07),),  # shoulder housing
-    "link2": (((0, 0, -0.05), (0, 0, 0.05), 0.065),  # joint-2 housing
-              ((0, 0, 0), (0, -0.21, 0), 0.06)),  # upper arm
-    "link3": (((0, 0, -0.14), (0, 0, -0.02), 0.06),  # upper arm, elbow side
-              ((0.0825, -0.05, 0), (0.0825, 0.05, 0), 0.055)),  # elbow, along joint 4
-    "link4": (((0, 0, -0.05), (0, 0, 0.05), 0.06),  # elbow housing
-              ((-0.0825, 0.08, 0), (-0.0825, 0.13, 0), 0.06)),  # forearm root
-    "link5": (((0, 0, -0.29), (0, 0, -0.20), 0.06),  # forearm
-              ((0, 0.08, -0.18), (0, 0.08, -0.05), 0.03)),  # forearm strut to the wrist
-    "link6": (((0, 0, -0.03), (0, 0, 0.01), 0.055),  # wrist housing (joint 6)
-              ((0.02, 0, 0), (0.088, 0, 0), 0.05)),  # towards joint 7
-    "link7": (((0, 0, -0.01), (0, 0, 0.07), 0.045),),  # joint-7 housing up to the flange
-}
-# The Hand, in the flange frame: a bar across the finger direction (the hand's y axis is the
-# flange's y turned −45° about z), standing on the flange.
-_FINGER_DIR = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0])
-HAND_CAPSULES = ((tuple(-0.07 * _FINGER_DIR + [0, 0, 0.045]),
-                  tuple(0.07 * _FINGER_DIR + [0, 0, 0.045]), 0.04),)
-
-# Contact filtering: each arm body gets its own contype bit (bit 0 is the environment's), and
-# its conaffinity omits its neighbours' bits, so adjacent links (whose envelopes overlap at the
-# joint by design) never collide, while every link still touches the environment.
-COLLISION_BODIES = ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7",
-                    HAND_BODY)
-_NO_CONTACT = {frozenset((a, b)) for a, b in zip(COLLISION_BODIES, COLLISION_BODIES[1:])}
-_NO_CONTACT.add(frozenset(("link6", HAND_BODY)))  # the hand sits over joint 7, next to link 6
+SCENE_PREFIX = "scene/"
 
 
-# The fingers touch the environment only (objects, the table), never the arm or each other: a
-# bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
-FINGER_COLLISION_BITS = (1 << (len(COLLISION_BODIES) + 1), 1)
-# Pad contacts: hard and grippy enough that a squeeze of tens of newtons neither sinks the pads
-# into the object (MuJoCo's default contact would, by centimetres) nor lets a held cube creep.
-PAD_SOLREF = (0.002, 1.0)
-PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
+@dataclass(frozen=True)
+class ArmPlacement:
+    """One arm of the world: what it is, its name and where its base stands.
 
-
-def collision_bits(body: str) -> tuple[int, int]:
-    """(contype, conaffinity) for an arm body; environment geoms keep MuJoCo's default 1/1."""
-    contype = 1 << (COLLISION_BODIES.index(body) + 1)
-    conaffinity = 1
-    for i, other in enumerate(COLLISION_BODIES):
-        if other != body and frozenset((body, other)) not in _NO_CONTACT:
-            conaffinity |= 1 << (i + 1)
-    return contype, conaffinity
-
-
-def _quat(rotation: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
-    return quat
-
-
-def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str) -> None:
-    contype, conaffinity = collision_bits(owner)
-    for k, (start, end, radius) in enumerate(capsules):
-        ends = [offset[:3, :3] @ np.asarray(p, float) + offset[:3, 3] for p in (start, end)]
-        body.add_geom(name=f"{owner}_collision{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                      fromto=np.concatenate(ends), size=[radius, 0, 0], contype=contype,
-                      conaffinity=conaffinity, rgba=[0.9, 0.9, 0.9, 1.0])
-
-
-def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
-    inertia = np.asarray(inertia, float)
-    body.explicitinertial = True
-    body.mass = mass
-    body.ipos = np.asarray(com, float)
-    body.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2],
-                        inertia[0, 1], inertia[0, 2], inertia[1, 2]]
-
-
-def build_spec(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
-               fingers: bool = False) -> mujoco.MjSpec:
-    """The arm + Hand as an editable MjSpec; `build_model` compiles it.
-
-    Without `fingers` the Hand is one rigid body; with them it is a palm and two driven finger
-    joints (physics/fingers.py) whose composite is still exactly the reported Hand.
+    `name` prefixes every name the arm adds ("left" → "left/flange"); the empty name keeps the
+    arm's own names, for a world of one arm. `base` is (x, y, z, yaw) of the arm's root frame
+    in the world frame (m, rad); None: the world origin. A base turns about the vertical only,
+    so gravity stays along the base's −z, as the robot's model assumes; what the arm reports
+    (O_T_F, J_F) is in its base frame, as a robot reports it.
     """
+
+    desc: ArmDescription
+    name: str = ""
+    base: tuple[float, float, float, float] | None = None
+    fingers: bool = False
+    armature: tuple[float, ...] = ROTOR_INERTIA_FR3
+
+    @property
+    def prefix(self) -> str:
+        return f"{self.name}/" if self.name else ""
+
+    def base_frame(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(R, p): the base's rotation and position in the world frame; None at the origin."""
+        if self.base is None:
+            return None
+        x, y, z, yaw = self.base
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([x, y, z])
+
+
+def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
+                      scene_xml: str | os.PathLike | None = None) -> mujoco.MjModel:
+    """Compile the arms, each where its placement says, optionally inside a scene.
+
+    `scene_xml` is an MJCF document (its text, or a path to its file, which lets it refer to
+    meshes and includes next to it) whose worldbody contents (floor, table, objects) are
+    attached around the arms, with names prefixed "scene/" so they cannot clash with theirs.
+    The arms' options (1 ms step, integrator, gravity) win over the scene's.
+    """
+    if not arms:
+        raise ValueError("a world needs at least one arm")
+    names = [arm.name for arm in arms]
+    if len(set(names)) != len(names) or (len(arms) > 1 and "" in names):
+        raise ValueError(f"arms need distinct names (and a name each when several): {names}")
     spec = mujoco.MjSpec()
-    spec.modelname = desc.name
+    spec.modelname = arms[0].desc.name
     spec.compiler.degree = False  # every angle below is in radians
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.balanceinertia = False
-    spec.option.timestep = TIMESTEP
+    spec.option.timestep = CYCLE_PERIOD
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.gravity = GRAVITY
     # Resting scene objects sleep (exactly still until something touches them) rather than
     # trembling at 1e-9 m/s in their contacts: an idle scene is then truly at rest.
     spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
-
-    # One MuJoCo body per moving link; links fixed to a body ride on it as an offset.
-    holders: dict[int, mujoco.MjsBody] = {0: spec.worldbody}
-    for joint in desc.joints:
-        parent = desc.frames[joint.parent]
-        origin = parent.offset @ joint.origin
-        body = holders[parent.body].add_body(name=joint.child, pos=origin[:3, 3],
-                                             quat=_quat(origin[:3, :3]))
-        limits = joint.limits
-        # The physical stop is the widest range the robot allows: the datasheet (soft) limits.
-        lower = limits.lower if limits.soft_lower is None else min(limits.lower, limits.soft_lower)
-        upper = limits.upper if limits.soft_upper is None else max(limits.upper, limits.soft_upper)
-        body.add_joint(name=joint.name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint.axis,
-                       range=[lower, upper], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-                       armature=armature[joint.index - 1], damping=0.0, frictionloss=0.0)
-        holders[joint.index] = body
-
-    moving_links = {joint.child for joint in desc.joints}
-    for name, frame in desc.frames.items():
-        if name == desc.root:
-            continue
-        inertial = desc.inertials.get(name)
-        if name in moving_links:
-            body, offset = holders[frame.body], np.eye(4)
-        elif inertial is not None:
-            # A massive link fixed to a body (link0 on the base): a welded body of its own,
-            # which also gives its geoms a name. On the base its inertia never moves.
-            body = holders[frame.body].add_body(name=name, pos=frame.offset[:3, 3],
-                                                quat=_quat(frame.offset[:3, :3]))
-            offset = np.eye(4)
-        else:  # a massless frame (flange, accelerometers): a site
-            body, offset = holders[frame.body], frame.offset
-            body.add_site(name=FLANGE_SITE if name == FLANGE_LINK else name,
-                          pos=offset[:3, 3], quat=_quat(offset[:3, :3]))
-        if inertial is not None:
-            _set_inertial(body, inertial.mass, inertial.com, inertial.inertia_in_link)
-        if name in COLLISION_CAPSULES:
-            _add_capsules(body, COLLISION_CAPSULES[name], offset, name)
-
-    flange = desc.frames[FLANGE_LINK]
-    hand_body = holders[flange.body].add_body(name=HAND_BODY, pos=flange.offset[:3, 3],
-                                              quat=_quat(flange.offset[:3, :3]))
-    _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY)
-    if fingers:
-        _add_fingers(hand_body)
-    else:
-        _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
-
-    for name in ACCELEROMETER_TOP + ACCELEROMETER_BOTTOM:
-        if name not in desc.frames:  # a description without them reports zeros
-            continue
-        spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_ACCELEROMETER,
-                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=name)
-    return spec
+    for i, arm in enumerate(arms):
+        add_arm(spec, arm.desc, prefix=arm.prefix, base=arm.base, armature=arm.armature,
+                fingers=arm.fingers, extra_bits=arm_bits(i, len(arms)))
+    if scene_xml is not None:
+        if isinstance(scene_xml, str):
+            scene = mujoco.MjSpec.from_string(scene_xml)
+        else:
+            scene = mujoco.MjSpec.from_file(os.fspath(scene_xml))
+        spec.attach(scene, frame=spec.worldbody.add_frame(), prefix=SCENE_PREFIX)
+    return spec.compile()
 
 
-def _add_fingers(hand_body: mujoco.MjsBody) -> None:
-    """Palm inertial (composite minus open fingers) and the two finger bodies with their joints."""
-    half = fg.OPEN_WIDTH / 2
-    palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
-    _set_inertial(hand_body, palm.mass, *palm.inertial(half, half))
-    contype, conaffinity = FINGER_COLLISION_BITS
-    positions, rotations = fg.finger_frames()
-    for k, (body_name, joint_name) in enumerate(zip(fg.FINGER_BODIES, fg.FINGER_JOINTS)):
-        body = hand_body.add_body(name=body_name, pos=positions[k], quat=_quat(rotations[k]))
-        _set_inertial(body, fg.FINGER_MASS, fg.FINGER_COM, fg.FINGER_INERTIA)
-        body.add_joint(name=joint_name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
-                       range=[0.0, fg.FINGER_STROKE], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-                       armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0,
-                       solref_limit=PAD_SOLREF, solimp_limit=PAD_SOLIMP)  # a hard stop
-        for j, (centre, half_size) in enumerate(fg.FINGER_BOXES):
-            body.add_geom(name=f"{body_name}_collision{j}", type=mujoco.mjtGeom.mjGEOM_BOX,
-                          pos=centre, size=half_size, contype=contype, conaffinity=conaffinity,
-                          condim=4, priority=1, friction=fg.PAD_FRICTION, solref=PAD_SOLREF,
-                          solimp=PAD_SOLIMP, rgba=[0.3, 0.3, 0.3, 1.0])
+def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
+                scene_xml: str | os.PathLike | None = None,
+                fingers: bool = False) -> mujoco.MjModel:
+    """Compile one arm at the world origin (its own names), optionally inside a scene."""
+    return build_world_model([ArmPlacement(desc, fingers=fingers, armature=tuple(armature))],
+                             scene_xml=scene_xml)
 
 
 class SceneError(ValueError):
@@ -220,26 +106,6 @@ def default_scene_path() -> Path:
     """The packaged world: a table under the arm and a 5 cm cube within reach."""
     packaged = importlib.resources.files("franka_sim").joinpath("scenes", "default.xml")
     return Path(str(packaged))
-
-
-def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
-                scene_xml: str | os.PathLike | None = None,
-                fingers: bool = False) -> mujoco.MjModel:
-    """Compile the arm, optionally inside a scene.
-
-    `scene_xml` is an MJCF document (its text, or a path to its file, which lets it refer to
-    meshes and includes next to it) whose worldbody contents (floor, table, objects) are
-    attached around the arm, with names prefixed "scene/" so they cannot clash with the arm's.
-    The arm's options (1 ms step, integrator, gravity) win over the scene's.
-    """
-    spec = build_spec(desc, armature=armature, fingers=fingers)
-    if scene_xml is not None:
-        if isinstance(scene_xml, str):
-            scene = mujoco.MjSpec.from_string(scene_xml)
-        else:
-            scene = mujoco.MjSpec.from_file(os.fspath(scene_xml))
-        spec.attach(scene, frame=spec.worldbody.add_frame(), prefix="scene/")
-    return spec.compile()
 
 
 def check_scene(desc: ArmDescription, path: os.PathLike, *, fingers: bool) -> None:

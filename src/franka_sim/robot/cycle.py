@@ -14,7 +14,7 @@ harness and the benchmarks all run it through `RobotCycle`:
    produced (robot and Hand) are handed back to be written to TCP.
 
 Work that a client does not wait for comes after the send, so a lockstep client gets its state
-as early as possible; doing it later gives the same bits (physics/mujoco_backend.py, "Step
+as early as possible; doing it later gives the same bits (physics/world.py, "Step
 structure"). Time is the cycle number; no clock is read here.
 """
 

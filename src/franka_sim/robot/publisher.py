@@ -3,7 +3,7 @@
 Only fields that change are written each cycle (each write costs ~0.3 µs); constant ones
 (hand inertials, gravity) once, the status (modes, error bits, success rate) when it changes,
 and the measured ones only when the physics measured anew (an arm at rest hands over the same
-Measured each cycle, see physics/mujoco_backend.py § Rest). Transforms are written through
+Measured each cycle, see physics/world.py, "Rest"). Transforms are written through
 4×4 views in the wire's column-major order, so no reordered copy is made first; the 2- and
 6-number signals (elbow, its rates) are plain floats. The desired-side kinematics (O_T_EE_d
 and the Jacobian at q_d) come from the physics thread with the step, because MuJoCo computes

@@ -1,0 +1,184 @@
+"""One arm inside the world: its joints, its drive, its readings, its Hand, its queries.
+
+Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
+at the start of the step, as the real drives do with one 1 kHz sample. g(q) is the gravity
+compensation the robot adds (whole chain and hand), which the world computes for every arm at
+once (physics/world.py): at rest it cancels MuJoCo's own bias force to the last bit, so an idle
+arm stays exactly where it is, however long it idles. A load declared with SetLoad (the
+command's `load`) adds its own gravity on top (physics/declared_load.py). There is no joint
+friction or damping: the real robot compensates its own friction in every mode, so a client
+sees none.
+
+Standstill. An arm that has moved comes back to rest under the idle hold only asymptotically:
+float round-off keeps it trembling at ~1e-13 rad/s for ever. So, as a drive's standstill
+control does, the hold puts a joint (and a finger at its commanded opening) that is within
+SETTLE of its set-point, and slower than SETTLE, exactly there and at rest: a change far below
+any encoder's resolution, made the same way every run.
+
+An arm keeps its command until it is given another (`command`); the world's step calls the
+other methods, in the order of the step, for every arm.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY
+from franka_sim.physics.backend import FingerCommand, JointCommand, Measured
+from franka_sim.physics.declared_load import DeclaredLoad
+from franka_sim.physics.external_torque import ExternalTorque
+from franka_sim.physics.fingers import Fingers
+from franka_sim.physics.queries import Queries
+from franka_sim.physics.readings import Readings
+from franka_sim.physics.scene import ArmPlacement
+
+SETTLE = 1e-9  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
+
+
+class Arm:
+    """The arm `placement` describes, in the world's model and data.
+
+    `gravity` is the world's g(q) vector (all dofs; physics/world.py fills it), which the arm's
+    drive adds on its own dofs. `queries` computes on the world's `scratch` data.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, scratch: mujoco.MjData,
+                 gravity: np.ndarray, placement: ArmPlacement) -> None:
+        self.name, self.desc = placement.name, placement.desc
+        prefix = placement.prefix
+        jids = [model.joint(prefix + j.name).id for j in self.desc.joints]
+        qadr, vadr = model.jnt_qposadr[jids], model.jnt_dofadr[jids]
+        if not (np.diff(qadr) == 1).all() or not (np.diff(vadr) == 1).all():
+            raise RuntimeError("arm joints must be contiguous in qpos/qvel")
+        self.qs, self.vs = slice(qadr[0], qadr[0] + 7), slice(vadr[0], vadr[0] + 7)
+        flange = model.site(prefix + FLANGE_SITE).id
+        self._model, self._hand = model, model.body(prefix + HAND_BODY).id
+        # Views into MjData (its buffers never move) and preallocated work arrays.
+        self._q, self._dq = data.qpos[self.qs], data.qvel[self.vs]
+        self._applied = data.qfrc_applied[self.vs]
+        self._gcomp = gravity[self.vs]
+        self._tmp = np.zeros(7)
+        self._dq_prev = np.zeros(7)
+        base = placement.base_frame()
+        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
+        self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
+        self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
+        self.fingers = Fingers(model, data, gravity, prefix, self._hand) \
+            if placement.fingers else None
+        self.queries = Queries(model, data, scratch, self.qs, self.vs, flange, base)
+        self.cmd: JointCommand | None = None  # what the drives do, until replaced
+        self._finger_cmd: FingerCommand | None = None  # a new finger command (None: keep)
+        self._last_cmd: JointCommand | None = None  # the command of the last step taken
+        self.prepared_load: object = None  # the load declared_load.gravity is for
+        self.last: Measured | None = None  # the readings of the last step (or reset)
+
+    def command(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> None:
+        """The drives' command from the next step on; `fingers` replaces the Hand's (None:
+        keep it)."""
+        self.cmd, self._finger_cmd = cmd, fingers
+
+    def measure(self) -> Measured:
+        return self.last
+
+    # -- the world's step, in its order ---------------------------------------------------------
+    def same_inputs(self) -> bool:
+        """The command is the last step's (the same arrays: the core replaces, never mutates)."""
+        last, cmd, fingers = self._last_cmd, self.cmd, self._finger_cmd
+        if last is None or not (fingers is None or (
+                self.fingers is not None and fingers == self.fingers.command)):
+            return False
+        return cmd is last or (
+            cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
+            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load)
+
+    def settle(self) -> bool:
+        """Within SETTLE of the hold: exactly there, at rest (see Standstill above).
+        True if a position changed."""
+        tmp, q, dq, q_d = self._tmp, self._q, self._dq, self.cmd.q_d
+        moved = False
+        if (np.abs(dq, out=tmp).max() < SETTLE
+                and np.abs(np.subtract(q, q_d, out=tmp), out=tmp).max() < SETTLE):
+            moved = not np.array_equal(q, q_d)
+            q[:] = q_d
+            dq[:] = 0.0
+        if self.fingers is None:
+            return moved
+        return self.fingers.settle(self._finger_cmd, SETTLE) or moved
+
+    def drive(self) -> None:
+        """The drive torque for this step into qfrc_applied (g(q) prepared at this q)."""
+        cmd, tmp, applied = self.cmd, self._tmp, self._applied
+        np.subtract(cmd.q_d, self._q, out=tmp)
+        np.multiply(cmd.K, tmp, out=applied)
+        np.subtract(cmd.dq_d, self._dq, out=tmp)
+        tmp *= cmd.D
+        applied += tmp
+        applied += cmd.tau_ff
+        applied += self._gcomp
+        if cmd.load is not None:
+            applied += self.declared_load.gravity
+        if self.fingers is not None:
+            self.fingers.drive(self._finger_cmd)
+        self._dq_prev[:] = self._dq
+
+    def after_integration(self) -> None:
+        """After mj_step2, before the kinematics move on: ddq, the external torque (on the
+        constraint rows the step used) and the palm for the fingers' new positions."""
+        r = self.readings
+        np.subtract(self._dq, self._dq_prev, out=r.ddq)
+        np.divide(r.ddq, r.timestep7, out=r.ddq)
+        self._external.measure()
+        if self.fingers is not None:
+            self.fingers.update_palm()
+
+    def record(self) -> None:
+        """The step's readings, once the kinematics of the new q are computed (the drive
+        torque is still in qfrc_applied)."""
+        r, cmd, last = self.readings, self.cmd, self._last_cmd
+        r.flange_jacobian()
+        if cmd.load is not None:
+            carried = last is not None and last.load is cmd.load
+            self.declared_load.subtract(r.tau_ext, cmd.load, r.jac, carried)
+        self._last_cmd = cmd
+        self.last = r.record(None if self.fingers is None else self.fingers.state())
+
+    # -- reset (the world's, in its order) --------------------------------------------------------
+    def place(self, q0: np.ndarray) -> None:
+        """At q0 and at rest in freshly reset data, the fingers open; no step to compare with."""
+        self._last_cmd = None
+        self._q[:] = q0
+        if self.fingers is not None:
+            self.fingers.open()
+
+    def hold_still(self) -> None:
+        """Gravity compensation alone as the drive (g(q) computed at this q)."""
+        self._applied[:] = self._gcomp
+        if self.fingers is not None:
+            self.fingers.hold()
+
+    def record_rest(self) -> None:
+        """Rest readings, once the world's forward pass is done."""
+        r = self.readings
+        r.ddq.fill(0.0)
+        r.tau_ext.fill(0.0)
+        r.flange_jacobian()
+        self.last = r.record(None if self.fingers is None else self.fingers.state(), first=True)
+
+    def set_end_effector(self, mass: float, com, inertia) -> None:
+        """Write a new rigid body on the flange into the model (the world then refreshes what
+        derives from it): mass, CoM in F, inertia about the CoM."""
+        inertia = np.asarray(inertia, float).reshape(3, 3)
+        if mass < 0 or not np.allclose(inertia, inertia.T):
+            raise ValueError("mass must be ≥ 0 and inertia symmetric")
+        if self.fingers is not None:  # the composite of palm + fingers becomes the given body
+            self.fingers.set_composite(mass, com, 0.5 * (inertia + inertia.T))
+            return
+        principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
+        if np.linalg.det(axes) < 0:
+            axes[:, 0] = -axes[:, 0]
+        m, b = self._model, self._hand
+        m.body_mass[b] = mass
+        m.body_ipos[b] = np.asarray(com, float)
+        m.body_inertia[b] = np.clip(principal, 0.0, None)
+        mujoco.mju_mat2Quat(m.body_iquat[b], np.ascontiguousarray(axes).ravel())
