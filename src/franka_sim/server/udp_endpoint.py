@@ -19,6 +19,7 @@ from typing import Callable
 
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
+from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
@@ -82,7 +83,7 @@ class UdpEndpoint:
     def datagram_received(self, data: bytes, addr) -> None:
         if self.target is None or tuple(addr[:2]) != self.target:
             self.dropped_foreign += 1
-            if self.dropped_foreign in (1, 10, 100) or self.dropped_foreign % 1000 == 0:
+            if worth_logging(self.dropped_foreign):
                 log.warning(
                     "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
                     addr[0], addr[1], self.dropped_foreign,
