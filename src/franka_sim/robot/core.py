@@ -137,10 +137,11 @@ class RobotCore:
             self._estimate_external_forces(measured)
         if self._recovery is not None and self._recovery.done(measured.dq):
             self._recovered(measured)
-        facts = self._facts
+        facts, motion = self._facts, self.motion
+        running = motion is not None and motion.running
         facts.message_id = self.message_id
-        facts.motion = self.motion if self.motion_running else None
-        facts.success_rate = self.success_rate
+        facts.motion = motion if running else None
+        facts.success_rate = self.window.success_rate if running else 0.0
         facts.measured = measured
         facts.desired_kinematics = desired_kinematics
         return self.publisher.pack(facts)

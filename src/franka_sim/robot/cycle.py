@@ -31,14 +31,15 @@ from franka_sim.thinned_log import worth_logging
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True, eq=False)
 class Released:
     """A released cycle: its message_id, its RobotState bytes (None: packing failed, nothing
-    to send), and the measurement it published."""
+    to send), and the measurement it published. (A slotted class: a frozen dataclass costs
+    ~1 µs more per cycle to build.)"""
 
-    message_id: int
-    state: bytes | None
-    measured: Measured
+    __slots__ = ("message_id", "state", "measured")
+
+    def __init__(self, message_id: int, state: bytes | None, measured: Measured) -> None:
+        self.message_id, self.state, self.measured = message_id, state, measured
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,9 @@ class Replies:
 
     def __bool__(self) -> bool:
         return bool(self.robot or self.hand or self.hand_state)
+
+
+NO_REPLIES = Replies([], [], None)  # what most cycles leave: shared, never written to
 
 
 class RobotCycle:
@@ -116,7 +120,9 @@ class RobotCycle:
                     self._failed()
         self.physics.finish_step()
         core.run_deferred_checks()
-        return Replies(robot_replies, hand_replies, hand_state)
+        if robot_replies or hand_replies or hand_state is not None:
+            return Replies(robot_replies, hand_replies, hand_state)
+        return NO_REPLIES
 
     def _failed(self) -> None:
         self._failures += 1

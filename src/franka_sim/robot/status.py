@@ -45,5 +45,8 @@ class RobotStatus:
         self.replies.append(build_response(Command.Move, command_id, status))
 
     def take_replies(self) -> list[bytes]:
-        replies, self.replies = self.replies, []
+        replies = self.replies
+        if not replies:
+            return replies  # empty: no new list per cycle (callers only read it)
+        self.replies = []
         return replies
