@@ -19,9 +19,12 @@ import sys
 from dataclasses import asdict
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from franka_sim.config import ClockMode, Config
 from franka_sim.footprint import leave_out_renderer, leave_out_tls
+
+if TYPE_CHECKING:
+    from franka_sim.config import Config
 
 log = logging.getLogger("franka_sim")
 
@@ -43,6 +46,8 @@ def _become_serving(blob: str) -> None:
 
 
 def _config(settings: dict) -> Config:
+    from franka_sim.config import ClockMode, Config  # (numpy: after the SIGTERM handler)
+
     settings = dict(settings)
     for name in ("urdf", "scene"):
         if settings[name] is not None:
@@ -56,7 +61,15 @@ def _config(settings: dict) -> Config:
 _KEEP_TLS = "_FRANKA_SIM_SERVING_KEEPS_TLS"
 
 
+def _stop_on_sigterm() -> None:
+    """Until the event loop takes SIGTERM over: as a container's PID 1 this process would
+    otherwise never see it (the kernel drops a signal PID 1 has no handler for), and
+    `docker stop` during start-up would wait out its timeout."""
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
+
+
 def main(blob: str) -> int:
+    _stop_on_sigterm()
     leave_out_renderer()
     if _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
