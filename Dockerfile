@@ -1,0 +1,58 @@
+# A simulated Franka FR3 + Hand, served as `franka-sim serve` (docs/deployment.md).
+#
+#   docker build -t franka-sim .
+#   docker run --rm --network host -e FRANKA_SIM_HOST=127.0.0.2 franka-sim
+#
+# Build arguments:
+#   BASE_IMAGE  any image with python3 (>= 3.11, with its venv module) and useradd; both stages
+#               use it, so the virtual environment built in the first runs in the second.
+#   WHEELHOUSE  a directory of the build context; when it holds wheels, every package (the build
+#               backend too) comes from it alone (pip --no-index): the build needs no network.
+
+ARG BASE_IMAGE=python:3.11-slim
+
+# --- build: the wheel from this source tree, installed into /opt/franka-sim ---------------------
+FROM ${BASE_IMAGE} AS build
+ARG WHEELHOUSE=wheelhouse
+ENV PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_CACHE_DIR=1 PIP_ROOT_USER_ACTION=ignore
+WORKDIR /src
+# The context is filtered by .dockerignore: the package sources, and the wheelhouse if any.
+COPY . .
+RUN set -eu; \
+    from=""; \
+    if ls "$WHEELHOUSE"/*.whl >/dev/null 2>&1; then \
+        from="--no-index --find-links $WHEELHOUSE"; \
+    fi; \
+    python3 -m venv /opt/franka-sim; \
+    /opt/franka-sim/bin/pip wheel --quiet $from --no-deps --wheel-dir /dist .; \
+    /opt/franka-sim/bin/pip install --quiet $from /dist/franka_sim-*.whl; \
+    /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
+    find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
+
+# --- runtime: the environment alone, run by an unprivileged user -------------------------------
+FROM ${BASE_IMAGE}
+COPY --from=build /opt/franka-sim /opt/franka-sim
+RUN useradd --uid 10001 --user-group --create-home --home-dir /home/franka-sim \
+        --shell /usr/sbin/nologin franka-sim
+USER 10001:10001
+WORKDIR /home/franka-sim
+ENV PATH=/opt/franka-sim/bin:$PATH \
+    PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    FRANKA_SIM_HOST=0.0.0.0
+
+# The robot (libfranka protocol v10), the Franka Hand and the control API. The 1 kHz robot state
+# stream is UDP from the server to the port the client announced during the handshake, sent to
+# the address the server sees the client at: it needs no EXPOSE, and it breaks under NAT port
+# publishing (-p). Run with --network host, or put the clients on the container's network.
+EXPOSE 1337/tcp 1338/tcp 1340/tcp
+
+# Ready once the control API answers /health; the server binds every address (0.0.0.0) unless
+# FRANKA_SIM_HOST names one, which the check then uses.
+HEALTHCHECK --interval=5s --timeout=5s --start-period=30s --retries=3 \
+    CMD host="${FRANKA_SIM_HOST:-0.0.0.0}"; [ "$host" != 0.0.0.0 ] || host=127.0.0.1; \
+        exec franka-sim check "$host" --control-port "${FRANKA_SIM_CONTROL_PORT:-1340}"
+
+# `franka-sim serve` replaces itself with the server (same pid): as PID 1 it gets SIGTERM from
+# `docker stop` and exits at once.
+ENTRYPOINT ["franka-sim", "serve"]
