@@ -42,6 +42,9 @@ def _become_serving(blob: str) -> None:
     """Replace this process (same pid) with `python -m franka_sim.serving blob`."""
     sys.stdout.flush()
     sys.stderr.flush()
+    # A SIGTERM that comes before the new program handles it waits for it, pending (a mask
+    # survives exec), rather than being lost: see _stop_on_sigterm.
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
 
 
@@ -64,8 +67,15 @@ _KEEP_TLS = "_FRANKA_SIM_SERVING_KEEPS_TLS"
 def _stop_on_sigterm() -> None:
     """Until the event loop takes SIGTERM over: as a container's PID 1 this process would
     otherwise never see it (the kernel drops a signal PID 1 has no handler for), and
-    `docker stop` during start-up would wait out its timeout."""
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
+    `docker stop` during start-up would wait out its timeout. One that came during the exec
+    was held pending (_become_serving) and stops it now. It exits at once: an exception
+    raised in the middle of an extension module's initialisation would become an ImportError."""
+    def stop_now(signum, frame) -> None:
+        os.write(2, b"franka-sim: stopped (SIGTERM) while starting\n")
+        os._exit(0)
+
+    signal.signal(signal.SIGTERM, stop_now)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
 def main(blob: str) -> int:
