@@ -1,0 +1,93 @@
+"""A docker daemon of the test's own: started by pid, stopped by pid, its state in one folder.
+
+No systemd here, and a CI machine may run nothing else of docker's: the test starts `dockerd`
+itself, with no iptables rules and no default bridge (every container of the test uses the
+host's network), on a socket, data root and exec root in a folder of its own, and deletes
+that folder after stopping it. overlay2 is tried first, vfs (slower, but works on any
+filesystem) when the kernel refuses overlay2.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+from docker_cli import Docker, StepFailed, last_line
+
+STORAGE_DRIVERS = ("overlay2", "vfs")
+
+
+class PrivateDaemon:
+    def __init__(self, work: Path) -> None:
+        self.work = work  # short: containerd's sockets live under it (unix paths ≤ 107 bytes)
+        self.url = f"unix://{work}/docker.sock"
+        self.log = work / "dockerd.log"
+        self.proc: subprocess.Popen | None = None
+        self.driver: str | None = None
+
+    def start(self, timeout: float = 60.0) -> Docker:
+        if shutil.which("dockerd") is None:
+            raise StepFailed("daemon", "dockerd is not installed (Debian: docker.io)")
+        if os.geteuid() != 0:
+            raise StepFailed("daemon", "a private dockerd needs root")
+        config = self.work / "daemon.json"
+        config.write_text(json.dumps({}))  # not the machine's /etc/docker/daemon.json
+        why = "?"
+        for driver in STORAGE_DRIVERS:
+            docker = self._try(driver, config, timeout)
+            if isinstance(docker, Docker):
+                self.driver = driver
+                return docker
+            why = docker
+        raise StepFailed("daemon", f"dockerd did not start: {why}")
+
+    def _try(self, driver: str, config: Path, timeout: float) -> Docker | str:
+        command = ["dockerd", "--config-file", str(config), "--host", self.url,
+                   "--data-root", str(self.work / "data"), "--exec-root", str(self.work / "exec"),
+                   "--pidfile", str(self.work / "dockerd.pid"), "--storage-driver", driver,
+                   "--iptables=false", "--ip6tables=false", "--bridge=none"]
+        with open(self.log, "w") as log:
+            self.proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=log,
+                                         stderr=subprocess.STDOUT, start_new_session=True)
+        docker = Docker(self.url, self.work)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                self.proc = None
+                return f"{driver}: {last_line(self.log.read_text(errors='replace'))}"
+            if (self.work / "docker.sock").exists() and docker.reachable() is None:
+                return docker
+            time.sleep(0.2)
+        self.stop()
+        return f"{driver}: no answer on {self.url} after {timeout:.0f} s"
+
+    def stop(self) -> None:
+        """SIGTERM (it stops its containerd and containers), SIGKILL after 20 s; then the
+        mounts it may have left and its folder go."""
+        proc, self.proc = self.proc, None
+        if proc is not None and proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                proc.wait(20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5)
+        for mount in _mounts_under(self.work):
+            subprocess.run(["umount", "--lazy", mount], capture_output=True)
+        shutil.rmtree(self.work, ignore_errors=True)
+
+
+def _mounts_under(folder: Path) -> list[str]:
+    """Mount points under `folder`, deepest first."""
+    prefix = str(folder) + "/"
+    try:
+        lines = Path("/proc/self/mountinfo").read_text().splitlines()
+    except OSError:
+        return []
+    points = [line.split()[4] for line in lines if len(line.split()) > 4]
+    return sorted((p for p in points if p.startswith(prefix)), key=len, reverse=True)

@@ -1,0 +1,140 @@
+"""The deployment files, checked offline: the Kubernetes manifests against the API's schemas
+(kubernetes-validate ships them) and for what the schemas cannot see (names that must agree,
+probes, resources); the compose file and the Dockerfile for what docs/deployment.md promises."""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+yaml = pytest.importorskip("yaml")
+
+ROOT = Path(__file__).resolve().parents[2]
+KUBERNETES = ROOT / "deploy" / "kubernetes"
+FCI, HAND, CONTROL = 1337, 1338, 1340
+
+
+def _manifests() -> list[dict]:
+    kustomization = yaml.safe_load((KUBERNETES / "kustomization.yaml").read_text())
+    return [doc for name in kustomization["resources"]
+            for doc in yaml.safe_load_all((KUBERNETES / name).read_text()) if doc]
+
+
+def _one(kind: str) -> dict:
+    found = [doc for doc in _manifests() if doc["kind"] == kind]
+    assert len(found) == 1, f"{len(found)} {kind}s"
+    return found[0]
+
+
+@pytest.mark.parametrize("version", ["1.28.0", "1.33.0"])
+def test_the_manifests_match_the_kubernetes_schemas_strictly(version):
+    kubernetes_validate = pytest.importorskip("kubernetes_validate")
+    for doc in _manifests():
+        kubernetes_validate.validate(doc, version, strict=True)  # raises on any unknown field
+
+
+def test_the_kustomization_lists_every_manifest_and_names_the_image():
+    kustomization = yaml.safe_load((KUBERNETES / "kustomization.yaml").read_text())
+    assert kustomization["kind"] == "Kustomization"
+    listed = set(kustomization["resources"])
+    assert listed == {p.name for p in KUBERNETES.glob("*.yaml")} - {"kustomization.yaml"}
+    container = _one("StatefulSet")["spec"]["template"]["spec"]["containers"][0]
+    assert container["image"].split(":")[0] in {i["name"] for i in kustomization["images"]}
+
+
+def test_each_robot_has_a_stable_name_through_a_headless_service():
+    service, robots = _one("Service"), _one("StatefulSet")
+    assert service["spec"]["clusterIP"] == "None"  # per-pod DNS records, no NAT in between
+    assert robots["spec"]["serviceName"] == service["metadata"]["name"] == "franka-sim"
+    assert robots["metadata"]["name"] == "franka-sim"  # pods franka-sim-0, franka-sim-1, ...
+    labels = robots["spec"]["template"]["metadata"]["labels"]
+    assert robots["spec"]["selector"]["matchLabels"].items() <= labels.items()
+    assert service["spec"]["selector"].items() <= labels.items()
+    ports = {(p["port"], p.get("protocol", "TCP")) for p in service["spec"]["ports"]}
+    assert ports == {(FCI, "TCP"), (HAND, "TCP"), (CONTROL, "TCP")}
+
+
+def test_robots_are_probed_with_franka_sim_check_and_sized_by_measurement():
+    pod = _one("StatefulSet")["spec"]["template"]["spec"]
+    container = pod["containers"][0]
+    for probe in ("readinessProbe", "livenessProbe"):
+        assert container[probe]["exec"]["command"][:2] == ["franka-sim", "check"]
+    resources = container["resources"]
+    assert {"cpu", "memory"} <= resources["requests"].keys()
+    assert "cpu" not in resources.get("limits", {})  # CFS throttling would stall the stream
+    assert "memory" in resources["limits"]
+    assert pod["securityContext"]["runAsNonRoot"] is True
+    assert pod["securityContext"]["runAsUser"] == _dockerfile_user()
+
+
+def _dockerfile() -> str:
+    return (ROOT / "Dockerfile").read_text()
+
+
+def _instructions(keyword: str) -> list[str]:
+    text = re.sub(r"\\\n", " ", _dockerfile())
+    return [line.split(None, 1)[1] for line in text.splitlines()
+            if line.split(None, 1)[:1] == [keyword]]
+
+
+def _dockerfile_user() -> int:
+    (user,) = _instructions("USER")
+    return int(user.split(":")[0])
+
+
+def test_the_dockerfile_builds_from_any_base_into_a_non_root_runtime():
+    assert _instructions("ARG")[0] == "BASE_IMAGE=python:3.11-slim"
+    froms = _instructions("FROM")
+    assert len(froms) == 2 and all(f.startswith("${BASE_IMAGE}") for f in froms)
+    assert _dockerfile_user() != 0
+    assert _instructions("ENTRYPOINT") == ['["franka-sim", "serve"]']
+    assert "FRANKA_SIM_HOST=0.0.0.0" in " ".join(_instructions("ENV"))
+    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp"]
+    (healthcheck,) = _instructions("HEALTHCHECK")
+    assert "franka-sim check" in healthcheck
+    assert "--no-index --find-links" in _dockerfile()  # offline from a wheelhouse
+
+
+def test_the_build_context_holds_what_the_wheel_is_built_from():
+    ignored = (ROOT / ".dockerignore").read_text().splitlines()
+    kept = {line[1:].rstrip("/") for line in ignored if line.startswith("!")}
+    assert {"pyproject.toml", "README.md", "src", "urdf", "wheelhouse", "examples"} <= kept
+
+
+def _compose() -> dict:
+    return yaml.safe_load((ROOT / "deploy" / "compose.yaml").read_text())
+
+
+def test_compose_puts_two_robots_and_a_client_on_one_network_without_published_ports():
+    compose = _compose()
+    services = compose["services"]
+    robots = [name for name, s in services.items() if s.get("image", "").startswith("franka-sim")]
+    assert len(robots) == 2
+    (network,) = compose["networks"]
+    for name, service in services.items():
+        assert service["networks"] == [network], name
+        assert "ports" not in service and "network_mode" not in service, name  # no NAT
+    client = services["client"]
+    assert {r: {"condition": "service_healthy"} for r in robots} == client["depends_on"]
+    command = " ".join(client["command"])
+    assert all(robot in command for robot in robots)
+    (example,) = re.findall(r"examples/\S+\.py", command)
+    assert (ROOT / example).exists()
+
+
+def test_compose_builds_from_files_that_exist():
+    for name, service in _compose()["services"].items():
+        build = service.get("build")
+        if build:
+            context = (ROOT / "deploy" / build["context"]).resolve()
+            assert (context / build["dockerfile"]).exists(), name
+
+
+def test_the_client_dockerfile_installs_the_tested_pylibfranka():
+    text = (ROOT / "deploy" / "client.Dockerfile").read_text()
+    pins = [r for r in shlex.split(ROOT.joinpath("pyproject.toml").read_text().split("test = [")[1]
+                                   .split("]")[0].replace(",", " ")) if "pylibfranka" in r]
+    assert pins and pins[0] in text

@@ -1,0 +1,101 @@
+"""The image, built and run for real: build_and_run.py against a docker daemon of the test's own.
+
+`-m docker` selects these tests, `-m "not docker"` leaves them out. They skip only when docker
+cannot run here at all (no dockerd, not root, a kernel it refuses); .ci/run installs docker.io
+and debootstrap. A cold run (no cached base) takes ~2-3 minutes on 2 cores.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+SCRIPT = HERE / "build_and_run.py"
+IMAGE = "franka-sim:selftest"
+
+pytestmark = pytest.mark.docker
+
+
+def _script(*args: str, timeout: float = 900) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True,
+                          timeout=timeout, stdin=subprocess.DEVNULL)
+
+
+def _failure_line(done: subprocess.CompletedProcess) -> str:
+    assert done.returncode == 1, done.stdout + done.stderr
+    return done.stderr.strip().splitlines()[-1]
+
+
+@pytest.fixture(scope="module")
+def daemon():
+    """A private dockerd for this module, started and stopped by pid."""
+    sys.path.insert(0, str(HERE))
+    from docker_cli import StepFailed
+    from docker_daemon import PrivateDaemon
+
+    daemon = PrivateDaemon(Path(tempfile.mkdtemp(prefix="fsim-dockerd-")))
+    try:
+        docker = daemon.start()
+    except StepFailed as exc:
+        daemon.stop()
+        pytest.skip(f"docker cannot run on this machine: {exc}")
+    yield docker
+    daemon.stop()
+
+
+@pytest.fixture(scope="module")
+def built(daemon, tmp_path_factory):
+    """The whole self-test once: its report (the image stays on the module's daemon)."""
+    report = tmp_path_factory.mktemp("selftest") / "report.json"
+    done = _script("--docker-host", daemon.url, "--image", IMAGE, "--host", "127.0.0.77",
+                   "--report", str(report))
+    print(done.stdout)
+    assert done.returncode == 0, f"{done.stdout}\n{done.stderr}"
+    return json.loads(report.read_text())
+
+
+def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built, daemon):
+    assert built["image_mb"] < 350
+    assert built["stop_s"] < 3.0  # docker stop's kill timeout is 10 s
+    assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()  # nothing left
+
+
+def test_a_taken_port_fails_the_run_step_in_one_line(built, daemon):
+    host = "127.0.0.78"
+    with socket.socket() as taken:
+        taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        taken.bind((host, 1337))
+        taken.listen()
+        done = _script("--docker-host", daemon.url, "--image", IMAGE, "--skip-build",
+                       "--host", host, timeout=120)
+    line = _failure_line(done)
+    assert line.startswith("container test: run failed: the container exited (1)"), line
+    assert f"{host}:1337 is already in use" in line
+    assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()
+
+
+def test_a_failed_build_names_the_build_step(daemon, tmp_path):
+    empty = tmp_path / "empty.tar"  # a base with no shell, let alone python3
+    subprocess.run(["tar", "-cf", str(empty), "--files-from", "/dev/null"], check=True)
+    daemon.run("build", "import", str(empty), "local/empty-base")
+    done = _script("--docker-host", daemon.url, "--image", "franka-sim:broken",
+                   "--base-image", "local/empty-base", timeout=300)
+    line = _failure_line(done)
+    assert line.startswith("container test: build failed: `docker build`:"), line
+    assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()
+
+
+def test_an_unreachable_daemon_fails_the_daemon_step_in_one_line(tmp_path):
+    if shutil.which("docker") is None:
+        pytest.skip("no docker client here (Debian: docker.io)")
+    done = _script("--docker-host", f"unix://{tmp_path}/no-daemon.sock", timeout=60)
+    line = _failure_line(done)
+    assert line.startswith(f"container test: daemon failed: cannot reach unix://{tmp_path}"), line
