@@ -22,8 +22,6 @@ from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
     AutomaticErrorRecoveryStatus,
     Command,
-    ControllerMode,
-    MotionGeneratorMode,
     MoveMotionGeneratorMode,
     MoveStatus,
     RobotMode,
@@ -88,12 +86,6 @@ class RobotCore:
     @property
     def success_rate(self) -> float:
         return self.window.success_rate if self.motion_running else 0.0
-
-    @property
-    def state_modes(self) -> tuple[MotionGeneratorMode, ControllerMode]:
-        if self.motion_running:
-            return self.motion.spec.state_modes
-        return MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance
 
     @property
     def desired_q(self) -> np.ndarray | None:
@@ -292,10 +284,6 @@ class RobotCore:
         if self.status.robot_mode is RobotMode.kAutomaticErrorRecovery:
             self.status.robot_mode = RobotMode.kReflex
         self.status.take_replies()
-
-    @property
-    def has_replies(self) -> bool:
-        return bool(self.status.replies)
 
     def take_replies(self) -> list[bytes]:
         """TCP replies the robot produced on its own (a Move's final status), in order."""
