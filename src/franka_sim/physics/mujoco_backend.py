@@ -155,6 +155,7 @@ class MujocoBackend:
         self._flange_mat = data.site_xmat[self._flange]
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
+        self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
         # Divisors as arrays: a ufunc converts a Python scalar operand on every call.
         self._timesteps = np.full(15, self.timestep)  # for dtau_J and dtheta (with their pad)
         self._timestep7 = self._timesteps[:7]
@@ -272,7 +273,8 @@ class MujocoBackend:
             return False
         return cmd is last or (
             cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
-            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load)
+            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
+            and cmd.ddq_d is last.ddq_d)
 
     def _untouched(self) -> bool:
         """Nothing wrote into the data since the last step (a test's push, a reset)."""
@@ -295,6 +297,8 @@ class MujocoBackend:
         applied += tmp
         applied += cmd.tau_ff
         applied += self._gcomp
+        if cmd.ddq_d is not None:
+            self._feed_forward(cmd.ddq_d)
         if load is not None:
             applied += self._load_gravity
         if self.has_fingers:
@@ -316,6 +320,17 @@ class MujocoBackend:
         else:
             self._load_velocity = None
         return self._record(first=False)  # the drive torque is still in qfrc_applied
+
+    def _feed_forward(self, ddq_d: np.ndarray) -> None:
+        """Add M(q)·ddq_d + c(q, dq) to the drive torque: the inverse dynamics of the reference's
+        acceleration (rotors included), on mj_step1's inertia and bias at the current state."""
+        m, d, accel, out = self.model, self.data, self._ff_accel, self._ff_torque
+        accel[self._vs] = ddq_d
+        mujoco.mj_mulM(m, d, out, accel)
+        applied = self._applied
+        applied += out[self._vs]
+        applied += d.qfrc_bias[self._vs]
+        applied -= self._gcomp  # c(q, dq) = bias − g(q); g is already in
 
     def _standstill(self, q_d: np.ndarray, fingers: FingerCommand | None) -> bool:
         """Within SETTLE of the hold: exactly there, at rest (see Rest in the module docstring).
