@@ -23,7 +23,7 @@ SECONDS = 2.0
 
 
 def _filtered(T: np.ndarray, T_last: np.ndarray) -> np.ndarray:
-    from franka_sim.robot.cartesian import exp_rotation, rotation_vector
+    from franka_sim.spatial import exp_rotation, rotation_vector
 
     out = T.copy()
     out[:3, 3] = GAIN * T[:3, 3] + (1 - GAIN) * T_last[:3, 3]

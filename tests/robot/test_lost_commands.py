@@ -20,7 +20,7 @@ from franka_sim.protocol.enums import MoveControllerMode as Ctrl
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.protocol.enums import MoveStatus, RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
-from franka_sim.robot.cartesian import exp_rotation, rotation_vector
+from franka_sim.spatial import exp_rotation, rotation_vector
 from support.harness import Harness
 
 DT = 1e-3

@@ -13,12 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from franka_sim.robot.cartesian import (
-    CartesianTarget,
-    dls_step,
-    ee_jacobian,
-    pose_error,
-)
+from franka_sim.robot.cartesian import CartesianTarget, dls_step, ee_jacobian
 from franka_sim.protocol.enums import (
     STATE_CONTROLLER_MODE,
     STATE_MOTION_GENERATOR_MODE,
@@ -29,6 +24,7 @@ from franka_sim.protocol.enums import (
     MoveStatus,
 )
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
+from franka_sim.spatial import pose_error
 
 MAX_EXTRAPOLATED_CYCLES = 20
 # A finished motion must end at rest: |dq_d| above this on the finishing cycle is "still moving".
