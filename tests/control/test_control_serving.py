@@ -92,3 +92,17 @@ def test_embedded_the_http_server_stops_with_the_simulator():
     assert len(asyncio.run(app())) == 1  # only app() itself: nothing left running
     with pytest.raises(Unreachable):
         Control(host, timeout=2).health()
+
+
+def test_a_taken_control_port_is_said_on_one_line():
+    import socket
+
+    host = fresh_loopback_address()
+    with socket.socket() as taken:
+        taken.bind((host, 1340))
+        taken.listen()
+        done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host", host],
+                              capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert f"{host}:1340 (control API) is already in use" in done.stderr
+    assert "Traceback" not in done.stderr
