@@ -86,7 +86,11 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers) -> SimHandle:
     try:
         server, control = franka_sim_servers.prepared(settings)
     except RuntimeError as exc:
-        pytest.fail(str(exc), pytrace=False)
+        failure = str(exc)
+    else:
+        failure = None
+    if failure is not None:  # failed outside the except: the report shows no chained error
+        pytest.fail(failure, pytrace=False)
     handle = SimHandle(server, control, settings)
     request.node.stash[_HANDLE] = handle
     return handle
