@@ -8,6 +8,8 @@ import typer
 
 from franka_sim.config import ClockMode, Config
 
+RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
+
 app = typer.Typer(
     help="A simulated Franka FR3 (with Franka Hand) that speaks libfranka's wire protocol.\n\n"
     "Point unmodified libfranka / pylibfranka code at the address it serves "
@@ -67,6 +69,16 @@ def serve(
         help="Simulate no Franka Hand service: port 1338 is not served (connections are "
         "refused, as on a robot without a Hand) and the hand is one rigid body.",
     ),
+    control_port: int = typer.Option(
+        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=0, max=65535,
+        help="TCP port of the control API (HTTP + JSON: health, ground truth, reset, bodies, "
+        "pushes; docs/control_api.md) on the robot's address. 0: not served.",
+    ),
+    control_token: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_CONTROL_TOKEN",
+        help="Require this bearer token on every control API request (Authorization: Bearer "
+        "TOKEN), for an address others can reach. Default: none.",
+    ),
     rt_priority: int = typer.Option(
         0, envvar="FRANKA_SIM_RT_PRIORITY", min=0, max=99,
         help="Run the server under SCHED_FIFO at this priority (1-99), as the robot's own "
@@ -83,11 +95,19 @@ def serve(
     if log_level.lower() not in ("debug", "info", "warning", "error"):
         raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
                                  param_hint="--log-level")
+    if control_port in RESERVED_PORTS:
+        raise typer.BadParameter(
+            f"{control_port} is the FCI's, the Hand's or the vacuum gripper's port "
+            f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)",
+            param_hint="--control-port")
+    if control_token is not None and not control_token.strip():
+        raise typer.BadParameter("an empty token protects nothing", param_hint="--control-token")
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
-        scene=scene, gripper=not no_gripper,
+        scene=scene, gripper=not no_gripper, control_port=control_port,
+        control_token=control_token,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level)
 

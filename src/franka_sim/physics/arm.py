@@ -144,12 +144,13 @@ class Arm:
         self.last = r.record(None if self.fingers is None else self.fingers.state())
 
     # -- reset (the world's, in its order) --------------------------------------------------------
-    def place(self, q0: np.ndarray) -> None:
-        """At q0 and at rest in freshly reset data, the fingers open; no step to compare with."""
+    def place(self, q0: np.ndarray, gripper_width: float | None = None) -> None:
+        """At q0 and at rest in freshly reset data, the fingers open (or `gripper_width` apart);
+        no step to compare with."""
         self._last_cmd = None
         self._q[:] = q0
         if self.fingers is not None:
-            self.fingers.open()
+            self.fingers.open(gripper_width)
 
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""

@@ -11,6 +11,7 @@ external forces, and the publisher.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -274,6 +275,33 @@ class RobotCore:
 
     def set_load(self, load: Load) -> None:
         self.drives.set_load(load)
+
+    # -- from outside the FCI ----------------------------------------------------------------------
+    def reset(self, q: np.ndarray, measured: Measured, message_id: int | None = None) -> None:
+        """The robot as it powers up, at rest at q (whose measurement is `measured`): no error,
+        Idle, no external force on record, every Set* setting at its default. Only between
+        motions (ValueError otherwise). The clock goes on; `message_id`: the last state that
+        left, when a released cycle whose state had not is taken back."""
+        if self.motion is not None or self._recovery is not None:
+            raise ValueError("a motion or an error recovery is under way")
+        if message_id is not None:
+            self.message_id = message_id
+        defaults = RobotSettings()
+        for setting in dataclasses.fields(defaults):
+            if setting.init:
+                setattr(self.settings, setting.name, getattr(defaults, setting.name))
+        self.drives.set_load(self.settings.load)
+        self.drives.hold_at(q)
+        self.drives.stalled_at = None
+        status = self.status
+        status.reflex_reason[:] = False
+        status.clear_errors()
+        status.robot_mode = RobotMode.kIdle
+        status.take_replies()
+        self.external.reset()
+        self.window = CommandWindow()
+        self.guard = None
+        self.measured = measured
 
     # -- the session's view ----------------------------------------------------------------------
     def client_connected(self) -> None:
