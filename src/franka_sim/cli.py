@@ -115,8 +115,8 @@ def serve(
 @app.command()
 def check(
     host: str = typer.Argument(
-        "127.0.0.1", envvar="FRANKA_SIM_HOST", help="Address of the simulator (or, with --fci, "
-        "of the robot).",
+        "127.0.0.1", envvar="FRANKA_SIM_HOST", metavar="HOST",
+        help="Address of the simulator (or, with --fci, of the robot).",
     ),
     control_port: int = typer.Option(
         1340, envvar="FRANKA_SIM_CONTROL_PORT", min=1, max=65535,

@@ -9,13 +9,21 @@ import time
 
 def health_problem(host: str, control_port: int = 1340, token: str | None = None,
                    timeout: float = 2.0) -> str | None:
-    from franka_sim.control import Control, ControlError, Unauthorized
+    from franka_sim.control import Control, ControlError, Unauthorized, Unreachable
 
     where = f"{host}:{control_port}"
     try:
         health = Control(host, port=control_port, token=token, timeout=timeout).health()
     except Unauthorized as exc:
-        return f"{where}: unauthorized ({exc}); pass the server's --control-token as --token"
+        return (f"{where}: unauthorized ({exc.message}); pass the server's --control-token "
+                "as --token")
+    except Unreachable as exc:
+        said = exc.message.lower()
+        if "refused" in said:
+            return f"{where}: connection refused (no simulator's control API there)"
+        if "timed out" in said:
+            return f"{where}: timeout, no answer within {timeout:g} s"
+        return f"{where}: unreachable ({exc.message})"
     except ControlError as exc:
         return f"{where}: {exc}"
     if not health.get("ready"):

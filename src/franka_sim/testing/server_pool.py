@@ -10,6 +10,7 @@ still running, or a client from an earlier test still holds the robot's only FCI
 from __future__ import annotations
 
 import gc
+import os
 import time
 from dataclasses import dataclass
 
@@ -17,7 +18,7 @@ from franka_sim.testing.server_process import ServerProcess
 
 CONTROL_PORT = 1340
 _START_TIMEOUT = 60.0  # MuJoCo's import and the model's compilation, on a busy CI machine
-_CLIENT_GONE_TIMEOUT = 1.0  # a finished test's client: its TCP close is in flight
+_CLIENT_GONE_TIMEOUT = 0.25  # a finished test's client: its TCP close is in flight
 _ADDRESS_ATTEMPTS = 4
 
 
@@ -98,7 +99,9 @@ class ServerPool:
                 if server.log_matching("already in use"):
                     continue  # another run's server on this address: the next one
                 raise
-            control = Control(host, port=CONTROL_PORT)
+            # The server reads an exported FRANKA_SIM_CONTROL_TOKEN as its token.
+            control = Control(host, port=CONTROL_PORT,
+                              token=os.environ.get("FRANKA_SIM_CONTROL_TOKEN") or None)
             _wait_healthy(server, control)
             return server, control
         raise RuntimeError(f"franka-sim: {_ADDRESS_ATTEMPTS} addresses in a row were taken")
