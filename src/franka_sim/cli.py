@@ -21,7 +21,7 @@ app = typer.Typer(
 
 @app.callback()
 def _root() -> None:
-    """Keeps `serve` a sub-command even while it is the only one."""
+    """The sub-commands stay sub-commands (`franka-sim serve`), however many there are."""
 
 
 @app.command()
