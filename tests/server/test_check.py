@@ -16,6 +16,21 @@ def _check(*args: str, timeout: float = 60):
     return done.returncode, done.stderr
 
 
+def _vacant_address() -> str:
+    """A fresh loopback address where nothing listens (another test run on this machine may
+    have a server on one of ours)."""
+    while True:
+        host = fresh_loopback_address()
+        for port in (1337, 1340):
+            try:
+                socket.create_connection((host, port), timeout=1).close()
+                break
+            except OSError:
+                pass
+        else:
+            return host
+
+
 def _one_line(stderr: str) -> str:
     lines = stderr.strip().splitlines()
     assert len(lines) == 1, stderr
@@ -32,7 +47,7 @@ def test_a_ready_simulator_passes_through_health_and_through_the_fci():
 
 
 def test_no_simulator_fails_on_one_line_saying_refused():
-    host = fresh_loopback_address()
+    host = _vacant_address()
     code, stderr = _check(host)
     assert code == 1
     line = _one_line(stderr)
@@ -51,7 +66,7 @@ def test_a_wrong_token_is_unauthorized():
 
 
 def test_wait_polls_until_a_late_server_is_ready():
-    host = fresh_loopback_address()
+    host = _vacant_address()
     checker = subprocess.Popen([sys.executable, "-m", "franka_sim", "check", host,
                                 "--wait", "120"], stderr=subprocess.PIPE, text=True)
     time.sleep(1.0)
@@ -67,13 +82,13 @@ def test_wait_polls_until_a_late_server_is_ready():
 
 def test_wait_gives_up_with_the_last_reason():
     t0 = time.monotonic()
-    code, stderr = _check(fresh_loopback_address(), "--wait", "1")
+    code, stderr = _check(_vacant_address(), "--wait", "1")
     assert code == 1 and "refused" in _one_line(stderr).lower()
     assert 1.0 <= time.monotonic() - t0 < 30
 
 
 def test_a_listener_that_never_answers_is_a_timeout():
-    host = fresh_loopback_address()
+    host = _vacant_address()
     with socket.create_server((host, 1340)), socket.create_server((host, 1337)):
         code, stderr = _check(host, "--timeout", "0.5")
         assert code == 1 and "time" in _one_line(stderr).lower()
