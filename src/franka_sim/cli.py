@@ -21,7 +21,7 @@ app = typer.Typer(
 
 @app.callback()
 def _root() -> None:
-    """Keeps `serve` a sub-command even while it is the only one."""
+    """The sub-commands stay sub-commands (`franka-sim serve`), however many there are."""
 
 
 @app.command()
@@ -110,6 +110,41 @@ def serve(
         control_token=control_token,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level)
+
+
+@app.command()
+def check(
+    host: str = typer.Argument(
+        "127.0.0.1", envvar="FRANKA_SIM_HOST", metavar="HOST",
+        help="Address of the simulator (or, with --fci, of the robot).",
+    ),
+    control_port: int = typer.Option(
+        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=1, max=65535,
+        help="Port of the simulator's control API.",
+    ),
+    token: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_CONTROL_TOKEN", help="Bearer token of the control API.",
+    ),
+    wait: float = typer.Option(
+        0.0, min=0.0, help="Try again until ready or this many seconds have passed.",
+    ),
+    fci: bool = typer.Option(
+        False, "--fci", help="Instead of the control API, connect as libfranka does (protocol "
+        "v10 on TCP 1337) and wait for one robot state: also works against a robot.",
+    ),
+    timeout: float = typer.Option(
+        2.0, min=0.01, help="Seconds each attempt may take.",
+    ),
+) -> None:
+    """Exit 0 when the simulator at HOST is ready; else 1, with one line on stderr saying why.
+    For container health checks and CI scripts."""
+    from franka_sim.readiness import check_until
+
+    reason = check_until(host, wait=wait, timeout=timeout, fci=fci,
+                         control_port=control_port, token=token)
+    if reason is not None:
+        typer.echo(f"franka-sim check: {reason}", err=True)
+        raise typer.Exit(1)
 
 
 def main() -> None:
