@@ -13,6 +13,8 @@ import typer  # noqa: E402 - after the handler: importing it takes the first ~0.
 
 from franka_sim.config import ClockMode, Config
 
+RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
+
 app = typer.Typer(
     help="A simulated Franka FR3 (with Franka Hand) that speaks libfranka's wire protocol.\n\n"
     "Point unmodified libfranka / pylibfranka code at the address it serves "
@@ -24,7 +26,7 @@ app = typer.Typer(
 
 @app.callback()
 def _root() -> None:
-    """Keeps `serve` a sub-command even while it is the only one."""
+    """The sub-commands stay sub-commands (`franka-sim serve`), however many there are."""
 
 
 @app.command()
@@ -72,6 +74,16 @@ def serve(
         help="Simulate no Franka Hand service: port 1338 is not served (connections are "
         "refused, as on a robot without a Hand) and the hand is one rigid body.",
     ),
+    control_port: int = typer.Option(
+        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=0, max=65535,
+        help="TCP port of the control API (HTTP + JSON: health, ground truth, reset, bodies, "
+        "pushes; docs/control_api.md) on the robot's address. 0: not served.",
+    ),
+    control_token: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_CONTROL_TOKEN",
+        help="Require this bearer token on every control API request (Authorization: Bearer "
+        "TOKEN), for an address others can reach. Default: none.",
+    ),
     rt_priority: int = typer.Option(
         0, envvar="FRANKA_SIM_RT_PRIORITY", min=0, max=99,
         help="Run the server under SCHED_FIFO at this priority (1-99), as the robot's own "
@@ -88,13 +100,56 @@ def serve(
     if log_level.lower() not in ("debug", "info", "warning", "error"):
         raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
                                  param_hint="--log-level")
+    if control_port in RESERVED_PORTS:
+        raise typer.BadParameter(
+            f"{control_port} is the FCI's, the Hand's or the vacuum gripper's port "
+            f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)",
+            param_hint="--control-port")
+    if control_token is not None and not control_token.strip():
+        raise typer.BadParameter("an empty token protects nothing", param_hint="--control-token")
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
-        scene=scene, gripper=not no_gripper,
+        scene=scene, gripper=not no_gripper, control_port=control_port,
+        control_token=control_token,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level)
+
+
+@app.command()
+def check(
+    host: str = typer.Argument(
+        "127.0.0.1", envvar="FRANKA_SIM_HOST", metavar="HOST",
+        help="Address of the simulator (or, with --fci, of the robot).",
+    ),
+    control_port: int = typer.Option(
+        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=1, max=65535,
+        help="Port of the simulator's control API.",
+    ),
+    token: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_CONTROL_TOKEN", help="Bearer token of the control API.",
+    ),
+    wait: float = typer.Option(
+        0.0, min=0.0, help="Try again until ready or this many seconds have passed.",
+    ),
+    fci: bool = typer.Option(
+        False, "--fci", help="Instead of the control API, connect as libfranka does (protocol "
+        "v10 on TCP 1337) and wait for one robot state: also works against a robot.",
+    ),
+    timeout: float = typer.Option(
+        2.0, min=0.01, help="Seconds each attempt may take.",
+    ),
+) -> None:
+    """Exit 0 when the simulator at HOST is ready; else 1, with one line on stderr saying why.
+    For container health checks and CI scripts."""
+    from franka_sim.readiness import check_until
+
+    reason = check_until(host, wait=wait, timeout=timeout, fci=fci,
+                         control_port=control_port, token=token)
+    if reason is not None:
+        typer.echo(f"franka-sim check: {reason}", err=True)
+        raise typer.Exit(1)
 
 
 def main() -> None:

@@ -31,3 +31,5 @@ class Config:
     gripper: bool = True  # serve the Franka Hand (TCP 1338 + its state stream); False: no Hand
     gripper_port: int = 1338  # libfranka pins it too
     scene: Path | None = None  # MJCF whose bodies surround the arm; None: the packaged default
+    control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
+    control_token: str | None = None  # bearer token the control API requires; None: none

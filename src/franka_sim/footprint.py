@@ -11,10 +11,14 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   only reads names off `ssl` while importing: a stand-in module gives it those names, and
   anything that would really use TLS in this process fails with a message saying why. (A
   uvloop the stand-in does not satisfy makes the serving process start again with OpenSSL.)
+  aiohttp (the control API) does without `ssl` when it cannot be imported, but would build TLS
+  contexts at import from a stand-in: it is imported while `ssl` reads as missing
+  (`import_without_tls`).
 """
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import sys
 import types
@@ -37,6 +41,19 @@ def leave_out_tls() -> None:
         return  # too late: OpenSSL is loaded already, a stand-in would only hide the real one
     sys.modules["_hashlib"] = None  # hashlib falls back to its built-in digests
     sys.modules["ssl"] = _tls_stand_in()
+
+
+def import_without_tls(name: str) -> types.ModuleType:
+    """Import module `name` as if `ssl` could not be imported, for a package that does without
+    TLS then (aiohttp). The stand-in stays what later importers of `ssl` get."""
+    stand_in = sys.modules.get("ssl")
+    if getattr(stand_in, "__doc__", None) != NO_TLS:  # the real one, or nothing in its place
+        return importlib.import_module(name)
+    sys.modules["ssl"] = None  # `import ssl` raises ImportError
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.modules["ssl"] = stand_in
 
 
 class _SSLError(OSError):

@@ -21,7 +21,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from franka_sim.footprint import leave_out_renderer, leave_out_tls
+from franka_sim.footprint import import_without_tls, leave_out_renderer, leave_out_tls
 
 if TYPE_CHECKING:
     from franka_sim.config import Config
@@ -29,11 +29,20 @@ if TYPE_CHECKING:
 log = logging.getLogger("franka_sim")
 
 
+# The control API's token travels in the environment, not on the command line (which `ps`
+# shows to every user of the machine).
+_TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
+
+
 def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
     """Become the serving process (does not return)."""
     settings = {name: value.value if isinstance(value, Enum) else
                 str(value) if isinstance(value, Path) else value
                 for name, value in asdict(config).items()}
+    token = settings.pop("control_token")
+    os.environ.pop(_TOKEN, None)
+    if token is not None:
+        os.environ[_TOKEN] = token
     _become_serving(json.dumps({"config": settings, "rt_priority": rt_priority,
                                 "log_level": log_level}))
 
@@ -56,6 +65,7 @@ def _config(settings: dict) -> Config:
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
+    settings["control_token"] = os.environ.get(_TOKEN)
     settings["q0"] = tuple(settings["q0"])
     return Config(**settings)
 
@@ -89,6 +99,8 @@ def main(blob: str) -> int:
     if args["rt_priority"]:
         _realtime_scheduling(args["rt_priority"])
     uvloop = _import_uvloop(blob)
+    if args["config"]["control_port"]:
+        import_without_tls("aiohttp.web")  # before the control API imports it
     try:
         uvloop.run(_serve(_config(args["config"])))
     except _Failed as exc:

@@ -12,7 +12,7 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from franka_sim.robot.cartesian import exp_rotation
+from franka_sim.spatial import exp_rotation
 from franka_sim.robot.settings import CollisionThresholds
 from franka_sim.testing import running_sim
 from support.clients import cartesian_pose_motion, connect, move_to, pose

@@ -98,3 +98,26 @@ def test_a_uvloop_the_stand_in_does_not_satisfy_gets_the_real_tls(tmp_path):
         assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
         del robot
         assert "libcrypto" in Path(f"/proc/{sim.proc.pid}/maps").read_text()
+
+
+def test_aiohttp_is_imported_as_without_tls_and_the_stand_in_stays():
+    out = _run("""
+        from franka_sim.footprint import NO_TLS, import_without_tls, leave_out_tls
+        leave_out_tls()
+        import uvloop
+        import_without_tls("aiohttp.web")
+        import ssl, aiohttp.connector
+        maps = open("/proc/self/maps").read()
+        print(ssl.__doc__ == NO_TLS, aiohttp.connector.ssl is None, "libcrypto" in maps)
+    """)
+    assert out.split() == ["True", "True", "False"]
+
+
+def test_the_serving_process_answers_its_control_api_without_openssl():
+    from franka_sim.control import Control
+    from franka_sim.testing import running_sim
+
+    with running_sim() as sim:
+        assert Control(sim.host).state()["robot_mode"] == "Idle"
+        maps = Path(f"/proc/{sim.pid}/maps").read_text()
+    assert "libcrypto" not in maps and "_ssl." not in maps and "_hashlib." not in maps

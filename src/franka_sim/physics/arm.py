@@ -1,7 +1,11 @@
 """One arm inside the world: its joints, its drive, its readings, its Hand, its queries.
 
 Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
-at the start of the step, as the real drives do with one 1 kHz sample. g(q) is the gravity
+at the start of the step, as the real drives do with one 1 kHz sample. While a generator runs,
+the command also carries its reference acceleration ddq_d, and the drives add the torque that
+gives the arm that acceleration, M(q)·ddq_d + c(q, dq) (rotors included): the impedance then
+only corrects, and the arm ends a motion on its q_d instead of lagging it by its inertia over
+the stiffness (libfranka's generators start the next motion from the measured q). g(q) is the gravity
 compensation the robot adds (whole chain and hand), which the world computes for every arm at
 once (physics/world.py): at rest it cancels MuJoCo's own bias force to the last bit, so an idle
 arm stays exactly where it is, however long it idles. A load declared with SetLoad (the
@@ -53,13 +57,15 @@ class Arm:
             raise RuntimeError("arm joints must be contiguous in qpos/qvel")
         self.qs, self.vs = slice(qadr[0], qadr[0] + 7), slice(vadr[0], vadr[0] + 7)
         flange = model.site(prefix + FLANGE_SITE).id
-        self._model, self._hand = model, model.body(prefix + HAND_BODY).id
+        self._model, self._data, self._hand = model, data, model.body(prefix + HAND_BODY).id
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self.qs], data.qvel[self.vs]
         self._applied = data.qfrc_applied[self.vs]
         self._gcomp = gravity[self.vs]
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
+        self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
+        self._bias = data.qfrc_bias[self.vs]
         base = placement.base_frame()
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
@@ -90,7 +96,8 @@ class Arm:
             return False
         return cmd is last or (
             cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
-            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load)
+            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
+            and cmd.ddq_d is last.ddq_d)
 
     def settle(self) -> bool:
         """Within SETTLE of the hold: exactly there, at rest (see Standstill above).
@@ -116,11 +123,23 @@ class Arm:
         applied += tmp
         applied += cmd.tau_ff
         applied += self._gcomp
+        if cmd.ddq_d is not None:
+            self._feed_forward(cmd.ddq_d)
         if cmd.load is not None:
             applied += self.declared_load.gravity
         if self.fingers is not None:
             self.fingers.drive(self._finger_cmd)
         self._dq_prev[:] = self._dq
+
+    def _feed_forward(self, ddq_d: np.ndarray) -> None:
+        """Add M(q)·ddq_d + c(q, dq): the inverse dynamics of the reference's acceleration, on
+        mj_step1's inertia and bias at the current state (c = bias − g; g is already in)."""
+        accel, out, applied = self._ff_accel, self._ff_torque, self._applied
+        accel[self.vs] = ddq_d
+        mujoco.mj_mulM(self._model, self._data, out, accel)
+        applied += out[self.vs]
+        applied += self._bias
+        applied -= self._gcomp
 
     def after_integration(self) -> None:
         """After mj_step2, before the kinematics move on: ddq, the external torque (on the
@@ -144,12 +163,13 @@ class Arm:
         self.last = r.record(None if self.fingers is None else self.fingers.state())
 
     # -- reset (the world's, in its order) --------------------------------------------------------
-    def place(self, q0: np.ndarray) -> None:
-        """At q0 and at rest in freshly reset data, the fingers open; no step to compare with."""
+    def place(self, q0: np.ndarray, gripper_width: float | None = None) -> None:
+        """At q0 and at rest in freshly reset data, the fingers open (or `gripper_width` apart);
+        no step to compare with."""
         self._last_cmd = None
         self._q[:] = q0
         if self.fingers is not None:
-            self.fingers.open()
+            self.fingers.open(gripper_width)
 
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""

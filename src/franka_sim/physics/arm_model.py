@@ -78,6 +78,27 @@ MAX_ARMS = 32 - FIRST_ARM_BIT
 # into the object (MuJoCo's default contact would, by centimetres) nor lets a held cube creep.
 PAD_SOLREF = (0.002, 1.0)
 PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
+# How a contact of the arm with the world builds up. On the robot the compliance a press meets
+# is the arm's (its elastic joints, ~7000 Nm/rad each, and the joint impedance behind them), so
+# a fingertip or link coming down on a table at a few cm/s loads it over tens of ms. Our joints
+# are rigid and carry the rotors' inertia (8 kg along z at the EE over the table), so a contact
+# as hard as the pads' stops all of it within a cycle: ~150 Nm of joint torque from 3 cm/s,
+# over any collision threshold on the first contact cycle. The arm's geoms (links, Hand,
+# finger knuckles and soles) therefore make a softer contact with whatever they touch (they
+# outrank the world's geoms, ARM_CONTACT_PRIORITY): its impedance starts near zero and reaches
+# its full value over ARM_CONTACT_WIDTH of penetration, with a reference spring of
+# ARM_CONTACT_SOLREF's time constant. Pressed down on the table at 3 cm/s the force then rises
+# over ~30 cycles to 20 N, and a held press sinks ~0.7 mm at 10-40 N, about what the FR3's
+# joints yield under 20 N there (which the robot shows in θ, not in q).
+ARM_CONTACT_PRIORITY = 2
+ARM_CONTACT_SOLREF = (0.03, 1.0)
+ARM_CONTACT_WIDTH = 0.001  # m
+ARM_CONTACT_SOLIMP = (0.001, 0.99, ARM_CONTACT_WIDTH, 0.5, 2.0)
+# The pads grip with the hard pad contact: a squeeze moves a finger, a light body, which the
+# soft contact would let sink by millimetres. So each finger's tip end (its last
+# SOLE_THICKNESS, where it meets a table) is a geom of its own, the sole, with the arm's
+# contact; the pad above it meets a table only under a press far over the collision thresholds.
+SOLE_THICKNESS = 0.002  # m
 
 
 def collision_bits(body: str) -> tuple[int, int]:
@@ -115,7 +136,9 @@ def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str
         ends = [offset[:3, :3] @ np.asarray(p, float) + offset[:3, 3] for p in (start, end)]
         body.add_geom(name=f"{prefix}{owner}_collision{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                       fromto=np.concatenate(ends), size=[radius, 0, 0], contype=contype,
-                      conaffinity=conaffinity, rgba=[0.9, 0.9, 0.9, 1.0])
+                      conaffinity=conaffinity, priority=ARM_CONTACT_PRIORITY,
+                      solref=ARM_CONTACT_SOLREF, solimp=ARM_CONTACT_SOLIMP,
+                      rgba=[0.9, 0.9, 0.9, 1.0])
 
 
 def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
@@ -206,6 +229,13 @@ def _add_fingers(hand_body: mujoco.MjsBody, prefix: str, extra: tuple[int, int])
     contype, conaffinity = FINGER_COLLISION_BITS
     contype, conaffinity = contype | extra[0], conaffinity | extra[1]
     positions, rotations = fg.finger_frames()
+    (pad_centre, pad_half), knuckle = fg.FINGER_BOXES
+    t = SOLE_THICKNESS / 2  # the pad's tip end (+z) becomes the sole
+    boxes = {"collision0": ((pad_centre[0], pad_centre[1], pad_centre[2] - t),
+                            (pad_half[0], pad_half[1], pad_half[2] - t)),
+             "collision1": knuckle,
+             "sole": ((pad_centre[0], pad_centre[1], pad_centre[2] + pad_half[2] - t),
+                      (pad_half[0], pad_half[1], t))}
     for k, (body_name, joint_name) in enumerate(zip(fg.FINGER_BODIES, fg.FINGER_JOINTS)):
         body = hand_body.add_body(name=prefix + body_name, pos=positions[k],
                                   quat=_quat(rotations[k]))
@@ -214,9 +244,13 @@ def _add_fingers(hand_body: mujoco.MjsBody, prefix: str, extra: tuple[int, int])
                        range=[0.0, fg.FINGER_STROKE], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
                        armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0,
                        solref_limit=PAD_SOLREF, solimp_limit=PAD_SOLIMP)  # a hard stop
-        for j, (centre, half_size) in enumerate(fg.FINGER_BOXES):
-            body.add_geom(name=f"{prefix}{body_name}_collision{j}",
+        for suffix, (centre, half_size) in boxes.items():
+            pad = suffix == "collision0"
+            body.add_geom(name=f"{prefix}{body_name}_{suffix}",
                           type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre, size=half_size,
-                          contype=contype, conaffinity=conaffinity, condim=4, priority=1,
-                          friction=fg.PAD_FRICTION, solref=PAD_SOLREF, solimp=PAD_SOLIMP,
+                          contype=contype, conaffinity=conaffinity, condim=4,
+                          friction=fg.PAD_FRICTION,
+                          priority=1 if pad else ARM_CONTACT_PRIORITY,
+                          solref=PAD_SOLREF if pad else ARM_CONTACT_SOLREF,
+                          solimp=PAD_SOLIMP if pad else ARM_CONTACT_SOLIMP,
                           rgba=[0.3, 0.3, 0.3, 1.0])

@@ -33,6 +33,9 @@ class JointCommand:
     The drive torque is tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q): the robot always adds its
     own gravity compensation, and in torque mode K = D = 0 so tau_ff is the user torque. g(q)
     is the robot's model: the arm, the end effector and the declared `load` (None: no load).
+    With `ddq_d` (a motion generator's reference) the drives also add the torque that gives the
+    arm that acceleration, M(q)·ddq_d + c(q, dq): the impedance then only corrects, and the arm
+    ends a motion on its q_d instead of lagging it by the inertia over the stiffness.
     """
 
     tau_ff: np.ndarray  # (7,) Nm
@@ -42,6 +45,7 @@ class JointCommand:
     D: np.ndarray  # (7,) Nm·s/rad
     load: Payload | None = None
     hold: bool = False  # the idle hold: standing still at q_d is the goal (see Rest in the backend)
+    ddq_d: np.ndarray | None = None  # (7,) rad/s², the reference's acceleration (feed-forward)
 
     @classmethod
     def torque(cls, tau) -> "JointCommand":
@@ -50,12 +54,15 @@ class JointCommand:
         return cls(np.asarray(tau, float), zero, zero, zero, zero)
 
     @classmethod
-    def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None, *, hold=False) -> "JointCommand":
-        """Joint impedance about q_d (e.g. idle holding), optionally with a feed-forward torque."""
+    def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None, *, hold=False,
+                  ddq_d=None) -> "JointCommand":
+        """Joint impedance about q_d (e.g. idle holding), optionally with a feed-forward torque
+        and the reference's acceleration."""
         zero = np.zeros(7)
         return cls(zero if tau_ff is None else np.asarray(tau_ff, float), np.asarray(q_d, float),
                    zero if dq_d is None else np.asarray(dq_d, float),
-                   np.asarray(K, float), np.asarray(D, float), hold=hold)
+                   np.asarray(K, float), np.asarray(D, float), hold=hold,
+                   ddq_d=None if ddq_d is None else np.asarray(ddq_d, float))
 
 
 @dataclass(frozen=True)

@@ -195,10 +195,12 @@ class Fingers:
         f1, f2 = self._drive
         return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
 
-    def open(self) -> None:
-        """Open, at rest, commanded to stay so, the palm matching (in freshly reset data)."""
-        self._q[:] = 0.5 * OPEN_WIDTH
-        self.command = FingerCommand(OPEN_WIDTH, 0.0, MAX_FINGER_FORCE)
+    def open(self, width: float | None = None) -> None:
+        """Open (or `width` apart), at rest, commanded to stay so, the palm matching (in freshly
+        reset data)."""
+        width = OPEN_WIDTH if width is None else float(width)
+        self._q[:] = 0.5 * width
+        self.command = FingerCommand(width, 0.0, MAX_FINGER_FORCE)
         self._drive = (0.0, 0.0)
         self._palm_at = None
         self.update_palm()

@@ -70,9 +70,12 @@ class MujocoBackend:
             self.world.forget_gravity()
 
     # -- run-time changes -------------------------------------------------------------------------
-    def reset(self, q0) -> None:
-        """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values."""
-        self.world.reset({self.arm.name: q0})
+    def reset(self, q0, gripper_width: float | None = None) -> None:
+        """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values.
+        Everything else in the world is back where it started; the Hand's fingers are open, or
+        `gripper_width` apart."""
+        widths = None if gripper_width is None else {self.arm.name: gripper_width}
+        self.world.reset({self.arm.name: q0}, widths)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace the rigid body on the flange (see World.set_end_effector)."""

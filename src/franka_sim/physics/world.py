@@ -31,6 +31,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm import Arm
+from franka_sim.physics.bodies import Bodies, BodyState, Pushes
 from franka_sim.physics.scene import ArmPlacement, build_world_model
 
 # What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
@@ -53,6 +54,9 @@ class World:
         self._rne = np.zeros(model.nv)  # g(q) of all dofs (see _gravity_at_rest)
         self.arms = {p.name: Arm(model, data, self.scratch, self._rne, p) for p in arms}
         self._arms = tuple(self.arms.values())
+        self.bodies = Bodies(model, data)
+        self._pushes = Pushes(data)
+        self._pushing = self._pushes.steps_left  # non-empty while a push is on
         self._qpos, self._scratch_qpos, self._scratch_qvel = (
             data.qpos, self.scratch.qpos, self.scratch.qvel)
         # Rest detection: the data as a step found and left it (see the module docstring).
@@ -80,6 +84,8 @@ class World:
     def step(self) -> None:
         """Advance every arm (and everything else) by one timestep, with each arm's command."""
         self.finish_step()
+        if self._pushing:
+            self._pushes.count_down()
         same = True
         for arm in self._arms:
             if not arm.same_inputs():
@@ -168,11 +174,16 @@ class World:
         mujoco.mj_rne(m, s, 0, self._rne)
 
     # -- run-time changes -------------------------------------------------------------------------
-    def reset(self, q0: Mapping[str, np.ndarray]) -> None:
+    def reset(self, q0: Mapping[str, np.ndarray],
+              gripper_widths: Mapping[str, float] | None = None) -> None:
         """Everything back to the model's initial state, each arm at rest at its pose in `q0`
         (an arm not named there: where it stands), held by gravity compensation alone, so the
-        sensors read rest values."""
+        sensors read rest values. A Hand's fingers are open, or at rest at the width
+        `gripper_widths` gives for its arm. No push goes on."""
         poses = {name: self.data.qpos[arm.qs].copy() for name, arm in self.arms.items()}
+        widths = gripper_widths or {}
+        if unknown := set(widths) - set(self.arms):
+            raise KeyError(f"no arm named {sorted(unknown)}")
         for name, q in q0.items():
             q = np.asarray(q, dtype=float)
             if q.shape != (7,):
@@ -184,8 +195,9 @@ class World:
         self._still = 0
         self._unfinished, self._prepared = False, False  # all is recomputed below
         mujoco.mj_resetData(m, d)
+        self._pushes.clear()
         for arm in self._arms:
-            arm.place(poses[arm.name])
+            arm.place(poses[arm.name], widths.get(arm.name))
         self._gravity_at_rest()
         for arm in self._arms:
             arm.hold_still()
@@ -208,3 +220,23 @@ class World:
         self._unfinished, self._prepared = False, False
         mujoco.mj_setConst(self.model, self.scratch)  # subtree masses etc. from body masses
         mujoco.mj_step1(self.model, self.data)
+
+    # -- what a test does to the world (physics/bodies.py) ----------------------------------------
+    def body_state(self, name: str) -> BodyState:
+        """A body's pose and velocity now (UnknownBody if there is none of that name)."""
+        self.finish_step()  # the velocities of the current state
+        return self.bodies.state(name)
+
+    def place_body(self, name: str, position, quaternion=None) -> None:
+        """Put a free body at `position`, turned to `quaternion` (None: as it is), at rest;
+        from the next step on (NotFree for a link or a fixed body)."""
+        self.finish_step()
+        self.bodies.place(name, position, quaternion)
+        self._still = 0
+        self._prepared = False
+        mujoco.mj_step1(self.model, self.data)  # what derives from the new state
+
+    def push(self, name: str, force, torque, steps: int) -> None:
+        """A wrench (world frame, at the body's centre of mass) on a body during the next
+        `steps` steps; replaces a push still acting on it."""
+        self._pushes.push(self.bodies.id(name), force, torque, steps)

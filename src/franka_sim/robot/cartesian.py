@@ -11,11 +11,10 @@ The resulting q_d then goes through the same joint controller as a joint motion.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
+from franka_sim.spatial import exp_rotation, rotation_vector, skew
 
 # λ of the damped least squares: negligible against the ready pose's smallest singular value
 # (≈ 0.23) and keeps the step bounded near singularities.
@@ -32,43 +31,8 @@ def _constant(array: np.ndarray) -> np.ndarray:
     return array
 
 
-_EYE3, _EYE6 = _constant(np.eye(3)), _constant(np.eye(6))
+_EYE6 = _constant(np.eye(6))
 _DLS_DAMPING_EYE = _constant(DLS_DAMPING**2 * np.eye(6))
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    x, y, z = v.tolist() if isinstance(v, np.ndarray) else v  # floats build ~2× faster
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """The axis·angle of a rotation matrix (log map), robust near 0 and π."""
-    cos = min(max((R.trace() - 1.0) / 2.0, -1.0), 1.0)  # np.clip, without its ~2 µs wrapper
-    angle = np.arccos(cos)
-    r0, r1, r2 = R.tolist()
-    w = np.array([r2[1] - r1[2], r0[2] - r2[0], r1[0] - r0[1]])
-    if angle < 1e-9:
-        return 0.5 * w
-    if np.pi - angle < 1e-6:
-        axis = np.sqrt(np.maximum((np.diag(R) + 1.0) / 2.0, 0.0))
-        axis *= np.where(w >= 0, 1.0, -1.0)
-        return angle * axis / max(np.linalg.norm(axis), 1e-12)
-    return angle / (2.0 * np.sin(angle)) * w
-
-
-def exp_rotation(w: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a rotation vector (Rodrigues)."""
-    w = np.asarray(w, dtype=float)
-    angle = math.sqrt(w.dot(w))  # np.linalg.norm's own sum, without its checks
-    if angle < 1e-12:
-        return _EYE3 + skew(w)
-    K = skew(w / angle)
-    return _EYE3 + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
-
-
-def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """[translation; rotation vector] taking T to T_target, in the base frame."""
-    return np.concatenate([T_target[:3, 3] - T[:3, 3], rotation_vector(T_target[:3, :3] @ T[:3, :3].T)])
 
 
 def ee_jacobian(O_T_F: np.ndarray, J_F: np.ndarray, F_T_EE: np.ndarray) -> np.ndarray:

@@ -3,8 +3,11 @@
 Every published state opens a cycle; a command echoing that state's message_id that arrives
 before the next cycle is released closes it on time. The release of the next cycle is the end
 of the window (the robot's "< 1 ms" budget), so this module never looks at a clock: the server
-calls `opened` when it publishes and `close` when it releases the next cycle. Missed cycles,
-late answers and ids that were never published all count as lost, which is what
+calls `opened` when it publishes and `close` when it releases the next cycle. A late answer
+(to a cycle whose window already closed) is dropped, as the robot drops it: that cycle was
+extrapolated, and applying the client's value for it a cycle later would step the stream back
+by one cycle's travel, a discontinuity no real robot shows. Missed cycles, late answers and
+ids that were never published all count as lost, which is what
 control_command_success_rate reports (share of the last 100 cycles answered on time). The rate
 starts with the first command the motion receives: libfranka never answers the state on which
 the modes flip (it is how it learns the motion started), so counting the cycles before its
@@ -31,6 +34,7 @@ class CommandWindow:
         self.lost_total = 0
         self.answered_total = 0
         self.invented_total = 0
+        self.late_total = 0
 
     def opened(self, message_id: int) -> None:
         self.open_id = message_id
@@ -40,6 +44,9 @@ class CommandWindow:
         """Take a command; True if it answers the open cycle in time (lockstep may go on)."""
         if message_id < self._latest_id:
             return False  # overtaken by a newer command already received
+        if self.open_id is not None and message_id < self.open_id:
+            self.late_total += 1  # its cycle is gone (extrapolated): dropped
+            return False
         if self.open_id is not None and message_id > self.open_id:
             self.invented_total += 1  # never published: applied, but it answers nothing
         self._latest, self._latest_id = command, message_id
@@ -50,7 +57,7 @@ class CommandWindow:
 
     def close(self):
         """The window of the open cycle ends (the next one is being released): the command to
-        apply next (the newest unapplied one, possibly late), or None; `consecutive_lost` and
+        apply next (the one that answered it, or a newer one), or None; `consecutive_lost` and
         the rate count this cycle from now on."""
         on_time = self._answered
         if self._latest is not None or self._history or on_time:  # from the first command on

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from franka_sim.robot.cartesian import pose_error
+from franka_sim.spatial import pose_error
 
 # The joint-space inertia diagonal (rotors included) near the ready pose, kg·m², rounded; only
 # used to derive the impedance damping from the stiffness. Even at K = 14250 and the lightest

@@ -11,6 +11,7 @@ external forces, and the publisher.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -22,8 +23,6 @@ from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
     AutomaticErrorRecoveryStatus,
     Command,
-    ControllerMode,
-    MotionGeneratorMode,
     MoveMotionGeneratorMode,
     MoveStatus,
     RobotMode,
@@ -88,12 +87,6 @@ class RobotCore:
     @property
     def success_rate(self) -> float:
         return self.window.success_rate if self.motion_running else 0.0
-
-    @property
-    def state_modes(self) -> tuple[MotionGeneratorMode, ControllerMode]:
-        if self.motion_running:
-            return self.motion.spec.state_modes
-        return MotionGeneratorMode.kIdle, ControllerMode.kJointImpedance
 
     @property
     def desired_q(self) -> np.ndarray | None:
@@ -275,6 +268,33 @@ class RobotCore:
     def set_load(self, load: Load) -> None:
         self.drives.set_load(load)
 
+    # -- from outside the FCI ----------------------------------------------------------------------
+    def reset(self, q: np.ndarray, measured: Measured, message_id: int | None = None) -> None:
+        """The robot as it powers up, at rest at q (whose measurement is `measured`): no error,
+        Idle, no external force on record, every Set* setting at its default. Only between
+        motions (ValueError otherwise). The clock goes on; `message_id`: the last state that
+        left, when a released cycle whose state had not is taken back."""
+        if self.motion is not None or self._recovery is not None:
+            raise ValueError("a motion or an error recovery is under way")
+        if message_id is not None:
+            self.message_id = message_id
+        defaults = RobotSettings()
+        for setting in dataclasses.fields(defaults):
+            if setting.init:
+                setattr(self.settings, setting.name, getattr(defaults, setting.name))
+        self.drives.set_load(self.settings.load)
+        self.drives.hold_at(q)
+        self.drives.stalled_at = None
+        status = self.status
+        status.reflex_reason[:] = False
+        status.clear_errors()
+        status.robot_mode = RobotMode.kIdle
+        status.take_replies()
+        self.external.reset()
+        self.window = CommandWindow()
+        self.guard = None
+        self.measured = measured
+
     # -- the session's view ----------------------------------------------------------------------
     def client_connected(self) -> None:
         """A client completed Connect; states now stream to it (and its first stray command
@@ -292,10 +312,6 @@ class RobotCore:
         if self.status.robot_mode is RobotMode.kAutomaticErrorRecovery:
             self.status.robot_mode = RobotMode.kReflex
         self.status.take_replies()
-
-    @property
-    def has_replies(self) -> bool:
-        return bool(self.status.replies)
 
     def take_replies(self) -> list[bytes]:
         """TCP replies the robot produced on its own (a Move's final status), in order."""

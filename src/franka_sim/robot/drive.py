@@ -48,7 +48,8 @@ class Drives:
         if motion.spec.controller is MoveControllerMode.kCartesianImpedance:
             return JointCommand.torque(self._cartesian_impedance(motion, measured))
         ref = motion.reference
-        return JointCommand.impedance(ref.q_d, settings.K_theta, settings.D_theta, dq_d=ref.dq_d)
+        return JointCommand.impedance(ref.q_d, settings.K_theta, settings.D_theta, dq_d=ref.dq_d,
+                                      ddq_d=ref.ddq_d)
 
     def _hold_command(self) -> JointCommand:
         """Idle: the joint impedance about q_hold (rebuilt only when q_hold or K_theta change)."""

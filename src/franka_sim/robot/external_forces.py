@@ -166,6 +166,15 @@ class ExternalForces:
                                       np.concatenate((t.upper_torque, t.upper_force)))
         return cached[1], cached[2]
 
+    def reset(self) -> None:
+        """Nothing on record: the estimate, the wrench and every flag zero (a robot reset)."""
+        self.tau_ext_hat_filtered = np.zeros(7)
+        self.O_F_ext_hat_K, self.K_F_ext_hat_K = np.zeros(6), np.zeros(6)
+        self._contact = np.zeros(13, dtype=bool)
+        self._collision = np.zeros(13, dtype=bool)
+        self._active = False
+        self.version += 1
+
     def clear_collisions(self) -> None:
         """Automatic error recovery resets the latched collision flags."""
         if self._collision.any():

@@ -281,6 +281,23 @@ class Gripper:
             return self._start(_Grasp(command_id, self.cycle + 1, self.width, args))
         raise AssertionError(f"unhandled gripper command {command!r}")  # Connect: the session's
 
+    @property
+    def busy(self) -> bool:
+        """An action (Homing, Move, Grasp) is under way: its client waits for the answer."""
+        return self._action is not None
+
+    def reset(self, width: float) -> None:
+        """As a Hand starts: not homed, holding nothing, the fingers `width` apart at rest
+        (the physics puts them there). Only while no action is under way."""
+        if self._action is not None:
+            raise ValueError("a gripper action is under way")
+        self.max_width = NOMINAL_MAX_WIDTH
+        self.width = width
+        self.is_grasped = False
+        self._grasp = None
+        self._idle = None  # the drive keeps the command the physics was reset with
+        self._replies.clear()
+
     def client_gone(self) -> None:
         """The client closed TCP: nobody waits for answers; the hand stops where it is.
 

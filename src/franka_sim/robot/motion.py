@@ -13,12 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from franka_sim.robot.cartesian import (
-    CartesianTarget,
-    dls_step,
-    ee_jacobian,
-    pose_error,
-)
+from franka_sim.robot.cartesian import CartesianTarget, dls_step, ee_jacobian
 from franka_sim.protocol.enums import (
     STATE_CONTROLLER_MODE,
     STATE_MOTION_GENERATOR_MODE,
@@ -29,6 +24,7 @@ from franka_sim.protocol.enums import (
     MoveStatus,
 )
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
+from franka_sim.spatial import pose_error
 
 MAX_EXTRAPOLATED_CYCLES = 20
 # A finished motion must end at rest: |dq_d| above this on the finishing cycle is "still moving".
@@ -154,6 +150,31 @@ class AsyncTarget:
         ref.q_d = q
 
 
+class ElbowCommand:
+    """The commanded elbow (elbow_c) as the robot holds it: the client's, or on a missed cycle
+    extrapolated at constant acceleration like every motion signal. Published as elbow_c, it is
+    what libfranka's filter and rate limiter anchor the next command on, so a missed cycle must
+    leave it where the stream was heading, not where the client last was."""
+
+    __slots__ = ("position", "flag", "_velocity", "_acceleration")
+
+    def __init__(self, position: float, flag: float, velocity: float = 0.0) -> None:
+        self.position, self.flag = position, flag
+        self._velocity, self._acceleration = velocity, 0.0
+
+    def follow(self, position: float, flag: float) -> None:
+        velocity = (position - self.position) / DT
+        self._acceleration = (velocity - self._velocity) / DT
+        self._velocity, self.position, self.flag = velocity, position, flag
+
+    def extrapolate(self, stand_still: bool) -> None:
+        if stand_still:
+            self._velocity = self._acceleration = 0.0
+            return
+        self._velocity += self._acceleration * DT
+        self.position += self._velocity * DT
+
+
 class Motion:
     """One Move from kMotionStarted to its final status.
 
@@ -173,7 +194,7 @@ class Motion:
         )
         self.F_T_EE = np.eye(4) if F_T_EE is None else F_T_EE
         self.kinematics: tuple[np.ndarray, np.ndarray] | None = None
-        self.elbow_target: float | None = None
+        self.elbow: ElbowCommand | None = None  # while the client commands one
         self.async_target = (
             AsyncTarget(self.reference, spec.maximum_velocity) if spec.use_async else None
         )
@@ -219,7 +240,14 @@ class Motion:
             self.cartesian.set_pose(np.reshape(command["O_T_EE_c"], (4, 4), order="F"))
         else:
             self.cartesian.set_twist(command["O_dP_EE_c"])
-        self.elbow_target = float(command["elbow_c"][0]) if command["valid_elbow"] else None
+        if not command["valid_elbow"]:
+            self.elbow = None
+        else:
+            position, flag = command["elbow_c"].tolist()
+            if self.elbow is None:
+                self.elbow = ElbowCommand(position, flag)
+            else:
+                self.elbow.follow(position, flag)
         self._solve()
 
     def miss(self, consecutive: int) -> None:
@@ -232,7 +260,10 @@ class Motion:
             else:
                 self.reference.stand_still()
         elif self.cartesian is not None:
-            self.cartesian.extrapolate(stand_still=consecutive > MAX_EXTRAPOLATED_CYCLES)
+            stand_still = consecutive > MAX_EXTRAPOLATED_CYCLES
+            self.cartesian.extrapolate(stand_still=stand_still)
+            if self.elbow is not None:
+                self.elbow.extrapolate(stand_still)
             self._solve()
 
     def _solve(self) -> None:
@@ -243,7 +274,7 @@ class Motion:
         O_T_EE_d = O_T_F_d @ self.F_T_EE
         J = ee_jacobian(O_T_F_d, J_F_d, self.F_T_EE)
         q_d = self.reference.q_d
-        elbow_error = None if self.elbow_target is None else self.elbow_target - q_d[2]
+        elbow_error = None if self.elbow is None else self.elbow.position - q_d[2]
         dq = dls_step(J, pose_error(self.cartesian.pose, O_T_EE_d), elbow_error)
         self.reference.follow_position(q_d + dq)
 

@@ -243,20 +243,22 @@ class StatePublisher:
 
     def _commanded_cartesian(self, motion, O_T_EE_d, O_dP_EE_d, elbow_d) -> tuple:
         """The c-signals: the client's own Cartesian stream if it drives one, else the d-signals.
-        Writes O_T_EE_c; returns (O_dP_EE_c, elbow_c)."""
-        command = motion.last_command
+        Writes O_T_EE_c; returns (O_dP_EE_c, elbow_c). The stream is the motion's, not the last
+        datagram's: on a missed cycle the robot extrapolates it, and libfranka anchors its next
+        command on what the state shows (a stale value there is a step in the next command)."""
         generator = motion.spec.generator
-        if command is None or generator is not Gen.kCartesianPosition:
+        started = motion.last_command is not None
+        if started and generator is Gen.kCartesianPosition:
+            self._O_T_EE_c_view[...] = motion.cartesian.pose
+        else:
             self._O_T_EE_c_view[...] = O_T_EE_d
+        if started and generator is Gen.kCartesianVelocity:
+            O_dP_EE_c = motion.cartesian.twist.copy()
         else:
-            self.buffer.O_T_EE_c[:] = command["O_T_EE_c"]
-        if command is None or generator is not Gen.kCartesianVelocity:
             O_dP_EE_c = O_dP_EE_d
-        else:
-            O_dP_EE_c = np.array(command["O_dP_EE_c"], dtype=float)
-        if command is not None and generator in (Gen.kCartesianPosition, Gen.kCartesianVelocity) \
-                and command["valid_elbow"]:
-            return O_dP_EE_c, tuple(command["elbow_c"].tolist())
+        elbow = motion.elbow
+        if elbow is not None:
+            return O_dP_EE_c, (elbow.position, elbow.flag)
         return O_dP_EE_c, elbow_d
 
     def _write_rates(self, ddq_d, O_dP_EE_d, O_dP_EE_c) -> None:

@@ -128,6 +128,20 @@ class CycleDriver:
             self.thread.wake()  # the held cycle goes now, after this request
         return True
 
+    def keep_running(self) -> None:
+        """Cycle thread: the world was changed from outside (the control API), so the clock
+        runs on, or again, for PAUSE_AFTER cycles, and the change plays out with no client."""
+        self._unwatched = 0
+        if self.paused:
+            self.thread.wake()
+
+    def withdraw_prepared(self) -> int | None:
+        """Cycle thread, lock held, before a reset: forget the idle cycle released ahead, whose
+        state has not left; the next tick releases one anew. The message_id of the last state
+        that left (None: nothing was prepared)."""
+        prepared, self._prepared = self._prepared, None
+        return None if prepared is None else prepared.message_id - 1
+
     def _sent(self, message_id: int, replies: Replies | None) -> None:
         """The state of `message_id` has left: the replies that waited for it, then its own."""
         awaiting = self._awaiting

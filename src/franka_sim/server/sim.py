@@ -2,8 +2,9 @@
 
 It wires the pieces and nothing else: description + scene → the cycle thread (which owns the
 physics), robot core, the TCP and UDP endpoints, the Hand (gripper state machine + its
-endpoint), the robot's cycle and the driver that paces it. Works
-on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
+endpoint), the robot's cycle and the driver that paces it, and the control API (HTTP on
+`control_port`; its operations are also this object's async methods). Works on any asyncio
+loop (uvloop is the CLI's choice, not a requirement here).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from franka_sim.robot.cycle import Replies, RobotCycle
 from franka_sim.robot.gripper import Gripper
 from franka_sim.robot.requests import RequestHandler
 from franka_sim.robot.session import gripper_session, robot_session, Session
+from franka_sim.server.control_ops import ControlOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.gripper_endpoint import GripperEndpoint
@@ -72,6 +74,11 @@ class FrankaSim:
             has_client=self._has_client, poll_commands=self.udp.poll,
             command_socket=lambda: self.udp.sock,
         )
+        self.control = ControlOps(
+            core=self.core, gripper=self.gripper, driver=self.driver, worker=self.worker,
+            lock=self.lock, description=self.description, q0=q0, clock=config.clock.value,
+            client_connected=lambda: self.robot.active is not None)
+        self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
         self._started = False
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -106,14 +113,39 @@ class FrankaSim:
                     ) from exc
                 raise
         await self.driver.start()
+        if self.config.control_port:
+            try:
+                await self._start_control_api()
+            except OSError:
+                await self.driver.stop()
+                if self.gripper is not None:
+                    await self.gripper_endpoint.stop()
+                await self._undo_start()
+                raise
         self._started = True
+        control = (f"control API on {self.config.control_port}" if self.config.control_port
+                   else "no control API")
         log.info(
-            "simulated FR3 serving on %s:%d (clock %s; %s; scene %s)",
+            "simulated FR3 serving on %s:%d (clock %s; %s; %s; scene %s)",
             self.config.host, self.config.robot_port, self.config.clock.value,
             f"Franka Hand on {self.config.gripper_port}" if self.gripper is not None
-            else "no gripper", self.scene,
+            else "no gripper", control, self.scene,
         )
         return self
+
+    async def _start_control_api(self) -> None:
+        from franka_sim.server.control_api import ControlApi  # aiohttp: only when served
+
+        api = ControlApi(self.control, token=self.config.control_token)
+        try:
+            await api.start(self.config.host, self.config.control_port)
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise AddressInUse(
+                    exc.errno, f"{self.config.host}:{self.config.control_port} (control API) is "
+                    "already in use (another franka-sim on this address?)") from exc
+            raise
+        self._control_api = api
 
     async def _undo_start(self) -> None:
         """A later endpoint could not open: close what start() opened before it."""
@@ -125,6 +157,9 @@ class FrankaSim:
         if not self._started:
             return
         self._started = False
+        if self._control_api is not None:
+            await self._control_api.stop()
+            self._control_api = None
         await self.robot.stop()
         if self.gripper is not None:
             await self.gripper_endpoint.stop()
@@ -142,6 +177,28 @@ class FrankaSim:
     def address(self) -> tuple[str, int]:
         """(host, port) of the robot's TCP endpoint."""
         return self.config.host, self.config.robot_port
+
+    # -- the control API's operations (docs/control_api.md), for an embedding program ------------
+    async def health(self) -> dict:
+        return self.control.health()
+
+    async def state(self) -> dict:
+        return await self.control.state()
+
+    async def reset(self, q=None, gripper_width: float | None = None) -> dict:
+        return await self.control.reset(q, gripper_width)
+
+    async def bodies(self) -> list[dict]:
+        return await self.control.bodies()
+
+    async def pose(self, name: str) -> dict:
+        return await self.control.pose(name)
+
+    async def set_pose(self, name: str, position, quaternion=None) -> dict:
+        return await self.control.set_pose(name, position, quaternion)
+
+    async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
+        return await self.control.push(body, force, torque, duration)
 
     # -- wiring --------------------------------------------------------------------------------
     def _make_session(self) -> Session:

@@ -1,0 +1,131 @@
+"""The world's bodies by name: which are free, where they are, moving one, pushing one.
+
+What a test does to the world from outside (the control API): read a body's pose and velocity,
+put a free body (an object of the scene) somewhere at rest, and push a body with a wrench for a
+number of steps, as a person would. A push goes through xfrc_applied, which the arm's external
+torque already counts as the environment's (physics/external_torque.py), so the robot's estimate,
+its contact flags and its collision reflexes see it. It is counted down in steps, not in wall
+time, so the same pushes at the same cycles give the same bits.
+
+Names are MuJoCo's: the arm's links ("link1" … "link7", "link0" its base), "hand", the fingers,
+and the scene's bodies ("scene/cube"). `find` also takes the names other descriptions use for
+the same bodies ("fr3_link7", "fr3_hand") and a scene body without its prefix ("cube").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from franka_sim.physics.scene import SCENE_PREFIX
+
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+_XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # a body's own frame (mjOBJ_BODY: its centre of mass)
+ROBOT_PREFIX = "fr3_"  # franka_description's link names: fr3_link7, fr3_hand
+
+
+class UnknownBody(KeyError):
+    """No body of the world has this name."""
+
+
+class NotFree(ValueError):
+    """The body's pose follows its joints (a link, the table): only a free body can be placed."""
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """A body's frame in the world: position (3,), quaternion (w, x, y, z), and the velocity of
+    its frame's origin, linear and angular, in world axes."""
+
+    position: np.ndarray
+    quaternion: np.ndarray
+    linear_velocity: np.ndarray
+    angular_velocity: np.ndarray
+    free: bool
+
+
+class Bodies:
+    """The named bodies of one model and data (the world body excluded)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self._model, self._data = model, data
+        self.names = tuple(model.body(i).name for i in range(1, model.nbody))
+        self._ids = {name: i for i, name in enumerate(self.names, start=1)}
+        self._free = {i for i in self._ids.values()
+                      if model.body_jntnum[i] == 1
+                      and model.jnt_type[model.body_jntadr[i]] == _FREE}
+        self._velocity = np.zeros(6)
+
+    def is_free(self, name: str) -> bool:
+        return self._ids[name] in self._free
+
+    def find(self, name: str) -> str:
+        """The body's own name for `name` (see the module docstring); UnknownBody if none."""
+        for candidate in (name, SCENE_PREFIX + name, name.removeprefix(ROBOT_PREFIX)):
+            if candidate in self._ids:
+                return candidate
+        raise UnknownBody(name)
+
+    def id(self, name: str) -> int:
+        return self._ids[self.find(name)]
+
+    def state(self, name: str) -> BodyState:
+        """Where the body is now (the kinematics and velocities of the current state must be
+        computed: mj_step1 done)."""
+        body, d = self.id(name), self._data
+        v = self._velocity
+        mujoco.mj_objectVelocity(self._model, d, _XBODY, body, v, 0)  # [angular; linear]
+        return BodyState(d.xpos[body].copy(), d.xquat[body].copy(), v[3:].copy(), v[:3].copy(),
+                         body in self._free)
+
+    def place(self, name: str, position, quaternion=None) -> None:
+        """Put a free body at `position` (world frame), turned to `quaternion` (w, x, y, z; None:
+        as it is), at rest. The caller recomputes what derives from the state."""
+        body = self.id(name)
+        if body not in self._free:
+            raise NotFree(self.find(name))
+        m, d = self._model, self._data
+        joint = m.body_jntadr[body]
+        qpos, dof = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
+        d.qpos[qpos:qpos + 3] = position
+        if quaternion is not None:
+            quaternion = np.asarray(quaternion, dtype=float)
+            d.qpos[qpos + 3:qpos + 7] = quaternion / np.linalg.norm(quaternion)
+        d.qvel[dof:dof + 6] = 0.0
+        d.qacc_warmstart[dof:dof + 6] = 0.0
+
+
+class Pushes:
+    """Wrenches on bodies through xfrc_applied, each for a number of steps.
+
+    `count_down` runs at the start of every step while a push is on: a push of n steps acts
+    during the n steps after it was given, and its row of xfrc_applied is zero again before
+    the step after those.
+    """
+
+    def __init__(self, data: mujoco.MjData) -> None:
+        self._xfrc = data.xfrc_applied
+        self.steps_left: dict[int, int] = {}  # body id → steps it is still pushed for
+
+    def push(self, body: int, force, torque, steps: int) -> None:
+        """Replaces a push still acting on the same body."""
+        if steps <= 0:
+            raise ValueError(f"a push lasts at least one step, not {steps}")
+        self._xfrc[body, :3] = force
+        self._xfrc[body, 3:] = torque
+        self.steps_left[body] = steps
+
+    def count_down(self) -> None:
+        left = self.steps_left
+        for body, steps in list(left.items()):
+            if steps == 0:
+                self._xfrc[body] = 0.0
+                del left[body]
+            else:
+                left[body] = steps - 1
+
+    def clear(self) -> None:
+        """No push any more (the data's xfrc_applied is reset by whoever resets the data)."""
+        self.steps_left.clear()

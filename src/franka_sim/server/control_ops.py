@@ -1,0 +1,215 @@
+"""What the control API does: read the ground truth, reset, move and push bodies.
+
+Shared by the HTTP adapter (server/control_api.py) and an embedded `FrankaSim`. Each operation
+checks its arguments first and refuses (franka_sim.control.errors) before anything changes;
+then it runs as one job of the cycle thread, between two cycles, so every change takes effect at
+a cycle boundary and in lockstep the same calls at the same cycles give the same bits. Jobs that
+touch the robot core or the Hand hold the simulator's lock, as a TCP request does.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from numbers import Real
+from typing import Any, Callable
+
+import numpy as np
+
+from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
+from franka_sim.description.hand import flange_to_ee
+from franka_sim.description.urdf import ArmDescription
+from franka_sim.physics.bodies import NotFree, UnknownBody
+from franka_sim.protocol.enums import RobotMode
+from franka_sim.protocol.errors import ERROR_NAMES
+from franka_sim.protocol.timing import CYCLE_PERIOD
+from franka_sim.robot.core import RobotCore
+from franka_sim.robot.gripper import NOMINAL_MAX_WIDTH, Gripper
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.cycle_thread import CycleThread
+
+BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
+
+
+def mode_name(mode: RobotMode) -> str:
+    """libfranka's name of a robot mode ("Idle", "Move", "Reflex", ...)."""
+    return mode.name[1:]
+
+
+def numbers(name: str, value: Any, n: int) -> np.ndarray:
+    """`value` as n finite numbers, or BadRequest saying what is wrong with it."""
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__len__"):
+        raise BadRequest(f"{name} must be a list of {n} numbers, not {value!r}")
+    if len(value) != n:
+        raise BadRequest(f"{name} must have {n} numbers, not {len(value)}")
+    if not all(isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, bool)
+               for v in value):
+        raise BadRequest(f"{name} must be {n} numbers, not {list(value)!r}")
+    array = np.array(value, dtype=float)
+    if not np.all(np.isfinite(array)):
+        raise BadRequest(f"{name} must be finite, not {array.tolist()}")
+    return array
+
+
+def number(name: str, value: Any) -> float:
+    """`value` as one finite number, or BadRequest."""
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise BadRequest(f"{name} must be a number, not {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise BadRequest(f"{name} must be finite, not {value}")
+    return value
+
+
+def body_name(value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise BadRequest(f"body must be a body's name, not {value!r}")
+    return value
+
+
+def _pose(state) -> dict:
+    return {"position": state.position.tolist(), "quaternion": state.quaternion.tolist(),
+            "linear_velocity": state.linear_velocity.tolist(),
+            "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
+
+
+class ControlOps:
+    """The control operations on one simulated arm, its Hand (None: none) and its world."""
+
+    def __init__(self, *, core: RobotCore, gripper: Gripper | None, driver: CycleDriver,
+                 worker: CycleThread, lock: threading.Lock, description: ArmDescription,
+                 q0, clock: str, client_connected: Callable[[], bool]) -> None:
+        self.core, self.gripper, self.driver = core, gripper, driver
+        self.worker, self.lock, self.description = worker, lock, description
+        self.q0 = np.array(q0, dtype=float)
+        self.clock = clock
+        self.client_connected = client_connected
+
+    async def _job(self, fn: Callable[[Any], Any]) -> Any:
+        """fn(physics) in the cycle thread; a refusal it raises comes back raised here (and is
+        not logged there as a failed job)."""
+        def job(physics):
+            try:
+                return fn(physics)
+            except ControlError as refusal:
+                return refusal
+        return await self.worker.call(job)
+
+    # -- reading ---------------------------------------------------------------------------------
+    def health(self) -> dict:
+        """Cheap: no job, no lock (each figure is one attribute read)."""
+        core = self.core
+        return {"ready": True, "clock": self.clock, "cycle": core.message_id,
+                "client_connected": self.client_connected(),
+                "robot_mode": mode_name(core.robot_mode)}
+
+    async def state(self) -> dict:
+        def read(physics) -> dict:
+            with self.lock:
+                core = self.core
+                m = core.measured if core.measured is not None else physics.measure()
+                O_T_EE = m.O_T_F @ flange_to_ee(core.settings.NE_T_EE)
+                return {
+                    "q": m.q.tolist(), "dq": m.dq.tolist(), "tau_J": m.tau_J.tolist(),
+                    "O_T_EE": O_T_EE.tolist(), "robot_mode": mode_name(core.robot_mode),
+                    "errors": [ERROR_NAMES[i] for i in np.flatnonzero(core.status.errors)],
+                    "success_rate": float(core.success_rate),
+                    "gripper_width": None if self.gripper is None else float(self.gripper.width),
+                    "cycle": core.message_id,
+                }
+        return await self._job(read)
+
+    async def bodies(self) -> list[dict]:
+        def read(physics) -> list[dict]:
+            bodies = physics.world.bodies
+            return [{"name": name, "free": bodies.is_free(name)} for name in bodies.names]
+        return await self._job(read)
+
+    async def pose(self, name: str) -> dict:
+        name = body_name(name)
+
+        def read(physics) -> dict:
+            try:
+                return _pose(physics.world.body_state(name))
+            except UnknownBody:
+                raise NotFound(f"no body named {name!r} (GET /bodies lists them)") from None
+        return await self._job(read)
+
+    # -- changing ----------------------------------------------------------------------------------
+    async def reset(self, q=None, gripper_width=None) -> dict:
+        """Arm at rest at q, the robot as it powers up, the world as it started, the Hand open
+        (or `gripper_width` apart): all in one job, or nothing (Conflict while busy)."""
+        q = self.q0 if q is None else numbers("q", q, 7)
+        desc = self.description
+        if np.any(q < desc.lower) or np.any(q > desc.upper):
+            raise BadRequest(f"q {q.tolist()} is outside the joint limits "
+                             f"[{desc.lower.tolist()}, {desc.upper.tolist()}]")
+        if gripper_width is not None:
+            if self.gripper is None:
+                raise BadRequest("gripper_width given, but this simulator has no Hand")
+            gripper_width = number("gripper_width", gripper_width)
+            if not 0.0 <= gripper_width <= NOMINAL_MAX_WIDTH:
+                raise BadRequest(f"gripper_width {gripper_width} m is outside "
+                                 f"[0, {NOMINAL_MAX_WIDTH}] m")
+
+        def reset(physics) -> dict:
+            with self.lock:
+                core, gripper = self.core, self.gripper
+                if core.motion is not None or core.robot_mode in BUSY_MODES:
+                    raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
+                                   "an error recovery is under way (let it finish first)")
+                if gripper is not None and gripper.busy:
+                    raise Conflict("a gripper action is under way (let it finish first)")
+                last_sent = self.driver.withdraw_prepared()
+                physics.reset(q, gripper_width)
+                measured = physics.measure()
+                core.reset(q, measured, last_sent)
+                if gripper is not None:
+                    gripper.reset(measured.fingers.width)
+                self.driver.keep_running()
+                return {"q": q.tolist(), "cycle": core.message_id,
+                        "gripper_width": None if gripper is None else gripper.width}
+        return await self._job(reset)
+
+    async def set_pose(self, name: str, position, quaternion=None) -> dict:
+        name = body_name(name)
+        position = numbers("position", position, 3)
+        if quaternion is not None:
+            quaternion = numbers("quaternion", quaternion, 4)
+            if np.linalg.norm(quaternion) < 1e-9:
+                raise BadRequest("quaternion must not be zero (it is normalised)")
+
+        def place(physics) -> dict:
+            world = physics.world
+            try:
+                world.place_body(name, position, quaternion)
+            except UnknownBody:
+                raise NotFound(f"no body named {name!r} (GET /bodies lists them)") from None
+            except NotFree as exc:
+                raise Conflict(f"{exc.args[0]!r} is not a free body: its pose follows its "
+                               "joints (only free bodies can be placed)") from None
+            self.driver.keep_running()
+            return _pose(world.body_state(name))
+        return await self._job(place)
+
+    async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
+        """A wrench at the body's centre of mass, base frame, for `duration` s of simulated
+        time (rounded to whole cycles, at least one)."""
+        body = body_name(body)
+        force = numbers("force", force, 3)
+        torque = np.zeros(3) if torque is None else numbers("torque", torque, 3)
+        duration = number("duration", duration)
+        if duration <= 0.0:
+            raise BadRequest(f"duration must be positive, not {duration}")
+        cycles = max(1, round(duration / CYCLE_PERIOD))
+
+        def push(physics) -> dict:
+            world = physics.world
+            try:
+                world.push(body, force, torque, cycles)
+            except UnknownBody:
+                raise NotFound(f"no body named {body!r} (GET /bodies lists them)") from None
+            self.driver.keep_running()
+            return {"body": world.bodies.find(body), "force": force.tolist(),
+                    "torque": torque.tolist(), "cycles": cycles}
+        return await self._job(push)

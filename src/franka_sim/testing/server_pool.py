@@ -1,0 +1,150 @@
+"""The simulators one pytest worker runs for its tests (the `franka_sim` fixture's backing).
+
+One `franka-sim serve` subprocess per configuration, started when a test first needs it and
+reused by every later test of that configuration, each on a loopback address of its own, and
+brought back to the same world before every test. A reset is cheap (one HTTP call); a restart
+(seconds) happens only when a reset cannot give a clean world: the server died, a motion is
+still running, or a client from an earlier test still holds the robot's only FCI connection.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import time
+from dataclasses import dataclass
+
+from franka_sim.testing.server_process import ServerProcess
+
+CONTROL_PORT = 1340
+_START_TIMEOUT = 60.0  # MuJoCo's import and the model's compilation, on a busy CI machine
+_CLIENT_GONE_TIMEOUT = 0.25  # a finished test's client: its TCP close is in flight
+_ADDRESS_ATTEMPTS = 4
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """What tests can ask of a simulator (`--franka-sim-*` options, the `franka_sim` marker)."""
+
+    clock: str = "lockstep"
+    scene: str | None = None  # an absolute path; None: the packaged table and cube
+    enforce_motion_limits: bool = False
+    enforce_comm_constraints: bool = False
+    gripper: bool = True
+
+    def flags(self) -> list[str]:
+        """`franka-sim serve` flags, each setting explicit so an exported FRANKA_SIM_* does not
+        change what the tests asked for."""
+        flags = ["--clock", self.clock, "--control-port", str(CONTROL_PORT),
+                 "--enforce-motion-limits" if self.enforce_motion_limits
+                 else "--no-enforce-motion-limits",
+                 "--enforce-comm-constraints" if self.enforce_comm_constraints
+                 else "--no-enforce-comm-constraints"]
+        if self.scene is not None:
+            flags += ["--scene", self.scene]
+        if not self.gripper:
+            flags.append("--no-gripper")
+        return flags
+
+
+def worker_address(worker: str | None, pid: int, n: int) -> str:
+    """The n-th server address of a pytest worker: 127.<220 + worker>.<pid>.<2 + n>.
+
+    The second octet is the xdist worker's number (gw3 -> 223; 220 without xdist), the third
+    the worker process's pid (mod 256) so that concurrent pytest runs on one machine stay
+    apart, the fourth counts this worker's servers. 220 and above is outside the suite's own
+    `fresh_loopback_address` range and never 127.0.0.1, where a user's `franka-sim serve` runs;
+    a clash anyway (same worker number, pids 256 apart) is met by moving on to the next n.
+    """
+    number = int(worker[2:]) if worker and worker.startswith("gw") and worker[2:].isdigit() else 0
+    return f"127.{220 + number % 35}.{pid % 256}.{2 + n % 250}"
+
+
+class ServerPool:
+    """This worker's servers, by settings."""
+
+    def __init__(self, worker: str | None, pid: int) -> None:
+        self.worker, self.pid = worker, pid
+        self._servers: dict[SimSettings, tuple[ServerProcess, object]] = {}
+        self._failed: dict[SimSettings, str] = {}
+        self._started = 0
+
+    def prepared(self, settings: SimSettings) -> tuple[ServerProcess, object]:
+        """(server, its `Control`) of these settings, in the start world and with no client."""
+        if settings in self._failed:
+            raise RuntimeError(self._failed[settings])
+        entry = self._servers.get(settings)
+        if entry is not None and not _reset(*entry):
+            entry[0].stop()
+            entry = None
+        if entry is None:
+            try:
+                entry = self._start(settings)
+            except RuntimeError as exc:
+                self._failed[settings] = str(exc)  # one failed start per settings, not per test
+                raise
+            self._servers[settings] = entry
+        return entry
+
+    def _start(self, settings: SimSettings) -> tuple[ServerProcess, object]:
+        from franka_sim.control import Control
+
+        for _ in range(_ADDRESS_ATTEMPTS):
+            host = worker_address(self.worker, self.pid, self._started)
+            self._started += 1
+            server = ServerProcess(host, *settings.flags())
+            try:
+                server.wait_ready(_START_TIMEOUT)
+            except RuntimeError:
+                if server.log_matching("already in use"):
+                    continue  # another run's server on this address: the next one
+                raise
+            # The server reads an exported FRANKA_SIM_CONTROL_TOKEN as its token.
+            control = Control(host, port=CONTROL_PORT,
+                              token=os.environ.get("FRANKA_SIM_CONTROL_TOKEN") or None)
+            _wait_healthy(server, control)
+            return server, control
+        raise RuntimeError(f"franka-sim: {_ADDRESS_ATTEMPTS} addresses in a row were taken")
+
+    def stop_all(self) -> None:
+        for server, _ in self._servers.values():
+            server.stop()
+        self._servers.clear()
+
+
+def _wait_healthy(server: ServerProcess, control, timeout: float = 10.0) -> None:
+    """"serving on" is the FCI; wait until the control API answers ready as well."""
+    from franka_sim.control import ControlError
+
+    end = time.monotonic() + timeout
+    while True:
+        try:
+            if control.health().get("ready"):
+                return
+        except ControlError:
+            pass
+        if time.monotonic() > end or server.proc.poll() is not None:
+            server.stop()
+            raise RuntimeError("franka-sim's control API did not become ready:\n"
+                               + "\n".join(server.lines))
+        time.sleep(0.02)
+
+
+def _reset(server: ServerProcess, control) -> bool:
+    """Bring a running server back to the start world; False when only a restart can."""
+    from franka_sim.control import ControlError
+
+    if server.proc.poll() is not None:
+        return False
+    gc.collect()  # a finished test's client held only by a reference cycle: closed now
+    try:
+        end = time.monotonic() + _CLIENT_GONE_TIMEOUT
+        while control.health()["client_connected"]:
+            if time.monotonic() > end:
+                return False  # still connected (e.g. kept alive by a failed test's traceback)
+            time.sleep(0.01)
+        control.reset()
+    except ControlError:  # Conflict: a motion still runs; or the server no longer answers
+        return False
+    return True
+

@@ -1,0 +1,111 @@
+"""Bad input to the control API, as raw HTTP: each gets its 4xx with a JSON error and one log
+line saying what was wrong, nothing changes, and the robot's stream goes on."""
+
+from __future__ import annotations
+
+import http.client
+import json
+import time
+
+import pylibfranka
+import pytest
+
+from franka_sim.control import Control
+from support.clients import connect
+
+PUSH = {"body": "hand", "force": [1.0, 0.0, 0.0], "duration": 0.1}
+CUBE = "/bodies/scene/cube"
+
+BAD = [  # (method, path, body, status, what the error says)
+    ("POST", "/push", b"{", 400, "malformed JSON"),
+    ("POST", "/push", b"[1, 2]", 400, "expected a JSON object"),
+    ("POST", "/push", b"", 400, "expected a JSON object"),
+    ("POST", "/push", b"\xff\xfe", 400, "malformed JSON"),
+    ("POST", "/push", {**PUSH, "speed": 3}, 400, "unknown field(s) 'speed'"),
+    ("POST", "/push", {"body": "hand"}, 400, "missing field(s) 'force'"),
+    ("POST", "/push", {**PUSH, "force": [1.0, 2.0]}, 400, "force must have 3 numbers"),
+    ("POST", "/push", {**PUSH, "force": "up"}, 400, "force must be a list of 3 numbers"),
+    ("POST", "/push", {**PUSH, "force": ["a", 0, 0]}, 400, "force must be 3 numbers"),
+    ("POST", "/push", {**PUSH, "force": [True, 0, 0]}, 400, "force must be 3 numbers"),
+    ("POST", "/push", b'{"body": "hand", "force": [NaN, 0, 0]}', 400, "NaN is not a JSON"),
+    ("POST", "/push", b'{"body": "hand", "force": [1e999, 0, 0]}', 400, "force must be finite"),
+    ("POST", "/push", {**PUSH, "torque": [0, 0, None]}, 400, "torque must be 3 numbers"),
+    ("POST", "/push", {**PUSH, "duration": -0.5}, 400, "duration must be positive"),
+    ("POST", "/push", {**PUSH, "duration": 0}, 400, "duration must be positive"),
+    ("POST", "/push", {**PUSH, "duration": "1s"}, 400, "duration must be a number"),
+    ("POST", "/push", {**PUSH, "body": 7}, 400, "body must be a body's name"),
+    ("POST", "/push", {**PUSH, "body": "link9"}, 404, "no body named 'link9'"),
+    ("GET", "/bodies/link9", None, 404, "no body named 'link9'"),
+    ("PUT", "/bodies/link9", {"position": [0, 0, 1]}, 404, "no body named 'link9'"),
+    ("PUT", "/bodies/link3", {"position": [0, 0, 1]}, 409, "'link3' is not a free body"),
+    ("PUT", CUBE, {"position": [0, 0]}, 400, "position must have 3 numbers"),
+    ("PUT", CUBE, {"quaternion": [1, 0, 0, 0]}, 400, "missing field(s) 'position'"),
+    ("PUT", CUBE, {"position": [0.4, 0, 0.3], "quaternion": [0, 0, 0, 0]}, 400,
+     "quaternion must not be zero"),
+    ("PUT", CUBE, {"position": [0.4, 0, 0.3], "pose": 1}, 400, "unknown field(s) 'pose'"),
+    ("POST", "/reset", {"q": [0.0] * 6}, 400, "q must have 7 numbers"),
+    ("POST", "/reset", {"q": [3.0] * 7}, 400, "outside the joint limits"),
+    ("POST", "/reset", {"gripper_width": 0.5}, 400, "gripper_width 0.5 m is outside"),
+    ("POST", "/reset", {"gripper_width": "wide"}, 400, "gripper_width must be a number"),
+    ("POST", "/reset", {"q0": [0.0] * 7}, 400, "unknown field(s) 'q0'"),
+    ("POST", "/reset", b"null", 400, "expected a JSON object"),
+    ("GET", "/nothing", None, 404, "no resource /nothing"),
+    ("DELETE", "/state", None, 405, "DELETE is not allowed on /state"),
+    ("POST", "/push", b"[" * 70000, 413, "Too Large"),
+]
+
+
+def request(host: str, method: str, path: str, body=None) -> tuple[int, dict]:
+    if body is not None and not isinstance(body, bytes):
+        body = json.dumps(body).encode()
+    connection = http.client.HTTPConnection(host, 1340, timeout=10)
+    try:
+        connection.request(method, path, body)
+        response = connection.getresponse()
+        return response.status, json.loads(response.read())
+    finally:
+        connection.close()
+
+
+@pytest.fixture(scope="module")
+def watched(served):
+    """A client connected through all the bad requests: its stream must go on."""
+    robot = connect(served.host)
+    yield robot
+    del robot
+
+
+@pytest.fixture(scope="module")
+def at_rest(served) -> Control:
+    """The world reset once and come to rest (the cube asleep on the table): from then on,
+    anything that moves was moved by a request."""
+    control = Control(served.host)
+    control.reset()
+    end = time.monotonic() + 30
+    while any(control.pose("cube")["linear_velocity"]):
+        assert time.monotonic() < end, "the cube does not come to rest"
+        time.sleep(0.05)
+    return control
+
+
+@pytest.mark.parametrize(("method", "path", "body", "status", "says"), BAD,
+                         ids=[f"{k}-{m}-{s}" for k, (m, _, _, s, _) in enumerate(BAD)])
+def test_bad_input_is_refused_and_changes_nothing(served, watched, at_rest, method, path, body,
+                                                 status, says):
+    control = at_rest
+    before = control.state(), control.pose("cube"), control.pose("hand")
+    refusals = len(served.log_matching("refused"))
+    got, answer = request(served.host, method, path, body)
+    assert got == status
+    assert list(answer) == ["error"] and says in answer["error"]
+    end = time.monotonic() + 10
+    while len(served.log_matching("refused")) == refusals and time.monotonic() < end:
+        time.sleep(0.005)
+    after = control.state(), control.pose("cube"), control.pose("hand")
+    assert after[0]["q"] == before[0]["q"] and after[0]["errors"] == []
+    assert after[1:] == before[1:]
+    assert watched.read_once().robot_mode == pylibfranka.RobotMode.Idle
+    logged = served.log_matching("refused")[refusals:]
+    assert len(logged) == 1  # one line per refusal, naming what was wrong
+    assert f"{method} {path} refused ({status})" in logged[0]
+    assert says.split("'")[0] in logged[0]

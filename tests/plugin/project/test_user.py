@@ -1,0 +1,107 @@
+"""A user's test module: the franka_sim fixture, no conftest. Run by tests/plugin/test_plugin.py
+in a throw-away directory; each test records (name, worker, host) in $FRANKA_SIM_RECORD."""
+
+import math
+import os
+import socket
+
+import numpy as np
+import pylibfranka
+import pytest
+
+from franka_sim.config import READY_POSE
+
+JI = pylibfranka.ControllerMode.JointImpedance
+_HELD = []  # what a careless test leaves behind
+
+
+def connect(host):
+    return pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+
+
+def record(franka_sim, name):
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "-")
+    with open(os.environ["FRANKA_SIM_RECORD"], "a") as out:
+        out.write(f"{name} {worker} {franka_sim.host}\n")
+
+
+def test_reads_a_state(franka_sim):
+    record(franka_sim, "default")
+    robot = connect(franka_sim.host)
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+    assert franka_sim.control.state()["robot_mode"] == "Idle"
+    assert franka_sim.control.health()["clock"] == os.environ["FRANKA_SIM_EXPECTED_CLOCK"]
+    assert any("FCI client" in line and "connected" in line for line in franka_sim.log)
+
+
+@pytest.mark.parametrize("joint", range(3))
+def test_starts_from_the_same_world_then_moves_the_arm(franka_sim, joint):
+    record(franka_sim, "default")
+    robot = connect(franka_sim.host)
+    assert np.allclose(robot.read_once().q, READY_POSE, atol=1e-3)
+    control = robot.start_joint_position_control(JI)
+    q0 = np.array(control.readOnce()[0].q_d)
+    t = 0.0
+    while t < 0.3:
+        state, period = control.readOnce()
+        t += period.to_sec()
+        q = q0.copy()
+        q[joint] += 0.15 * 0.5 * (1 - math.cos(math.pi * min(t / 0.3, 1.0)))
+        command = pylibfranka.JointPositions(q.tolist())
+        command.motion_finished = t >= 0.3
+        control.writeOnce(command)
+    del control
+    assert abs(franka_sim.control.state()["q"][joint] - READY_POSE[joint]) > 0.1
+
+
+def test_leaves_a_motion_running(franka_sim):
+    record(franka_sim, "default")
+    robot = connect(franka_sim.host)
+    control = robot.start_joint_velocity_control(JI)
+    control.readOnce()
+    _HELD.append((robot, control))  # still connected, mid-motion, when the next test starts
+    assert franka_sim.control.state()["robot_mode"] == "Move"
+
+
+def test_after_a_motion_left_running_the_world_is_back(franka_sim):
+    record(franka_sim, "default")
+    robot = connect(franka_sim.host)
+    state = robot.read_once()
+    assert state.robot_mode == pylibfranka.RobotMode.Idle
+    assert np.allclose(state.q, READY_POSE, atol=1e-3)
+
+
+@pytest.mark.parametrize("k", range(2))
+@pytest.mark.franka_sim(gripper=False)
+def test_without_a_hand_port_1338_refuses(franka_sim, k):
+    record(franka_sim, "no-gripper")
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection((franka_sim.host, 1338), timeout=2)
+    assert franka_sim.control.state()["robot_mode"] == "Idle"
+
+
+@pytest.mark.franka_sim(enforce_motion_limits=True)
+def test_a_step_aborts_under_enforced_motion_limits(franka_sim):
+    record(franka_sim, "limits")
+    robot = connect(franka_sim.host)
+    control = robot.start_joint_position_control(JI)
+    first = np.array(control.readOnce()[0].q_d)
+    with pytest.raises(pylibfranka.ControlException, match="velocity_discontinuity"):
+        for k in range(100):
+            control.readOnce()
+            q = first.copy()
+            q[3] += 0.05 if k > 5 else 0.0
+            control.writeOnce(pylibfranka.JointPositions(q.tolist()))
+    assert "joint_motion_generator_velocity_discontinuity" in franka_sim.control.state()["errors"]
+
+
+@pytest.mark.franka_sim(grip=False)
+def test_a_misspelt_marker_setting_is_an_error(franka_sim):
+    pass
+
+
+def test_fails_and_shows_the_robot_log(franka_sim):
+    record(franka_sim, "failing")
+    robot = connect(franka_sim.host)
+    robot.read_once()
+    assert robot is None, "deliberately failing"

@@ -1,0 +1,113 @@
+"""The pytest plugin as a user meets it: a project of their own (tests/plugin/project) that uses
+the `franka_sim` fixture and no conftest, run by pytest in a subprocess, serially and on two
+xdist workers."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tomllib
+from collections import defaultdict
+from importlib.metadata import entry_points
+from pathlib import Path
+
+import pytest
+
+from franka_sim.testing.server_pool import SimSettings, worker_address
+
+ROOT = Path(__file__).resolve().parents[2]
+PROJECT = Path(__file__).with_name("project")
+
+
+def _run_project(tmp_path: Path, *args: str, clock: str = "lockstep"):
+    """pytest on a copy of the project: (exit code, output, {name: [(worker, host)]})."""
+    shutil.copytree(PROJECT, tmp_path / "project")
+    record = tmp_path / "record.txt"
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    env.update(FRANKA_SIM_RECORD=str(record), FRANKA_SIM_EXPECTED_CLOCK=clock)
+    # Installed, the package's pytest11 entry point loads the plugin; from a source tree whose
+    # installed metadata predates it, load it by name.
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-ra", *args],
+        cwd=tmp_path / "project", env=env, capture_output=True, text=True, timeout=600)
+    seen = defaultdict(list)
+    for line in record.read_text().splitlines():
+        name, worker, host = line.split()
+        seen[name].append((worker, host))
+    return done.returncode, done.stdout + done.stderr, seen
+
+
+def _outcomes(output: str) -> dict[str, int]:
+    summary = output.strip().splitlines()[-1]
+    return {word: int(n) for n, word in re.findall(r"(\d+) (\w+)", summary)}
+
+
+def _check_run(code: int, output: str, seen) -> None:
+    assert code == 1, output
+    assert _outcomes(output) == {"passed": 9, "failed": 1, "error": 1}, output
+    # The misspelt marker setting is named.
+    assert "unknown setting 'grip'" in output
+    # The failing test's report carries its own server log lines: its client, not the start.
+    section = output.split("franka-sim log (", 1)[1].split("short test summary", 1)[0]
+    assert re.search(r"FCI client \S+ connected", section), output
+    assert "serving on" not in section
+    hosts = {host for entries in seen.values() for _, host in entries}
+    assert "127.0.0.1" not in hosts and all(h.startswith("127.") for h in hosts)
+    # A marker gets a server of its own, shared by a worker's tests with the same marker values.
+    default = {host for _, host in seen["default"]}
+    for worker in {worker for worker, _ in seen["no-gripper"]}:
+        assert len({host for w, host in seen["no-gripper"] if w == worker}) == 1
+    assert not default & {host for _, host in seen["no-gripper"] + seen["limits"]}
+    # Every server is gone with the session.
+    for host in hosts:
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection((host, 1337), timeout=2).close()
+
+
+def test_the_fixture_serially(tmp_path):
+    code, output, seen = _run_project(tmp_path)
+    _check_run(code, output, seen)
+    assert {worker for entries in seen.values() for worker, _ in entries} == {"-"}
+
+
+def test_the_fixture_on_two_xdist_workers_with_the_realtime_clock(tmp_path):
+    code, output, seen = _run_project(tmp_path, "-n", "2", "--franka-sim-clock", "realtime",
+                                      clock="realtime")
+    _check_run(code, output, seen)
+    by_worker = defaultdict(set)
+    for entries in seen.values():
+        for worker, host in entries:
+            by_worker[worker].add(host)
+    assert set(by_worker) == {"gw0", "gw1"}
+    assert not by_worker["gw0"] & by_worker["gw1"]  # each worker on addresses of its own
+
+
+def test_the_package_registers_the_plugin():
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    assert declared["pytest11"] == {"franka_sim": "franka_sim.pytest_plugin"}
+
+
+def test_worker_addresses_are_private_and_apart():
+    seen = set()
+    for worker in (None, "gw0", "gw1", "gw13"):
+        for pid in (4242, 4243):
+            for n in range(3):
+                address = worker_address(worker, pid, n)
+                octets = [int(o) for o in address.split(".")]
+                assert octets[0] == 127 and address != "127.0.0.1"
+                assert all(0 <= o <= 254 for o in octets)
+                seen.add(address)
+    assert len(seen) == 3 * 2 * 4 - 2 * 3  # None and gw0 are both worker 0
+
+
+def test_every_setting_is_passed_as_an_explicit_flag():
+    flags = SimSettings(clock="realtime", scene="/x/scene.xml", enforce_motion_limits=True,
+                        gripper=False).flags()
+    assert flags == ["--clock", "realtime", "--control-port", "1340", "--enforce-motion-limits",
+                     "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper"]

@@ -1,0 +1,205 @@
+"""A lost or late command never turns a smooth stream into a discontinuity (sans-IO).
+
+The client here does each cycle what libfranka's control loop does: it evaluates its generator
+at the state's time (message_id, so a skipped state moves it on two cycles) and low-pass
+filters the value (100 Hz, libfranka's default) against the commanded signal the state shows,
+q_d, O_T_EE_c, elbow_c or tau_J_d; torques then pass its torque-rate limiter, as
+joint_impedance_control does. Chosen answers are withheld (lost) or delivered one cycle late,
+with both enforcement switches on. A real robot drops a late answer and extrapolates the cycle
+it missed, and its state then shows the extrapolated command: the filter anchors on that.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from franka_sim.protocol.enums import MoveControllerMode as Ctrl
+from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
+from franka_sim.protocol.enums import MoveStatus, RobotMode
+from franka_sim.protocol.errors import ERROR_NAMES
+from franka_sim.spatial import exp_rotation, rotation_vector
+from support.harness import Harness
+
+DT = 1e-3
+GAIN = DT / (DT + 1 / (2 * math.pi * 100.0))  # libfranka's first-order filter at 100 Hz
+MAX_TORQUE_STEP = (1000.0 - 1e-3) * DT  # its torque-rate limit, per cycle
+SECONDS = 3.0
+K_GAINS = np.array([600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0])  # joint_impedance_control
+D_GAINS = np.array([50.0, 50.0, 50.0, 20.0, 20.0, 20.0, 10.0])
+
+
+def _bump(t: float) -> float:
+    """0 → 1 → 0 over SECONDS, starting and ending at rest."""
+    return 0.5 * (1 - math.cos(2 * math.pi * min(t, SECONDS) / SECONDS))
+
+
+def _revolution(t: float) -> float:
+    """0 → 2π over SECONDS, starting and ending at rest."""
+    s = min(t, SECONDS) / SECONDS
+    return 2 * math.pi * s - math.sin(2 * math.pi * s)
+
+
+def _pose(state, field="O_T_EE_c") -> np.ndarray:
+    return np.reshape(np.array(state[field], dtype=float), (4, 4), order="F")
+
+
+def _filter_pose(T: np.ndarray, T_last: np.ndarray) -> np.ndarray:
+    out = T.copy()
+    out[:3, 3] = GAIN * T[:3, 3] + (1 - GAIN) * T_last[:3, 3]
+    out[:3, :3] = exp_rotation(GAIN * rotation_vector(T[:3, :3] @ T_last[:3, :3].T)) @ T_last[:3, :3]
+    return out
+
+
+class JointPositionClient:
+    """Joints 4, 5 and 7 swing out 0.4 rad and back (peak ≈ 0.42 rad/s)."""
+
+    move = (Ctrl.kJointImpedance, Gen.kJointPosition)
+
+    def command(self, t, state, first, jump):
+        if first:
+            self.q0 = np.array(state["q_d"], dtype=float)
+        q = self.q0.copy()
+        q[[3, 4, 6]] += 0.4 * _bump(t)
+        if not first:
+            q = GAIN * q + (1 - GAIN) * np.array(state["q_d"], dtype=float)
+        q[3] += jump * 0.01
+        return {"q_c": q}
+
+
+class CartesianPoseClient:
+    """The EE along an arc of 0.3 m radius (libfranka's generate_cartesian_pose_motion, over a
+    shorter time; peak ≈ 0.25 m/s)."""
+
+    move = (Ctrl.kJointImpedance, Gen.kCartesianPosition)
+
+    def command(self, t, state, first, jump):
+        if first:
+            self.T0 = _pose(state)
+        angle = math.pi / 4 * _bump(t)
+        T = self.T0.copy()
+        T[0, 3] += 0.3 * math.sin(angle)
+        T[2, 3] += 0.3 * (math.cos(angle) - 1)
+        if not first:
+            T = _filter_pose(T, _pose(state))
+        T[2, 3] += jump * 0.005
+        return {"O_T_EE_c": T.ravel(order="F")}
+
+
+class ElbowClient:
+    """The EE holds still while the elbow swings 0.3 rad out and back (libfranka's
+    generate_elbow_motion, over a shorter time)."""
+
+    move = (Ctrl.kJointImpedance, Gen.kCartesianPosition)
+
+    def command(self, t, state, first, jump):
+        if first:
+            self.T0, self.elbow0 = _pose(state), np.array(state["elbow_c"], dtype=float)
+        elbow = self.elbow0[0] + 0.3 * _bump(t)
+        if not first:
+            elbow = GAIN * elbow + (1 - GAIN) * float(state["elbow_c"][0])
+        elbow += jump * 0.05
+        return {"O_T_EE_c": self.T0.ravel(order="F"), "elbow_c": [elbow, self.elbow0[1]],
+                "valid_elbow": True}
+
+
+class TorqueAndCartesianClient:
+    """libfranka's joint_impedance_control: a circle of 5 cm radius in the x-z plane from a
+    Cartesian pose generator, tracked by the client's own joint impedance (torques)."""
+
+    move = (Ctrl.kExternalController, Gen.kCartesianPosition)
+
+    def command(self, t, state, first, jump):
+        if first:
+            self.T0 = _pose(state)
+        phi = _revolution(t)
+        T = self.T0.copy()
+        T[0, 3] += 0.05 * math.sin(phi)
+        T[2, 3] += 0.05 * (1 - math.cos(phi))
+        if not first:
+            T = _filter_pose(T, _pose(state))
+        q, dq, q_d = (np.array(state[f], dtype=float) for f in ("q", "dq", "q_d"))
+        tau_last = np.array(state["tau_J_d"], dtype=float)
+        tau = K_GAINS * (q_d - q) - D_GAINS * dq
+        tau = GAIN * tau + (1 - GAIN) * tau_last
+        tau = np.clip(tau, tau_last - MAX_TORQUE_STEP, tau_last + MAX_TORQUE_STEP)
+        tau[0] += jump * 5.0
+        return {"O_T_EE_c": T.ravel(order="F"), "tau_J_d": tau}
+
+
+CLIENTS = [JointPositionClient, CartesianPoseClient, ElbowClient, TorqueAndCartesianClient]
+
+
+def run(client, *, lost=(), late=(), jump_at=None):
+    """Run one motion with both switches on; returns (errors latched, the Move's status).
+
+    `lost`: cycles whose answer never arrives; `late`: cycles whose answer arrives during the
+    next cycle's window (after the robot released that one). Cycle 0 is the first state
+    libfranka answers (the one after the state on which the modes flip)."""
+    h = Harness(enforce_motion_limits=True, enforce_comm_constraints=True)
+    assert h.move(*client.move) == MoveStatus.kMotionStarted
+    h.cycle()  # the state on which the modes flip: libfranka reads it, never answers it
+    h.cycle()
+    id0 = int(h.state["message_id"])
+    mailbox: dict[int, list] = {}
+    last = round(SECONDS / DT)
+    for _ in range(last + 50):
+        state = h.state
+        if state["robot_mode"] != RobotMode.kMove:
+            break
+        k = int(state["message_id"]) - id0
+        fields = client.command(k * DT, state, k == 0, jump_at is not None and k >= jump_at)
+        fields["motion_generation_finished"] = fields["torque_command_finished"] = k >= last
+        if k not in lost:
+            mailbox.setdefault(k + (k in late), []).append((int(state["message_id"]), fields))
+        for message_id, answer in mailbox.pop(k, []):
+            h.send(message_id=message_id, **answer)
+        h.cycle()
+    errors = [name for name, bit in zip(ERROR_NAMES, h.state["errors"]) if bit]
+    return errors, [status for _, _, status in h.statuses()]
+
+
+# Mid-motion, where the streams move fastest; and a few patterns around it.
+PATTERNS = {
+    "one lost": dict(lost={750}),
+    "lost now and then": dict(lost={400, 751, 1100, 1900, 2600}),
+    "three lost in a row": dict(lost={750, 751, 752}),
+    "one late": dict(late={750}),
+    "late twice in a row": dict(late={750, 751}),
+    "late then lost": dict(late={750}, lost={751}),
+}
+
+
+@pytest.mark.parametrize("pattern", PATTERNS)
+@pytest.mark.parametrize("client", CLIENTS, ids=lambda c: c.__name__)
+def test_a_smooth_stream_survives_lost_and_late_answers(client, pattern):
+    assert run(client(), **PATTERNS[pattern]) == ([], [MoveStatus.kSuccess])
+
+
+@pytest.mark.parametrize("client, name", [
+    (JointPositionClient, "joint_motion_generator_velocity_discontinuity"),
+    (CartesianPoseClient, "cartesian_motion_generator_velocity_discontinuity"),
+    (ElbowClient, "cartesian_motion_generator_elbow_limit_violation"),
+    (TorqueAndCartesianClient, "controller_torque_discontinuity"),
+], ids=lambda x: getattr(x, "__name__", ""))
+def test_a_genuine_jump_still_aborts_by_name(client, name):
+    errors, statuses = run(client(), lost={700}, jump_at=750)
+    assert name in errors and statuses == [MoveStatus.kReflexAborted]
+
+
+def test_after_a_lost_cycle_the_state_shows_the_extrapolated_command():
+    """What libfranka anchors its next command on: where the stream was heading."""
+    h = Harness()
+    assert h.move(Ctrl.kJointImpedance, Gen.kCartesianPosition) == MoveStatus.kMotionStarted
+    h.cycle(2)
+    T, (e0, flag) = _pose(h.state), np.array(h.state["elbow_c"], dtype=float)
+    for k in range(1, 101):  # 0.1 m/s along x, the elbow at 0.1 rad/s
+        T[0, 3] += 1e-4
+        h.send(O_T_EE_c=T.ravel(order="F"), elbow_c=[e0 + 1e-4 * k, flag], valid_elbow=True)
+        h.cycle()
+    h.cycle()  # nothing sent for this one
+    assert float(h.state["O_T_EE_c"][12]) == pytest.approx(T[0, 3] + 1e-4, abs=1e-6)
+    assert float(h.state["elbow_c"][0]) == pytest.approx(e0 + 1e-4 * 101, abs=1e-6)
+    assert float(h.state["delbow_c"][0]) == pytest.approx(0.1, abs=1e-3)
