@@ -60,7 +60,7 @@ def test_each_robot_has_a_stable_name_through_a_headless_service():
 def test_robots_are_probed_with_franka_sim_check_and_sized_by_measurement():
     pod = _one("StatefulSet")["spec"]["template"]["spec"]
     container = pod["containers"][0]
-    for probe in ("readinessProbe", "livenessProbe"):
+    for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
         assert container[probe]["exec"]["command"][:2] == ["franka-sim", "check"]
     resources = container["resources"]
     assert {"cpu", "memory"} <= resources["requests"].keys()
