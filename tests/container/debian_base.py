@@ -53,7 +53,10 @@ def cached_rootfs(cache: Path) -> Path:
             for entry in (rootfs / folder).glob("*"):
                 if entry.name in KEPT:
                     continue
-                shutil.rmtree(entry) if entry.is_dir() and not entry.is_symlink() else entry.unlink()
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry)
+                else:
+                    entry.unlink()
         partial = Path(scratch) / "rootfs.tar"
         packed = subprocess.run(["tar", "--numeric-owner", "-C", str(rootfs), "-cf", str(partial),
                                  "."], capture_output=True, text=True)

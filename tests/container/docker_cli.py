@@ -63,7 +63,8 @@ class Docker:
                                           stdin=subprocess.DEVNULL)
                 done.stdout, done.stderr = "", log.read_text(errors="replace")
         except subprocess.TimeoutExpired:
-            raise StepFailed(step, f"`docker {args[0]}` did not finish in {timeout:.0f} s") from None
+            why = f"`docker {args[0]}` did not finish in {timeout:.0f} s"
+            raise StepFailed(step, why) from None
         if check and done.returncode != 0:
             raise StepFailed(step, f"`docker {args[0]}`: {last_line(done.stderr + done.stdout)}")
         return done

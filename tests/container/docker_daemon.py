@@ -4,7 +4,10 @@ No systemd here, and a CI machine may run nothing else of docker's: the test sta
 itself, with no iptables rules and no default bridge (every container of the test uses the
 host's network), on a socket, data root and exec root in a folder of its own, and deletes
 that folder after stopping it. overlay2 is tried first, vfs (slower, but works on any
-filesystem) when the kernel refuses overlay2.
+filesystem) when the kernel refuses overlay2. It runs under the normal scheduling policy
+whatever its caller's: a process that made a pylibfranka.Robot runs SCHED_FIFO 99 as root
+(libfranka raises the thread it is made in), and a daemon inheriting that livelocks its
+untar helpers on a 2-core machine.
 """
 
 from __future__ import annotations
@@ -47,7 +50,8 @@ class PrivateDaemon:
         raise StepFailed("daemon", f"dockerd did not start: {why}")
 
     def _try(self, driver: str, config: Path, timeout: float) -> Docker | str:
-        command = ["dockerd", "--config-file", str(config), "--host", self.url,
+        command = ["chrt", "--other", "0", "dockerd", "--config-file", str(config),
+                   "--host", self.url,
                    "--data-root", str(self.work / "data"), "--exec-root", str(self.work / "exec"),
                    "--pidfile", str(self.work / "dockerd.pid"), "--storage-driver", driver,
                    "--iptables=false", "--ip6tables=false", "--bridge=none"]

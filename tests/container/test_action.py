@@ -85,9 +85,13 @@ def test_start_serves_until_stop_which_keeps_the_log(tmp_path):
     assert started.returncode == 0, started.stdout + started.stderr
     out = _outputs(tmp_path)
     assert out["host"] == host and out["control-url"] == f"http://{host}:1340"
-    robot = pylibfranka.Robot(out["host"], pylibfranka.RealtimeConfig.kIgnore)
-    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
-    del robot
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        robot = pylibfranka.Robot(out["host"], pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        del robot
+    finally:  # libfranka raised this thread to SCHED_FIFO 99, which later tests would inherit
+        os.sched_setscheduler(0, policy, param)
     (pid, _), = [line.split() for line in (tmp_path / "franka-sim" / "servers").read_text()
                  .splitlines()]
 
