@@ -3,7 +3,9 @@
 Each call names its step, so a failure reads "container test: build failed: ..." wherever it
 happened. The client gets a configuration directory of its own: no credential helper or
 context of the user's is consulted, and the classic builder is asked for (BuildKit would
-fetch its frontend image, and the builds here have no network).
+fetch its frontend image, and the builds here have no network). It runs under the normal
+scheduling policy: a test process that made a pylibfranka.Robot is SCHED_FIFO 99 (libfranka
+raises the thread it is made in), and Go programs under that spin on a 2-core machine.
 """
 
 from __future__ import annotations
@@ -12,6 +14,10 @@ import os
 import shutil
 import subprocess
 from pathlib import Path
+
+
+# `chrt --other 0 COMMAND`: COMMAND under SCHED_OTHER, whatever its caller's policy.
+NORMAL_POLICY = ("chrt", "--other", "0") if shutil.which("chrt") else ()
 
 
 class StepFailed(Exception):
@@ -51,7 +57,7 @@ class Docker:
     def run(self, step: str, *args: str, timeout: float = 60.0, check: bool = True,
             log: Path | None = None) -> subprocess.CompletedProcess:
         """Run one docker command; with `log`, its output goes to that file (and is read back)."""
-        command = [self.binary, "-H", self.url, *args]
+        command = [*NORMAL_POLICY, self.binary, "-H", self.url, *args]
         try:
             if log is None:
                 done = subprocess.run(command, capture_output=True, text=True, env=self.env,

@@ -5,9 +5,8 @@ itself, with no iptables rules and no default bridge (every container of the tes
 host's network), on a socket, data root and exec root in a folder of its own, and deletes
 that folder after stopping it. overlay2 is tried first, vfs (slower, but works on any
 filesystem) when the kernel refuses overlay2. It runs under the normal scheduling policy
-whatever its caller's: a process that made a pylibfranka.Robot runs SCHED_FIFO 99 as root
-(libfranka raises the thread it is made in), and a daemon inheriting that livelocks its
-untar helpers on a 2-core machine.
+whatever its caller's (docker_cli.NORMAL_POLICY): a daemon inheriting SCHED_FIFO 99 from a
+test process that made a pylibfranka.Robot livelocks its untar helpers.
 """
 
 from __future__ import annotations
@@ -20,7 +19,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from docker_cli import Docker, StepFailed, last_line
+from docker_cli import NORMAL_POLICY, Docker, StepFailed, last_line
 
 STORAGE_DRIVERS = ("overlay2", "vfs")
 
@@ -50,8 +49,7 @@ class PrivateDaemon:
         raise StepFailed("daemon", f"dockerd did not start: {why}")
 
     def _try(self, driver: str, config: Path, timeout: float) -> Docker | str:
-        command = ["chrt", "--other", "0", "dockerd", "--config-file", str(config),
-                   "--host", self.url,
+        command = [*NORMAL_POLICY, "dockerd", "--config-file", str(config), "--host", self.url,
                    "--data-root", str(self.work / "data"), "--exec-root", str(self.work / "exec"),
                    "--pidfile", str(self.work / "dockerd.pid"), "--storage-driver", driver,
                    "--iptables=false", "--ip6tables=false", "--bridge=none"]
