@@ -34,7 +34,8 @@ def move_to(robot: pylibfranka.Robot, q_goal, duration: float = 0.8, hold: float
     `every_cycle(t, state)`, if given, runs once per cycle between reading the state and
     answering it (t: seconds since the motion began).
     """
-    model = model or robot.load_model()
+    if model is None:
+        model = robot.load_model()
     control = robot.start_torque_control()
     state, _ = control.readOnce()
     q_start = np.array(state.q)

@@ -11,7 +11,8 @@ import sys
 from importlib.metadata import entry_points
 from pathlib import Path
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "testing"
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "testing"
 
 
 def test_the_worked_example_passes_on_two_workers(tmp_path):
@@ -29,3 +30,10 @@ def test_the_worked_example_passes_on_two_workers(tmp_path):
     assert done.returncode == 0, output
     summary = output.strip().splitlines()[-1]
     assert re.search(r"\b4 passed\b", summary) and "failed" not in summary, output
+
+
+def test_the_doc_shows_the_example_as_it_is():
+    doc = (ROOT / "docs" / "testing.md").read_text()
+    for name in ("my_controller.py", "test_my_controller.py"):
+        shown = f"```python\n{(EXAMPLE / name).read_text()}```"
+        assert shown in doc, f"docs/testing.md does not show examples/testing/{name} as it is"
