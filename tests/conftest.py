@@ -7,10 +7,25 @@ run, or with a `franka-sim serve` left on the default.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 from franka_sim.testing import running_sim
+
+
+@pytest.fixture(autouse=True)
+def _ordinary_scheduling():
+    """libfranka raises the thread that starts a control loop to SCHED_FIFO 99 (as root it
+    can), and every process the test process starts later inherits that: a build or a busy
+    helper at the highest real-time priority starves a 2-core machine. Back to normal after
+    each test."""
+    yield
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (AttributeError, OSError):
+        pass
 
 
 @pytest.fixture

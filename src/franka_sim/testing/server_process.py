@@ -26,6 +26,17 @@ def fresh_loopback_address() -> str:
     return f"127.{20 + os.getpid() % 200}.{n // 250}.{n % 250 + 2}"
 
 
+def _normal_scheduling() -> None:
+    """In the child, before exec: ordinary scheduling. libfranka raises the thread that starts
+    a control loop to SCHED_FIFO 99 (as root, it can), and a child inherits that: a server
+    started later from the same test process would run at the highest real-time priority and
+    could starve the machine. `franka-sim serve --rt-priority N` still sets its own."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (AttributeError, OSError):  # not Linux, or not allowed: keep what we have
+        pass
+
+
 class ServerProcess:
     """`python -m franka_sim serve --host H *args` (or another `command` that logs "serving on"
     to stderr, such as a benchmark's reference server); a thread collects its stderr lines."""
@@ -41,6 +52,7 @@ class ServerProcess:
             command or [sys.executable, "-m", "franka_sim", "serve", "--host", host, *args],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
             text=True, bufsize=1, env={**os.environ, **(env or {})},
+            preexec_fn=_normal_scheduling,
         )
         self.pid = self.proc.pid
         self._reader = threading.Thread(target=self._drain, daemon=True)
