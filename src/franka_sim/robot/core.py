@@ -69,6 +69,7 @@ class RobotCore:
         self._recovery: Recovery | None = None
         self._stray_commands = 0  # this client's: its first one is logged
         self._window_closed = False  # the open cycle's command window was closed early
+        self._estimate_before = None  # the external torque estimate before the last update
 
     # -- questions the server asks -----------------------------------------------------------
     @property
@@ -104,6 +105,18 @@ class RobotCore:
         return motion.reference.q_d
 
     @property
+    def settled(self) -> bool:
+        """Nothing here moves on by itself from one cycle to the next: no motion or recovery
+        under way, and the external-force estimate stood still over the last cycle."""
+        if self.motion is not None or self._recovery is not None:
+            return False
+        measured, external = self.measured, self.external
+        if measured is None or external.untouched(measured.tau_ext):
+            return True
+        before = self._estimate_before
+        return before is not None and np.array_equal(before, external.tau_ext_hat_filtered)
+
+    @property
     def client_silent(self) -> bool:
         """The client went silent mid-motion and its arm is held (enforcement off): as far as
         the robot can tell it is gone, so a new client may take its place."""
@@ -134,6 +147,7 @@ class RobotCore:
             motion.kinematics = desired_kinematics
             self._judge(self.guard.judge_measured, measured.q, measured.dq)
         if not self.external.untouched(measured.tau_ext):
+            self._estimate_before = self.external.tau_ext_hat_filtered
             self._estimate_external_forces(measured)
         if self._recovery is not None and self._recovery.done(measured.dq):
             self._recovered(measured)

@@ -202,6 +202,11 @@ class Gripper:
 
     # -- the cycle ---------------------------------------------------------------------------
     @property
+    def idle(self) -> bool:
+        """No action runs (a held grasp is no action: nothing in it moves on by itself)."""
+        return self._action is None
+
+    @property
     def command(self) -> FingerCommand | None:
         """The finger drive's command for the next cycle (None: unchanged)."""
         if self._action is not None:

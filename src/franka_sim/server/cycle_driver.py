@@ -18,9 +18,19 @@ the command comes from the client, so the cycle is released when its deadline co
 or when the answer arrives (lockstep; the tick reads the socket for a moment before it goes to
 sleep watching it, see `_await_answer`), and the state leaves as soon as it is packed.
 
-In lockstep the cycle after a motion's last waits for the client's next request (or a lockstep
-window), so how many idle cycles separate two motions does not depend on how fast the client
-was: back-to-back motions reproduce to the bit.
+In lockstep, idle time is not wall time: while no client motion runs, the cycles follow the
+client's events (a TCP request to the robot or the Hand, a disconnect), so a program of motions,
+Hand actions and pauses reproduces to the bit however long the client takes between them:
+- a world that is not at rest (the arm settling onto its hold after a motion, the Hand moving,
+  a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
+  keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, and
+  the replies of all those cycles go out after the state at rest;
+- at rest the clock then holds: the client's next event releases the next cycle at once, and
+  only after LOCKSTEP_WINDOW without one do cycles go on the wall clock, at 1 kHz. Those
+  change nothing but message_id (the physics hands back the same measurement), and they keep
+  a client that reads states while idle served (libfranka takes only a newer message_id).
+So every state a client can see after an event is the same bits in every run; only message_id
+counts wall time, and only the wall time a client spends longer than the window at rest.
 
 A request's replies wait for the first state published after it (`after_next_state`), and a
 reply the cycle itself produced (a Move's end, a recovery) goes out after the state that shows
@@ -42,11 +52,15 @@ from typing import Callable
 
 from franka_sim.robot.cycle import Released, Replies, RobotCycle
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.pacing import LOCKSTEP_WINDOW, Pacer
+from franka_sim.server.pacing import Pacer
 
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
+# Lockstep: cycles the idle world may take to come to rest in one go (10 s of robot time; the
+# arm settles in under 1 s, the Hand's homing takes ~2 s); a world that takes longer has its
+# idle cycles follow the wall clock until it rests.
+MAX_SETTLE_CYCLES = 10_000
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
 
 # deliver(replies), on the loop: write a completed cycle's replies to their TCP connections.
@@ -88,11 +102,12 @@ class CycleDriver:
         self._prepared: Released | None = None  # an idle cycle released ahead
         self._deadline: float | None = None
         self._unwatched = 0  # cycles since a client was last connected
-        # Lockstep, after a motion: the next cycle waits for the client's next request (see
-        # _tick_locked). `_requests` counts requests (loop, lock held), `_holding` is the
-        # count the hold began at.
+        # Client events (client_event: loop, lock held) and the count the last released cycle
+        # followed: in lockstep, an idle cycle goes at once when they differ.
         self._requests = 0
-        self._holding: int | None = None
+        self._served = 0
+        self._hold_until: float | None = None  # lockstep at rest: no cycle before, but on an event
+        self._restless = False  # lockstep: the world did not come to rest (MAX_SETTLE_CYCLES)
         self.paused = False
 
     # -- the loop's side -------------------------------------------------------------------------
@@ -117,15 +132,20 @@ class CycleDriver:
         clock running releases nothing)."""
         self.thread.wake()
 
+    def client_event(self) -> None:
+        """A TCP request (robot or Hand) or a client's disconnect, lock held. In lockstep,
+        while no client motion runs, it releases the next cycle at once (the idle clock holds
+        for the client otherwise)."""
+        self._requests += 1
+        if self.lockstep:
+            self.thread.wake()
+
     def after_next_state(self, deliver: Callable[[], None]) -> bool:
         """Call `deliver` (a request's replies) once the first state published after now has
         been sent; False while no state is coming (stopped, paused): deliver now. Lock held."""
         if not self._running or self.paused:
             return False
         self._awaiting.append((self.cycle.message_id + 1, deliver))
-        self._requests += 1
-        if self._holding is not None:
-            self.thread.wake()  # the held cycle goes now, after this request
         return True
 
     def _sent(self, message_id: int, replies: Replies | None) -> None:
@@ -139,6 +159,10 @@ class CycleDriver:
     # -- the cycle thread's side -----------------------------------------------------------------
     def _lockstep_now(self) -> bool:
         return self.lockstep and self.cycle.lockstep_applies
+
+    def _idle_rules(self) -> bool:
+        """Lockstep's idle time applies: no client motion runs, and the world rests in time."""
+        return self.lockstep and not self.cycle.client_driven and not self._restless
 
     def _tick(self, _physics, due: bool) -> float | None:
         try:
@@ -182,46 +206,96 @@ class CycleDriver:
         # is counted and logged within a cycle); in lockstep also in _await_answer (_tick).
         ready = self._prepared is not None  # an idle cycle released ahead: it goes first
         if due and not ready:
-            answered = self._read_socket() or answered  # an answer in time counts
-        requested = self._holding is not None and self._requests != self._holding
+            answered = self._read_socket() or answered
+        requested = self._requests != self._served and self._idle_rules()
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         self.paused = False
-        self._holding = None
+        self._served = self._requests
         released, self._prepared = self._prepared, None
         # A motion's cycle (or its last): the client may start its next motion at once, so the
         # cycle after it is decided when it goes, not ahead of it.
         moved = released is None and moving
         if released is None:
             released = cycle.release()
+        sent_at, replies = self._send(released)
+        if self._idle_rules():
+            return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
+        self._post(released.message_id, replies)
+        if due and ready:  # no command can answer an idle state: what came
+            self._read_socket()  # (strays, junk) is read once the state has left
+        if self._unwatched_pause():
+            return None
+        if self._restless and cycle.at_rest:
+            self._restless = False  # it came to rest: lockstep's idle rules again
+        if not cycle.in_motion and not moved:  # idle: the next command is the hold
+            self._prepared = cycle.release()
+        self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now())
+        return self._deadline
+
+    def _idle_in_lockstep(self, released: Released, sent_at: float, replies: Replies,
+                          event: bool) -> float | None:
+        """Lockstep, no client motion: idle time is not wall time (see the module docstring).
+
+        The world settles in this one tick, cycle after cycle, while the lock keeps every
+        request out: so it reaches rest the same number of cycles after the client's event
+        however fast this machine is, and every reply waits for the state at rest (a client
+        reading after a reply reads the same bits). At rest the clock then holds."""
+        cycle = self.cycle
+        robot, hand = list(replies.robot), list(replies.hand)
+        settled = 0
+        paused = self._unwatched_pause()
+        while not paused and not cycle.at_rest:
+            if settled == MAX_SETTLE_CYCLES:
+                log.warning("the world did not come to rest within %d cycles: idle lockstep "
+                            "cycles follow the wall clock until it does", settled)
+                self._restless = True
+                break
+            released = cycle.release()
+            sent_at, replies = self._send(released)
+            robot += replies.robot
+            hand += replies.hand
+            settled += 1
+            paused = self._unwatched_pause()
+        # Hand states of cycles on the way to rest would reach a client late: only the last.
+        self._post(released.message_id, Replies(robot, hand, replies.hand_state))
+        if paused:
+            return None
+        if self._restless:
+            self._hold_until = None
+        elif event or settled:  # the client's event, or the world it disturbed at rest
+            self._hold_until = self.pacer.next_deadline(sent_at, lockstep=True)
+        else:  # the hold ran out: cycles that change nothing but message_id, on the wall clock
+            self._hold_until = None
+        if self._hold_until is not None:
+            self._deadline = self._hold_until
+        else:
+            self._deadline = self.pacer.next_deadline(sent_at, lockstep=False)
+        return self._deadline
+
+    def _send(self, released: Released) -> tuple[float, Replies]:
+        """Send a released cycle's state and complete it: when it left, and its replies."""
         if released.state is not None:
             self.send_state(released.state)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
-        replies = cycle.complete(released)
+        return sent_at, self.cycle.complete(released)
+
+    def _post(self, message_id: int, replies: Replies) -> None:
+        """Hand the loop what waited for the state of `message_id`, now that it has left."""
         if replies or self._awaiting:
             try:
-                self._loop.call_soon_threadsafe(self._sent, released.message_id, replies)
+                self._loop.call_soon_threadsafe(self._sent, message_id, replies)
             except RuntimeError:  # loop closed during shutdown
                 pass
-        if due and ready:  # no command can answer an idle state: what came
-            self._read_socket()  # (strays, junk) is read once the state has left
+
+    def _unwatched_pause(self) -> bool:
+        """Count a cycle nobody was connected for; True when the clock pauses now."""
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
-        if self._unwatched >= PAUSE_AFTER and not cycle.in_motion:
+        if self._unwatched >= PAUSE_AFTER and not self.cycle.in_motion:
             self.paused = True
             self._deadline = None
-            return None
-        if not cycle.in_motion and not moved:  # idle: the next command is the hold
-            self._prepared = cycle.release()
-        if moved and self.lockstep and not cycle.in_motion:
-            # A lockstep motion just ended. Its client's next step (the next Move, a read)
-            # decides when the next cycle goes, not how fast it answered within a 1 ms
-            # deadline: so a program of back-to-back motions reproduces to the bit. The cycle
-            # goes on the client's next request, or at the end of a lockstep window.
-            self._holding = self._requests
-            self._deadline = sent_at + LOCKSTEP_WINDOW
-            return self._deadline
-        self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now())
-        return self._deadline
+            return True
+        return False
 
     def _read_socket(self) -> bool:
         """The datagrams on the socket now, to the cycle; True if one answered in time."""
