@@ -23,8 +23,8 @@ client's events (a TCP request to the robot or the Hand, a disconnect), so a pro
 Hand actions and pauses reproduces to the bit however long the client takes between them:
 - a world that is not at rest (the arm settling onto its hold after a motion, the Hand moving,
   a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
-  keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, and
-  the replies of all those cycles go out after the state at rest;
+  keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, only
+  the state at rest is sent, and the replies of all those cycles go out after it;
 - at rest the clock then holds: the client's next event releases the next cycle at once, and
   only after LOCKSTEP_WINDOW without one do cycles go on the wall clock, at 1 kHz. Those
   change nothing but message_id (the physics hands back the same measurement), and they keep
@@ -239,8 +239,9 @@ class CycleDriver:
 
         The world settles in this one tick, cycle after cycle, while the lock keeps every
         request out: so it reaches rest the same number of cycles after the client's event
-        however fast this machine is, and every reply waits for the state at rest (a client
-        reading after a reply reads the same bits). At rest the clock then holds."""
+        however fast this machine is. Only the state at rest is sent (hundreds of states in a
+        few ms would overflow the client's socket, and a read would then find one of them, a
+        different one each run), and every reply of the way waits for it."""
         cycle = self.cycle
         robot, hand = list(replies.robot), list(replies.hand)
         settled = 0
@@ -252,11 +253,14 @@ class CycleDriver:
                 self._restless = True
                 break
             released = cycle.release()
-            sent_at, replies = self._send(released)
+            replies = cycle.complete(released)
             robot += replies.robot
             hand += replies.hand
             settled += 1
             paused = self._unwatched_pause()
+        if settled and released.state is not None:
+            self.send_state(released.state)
+            sent_at = self.clock()
         # Hand states of cycles on the way to rest would reach a client late: only the last.
         self._post(released.message_id, Replies(robot, hand, replies.hand_state))
         if paused:
