@@ -161,8 +161,9 @@ class CycleDriver:
         return self.lockstep and self.cycle.lockstep_applies
 
     def _idle_rules(self) -> bool:
-        """Lockstep's idle time applies: no client motion runs, and the world rests in time."""
-        return self.lockstep and not self.cycle.client_driven and not self._restless
+        """(In lockstep) idle time follows the client: no client motion runs, and the world
+        came to rest in time when it last had to."""
+        return not self.cycle.client_driven and not self._restless
 
     def _tick(self, _physics, due: bool) -> float | None:
         try:
@@ -207,7 +208,7 @@ class CycleDriver:
         ready = self._prepared is not None  # an idle cycle released ahead: it goes first
         if due and not ready:
             answered = self._read_socket() or answered
-        requested = self._requests != self._served and self._idle_rules()
+        requested = self._requests != self._served and self.lockstep and self._idle_rules()
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         self.paused = False
@@ -218,13 +219,23 @@ class CycleDriver:
         moved = released is None and moving
         if released is None:
             released = cycle.release()
-        sent_at, replies = self._send(released)
-        if self._idle_rules():
+        if released.state is not None:
+            self.send_state(released.state)
+        sent_at = self.clock()  # what the next deadline counts from (pacing.py)
+        replies = cycle.complete(released)
+        if self.lockstep and self._idle_rules():
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
-        self._post(released.message_id, replies)
+        if replies or self._awaiting:
+            try:
+                self._loop.call_soon_threadsafe(self._sent, released.message_id, replies)
+            except RuntimeError:  # loop closed during shutdown
+                pass
         if due and ready:  # no command can answer an idle state: what came
             self._read_socket()  # (strays, junk) is read once the state has left
-        if self._unwatched_pause():
+        self._unwatched = 0 if self.has_client() else self._unwatched + 1
+        if self._unwatched >= PAUSE_AFTER and not cycle.in_motion:
+            self.paused = True
+            self._deadline = None
             return None
         if self._restless and cycle.at_rest:
             self._restless = False  # it came to rest: lockstep's idle rules again
@@ -277,13 +288,6 @@ class CycleDriver:
             self._deadline = self.pacer.next_deadline(sent_at, lockstep=False)
         return self._deadline
 
-    def _send(self, released: Released) -> tuple[float, Replies]:
-        """Send a released cycle's state and complete it: when it left, and its replies."""
-        if released.state is not None:
-            self.send_state(released.state)
-        sent_at = self.clock()  # what the next deadline counts from (pacing.py)
-        return sent_at, self.cycle.complete(released)
-
     def _post(self, message_id: int, replies: Replies) -> None:
         """Hand the loop what waited for the state of `message_id`, now that it has left."""
         if replies or self._awaiting:
@@ -293,7 +297,8 @@ class CycleDriver:
                 pass
 
     def _unwatched_pause(self) -> bool:
-        """Count a cycle nobody was connected for; True when the clock pauses now."""
+        """Count a cycle nobody was connected for; True when the clock pauses now (as
+        _tick_locked does inline)."""
         self._unwatched = 0 if self.has_client() else self._unwatched + 1
         if self._unwatched >= PAUSE_AFTER and not self.cycle.in_motion:
             self.paused = True
