@@ -24,7 +24,8 @@ Hand actions and pauses reproduces to the bit however long the client takes betw
 - a world that is not at rest (the arm settling onto its hold after a motion, the Hand moving,
   a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
   keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, only
-  the state at rest is sent, and the replies of all those cycles go out after it;
+  the tick's first state and the state at rest are sent, and the replies of all those cycles
+  go out after it;
 - at rest the clock then holds: the client's next event releases the next cycle at once, and
   only after LOCKSTEP_WINDOW without one do cycles go on the wall clock, at 1 kHz. Those
   change nothing but message_id (the physics hands back the same measurement), and they keep
@@ -250,9 +251,10 @@ class CycleDriver:
 
         The world settles in this one tick, cycle after cycle, while the lock keeps every
         request out: so it reaches rest the same number of cycles after the client's event
-        however fast this machine is. Only the state at rest is sent (hundreds of states in a
-        few ms would overflow the client's socket, and a read would then find one of them, a
-        different one each run), and every reply of the way waits for it."""
+        however fast this machine is. Of the cycles run here only the state at rest is sent
+        (hundreds of states in a few ms would overflow the client's socket, and a read would
+        then find one of them, a different one each run), and every reply of the way waits for
+        it."""
         cycle = self.cycle
         robot, hand = list(replies.robot), list(replies.hand)
         settled = 0
