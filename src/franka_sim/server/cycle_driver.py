@@ -224,7 +224,7 @@ class CycleDriver:
             self.send_state(released.state)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         replies = cycle.complete(released)
-        if self.lockstep and self._idle_rules():
+        if self.lockstep and not self._restless and not cycle.client_driven:  # _idle_rules
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         if replies or self._awaiting:
             try:
