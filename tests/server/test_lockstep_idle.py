@@ -21,7 +21,8 @@ from franka_sim.protocol.enums import Command, GripperCommand, GripperStatus, Mo
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
 from franka_sim.robot.gripper import Gripper
-from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.robot.cycle import RobotCycle
+from franka_sim.server.cycle_driver import TREMBLE_CYCLES, CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD
 
 from support.harness import Harness, reply_status
@@ -198,3 +199,46 @@ def test_a_hand_action_runs_to_its_end_in_the_tick_its_request_released():
     assert [struct.unpack("<HIIH", r) for r in replies.hand] == [
         (GripperCommand.Move, 7, 12, GripperStatus.kSuccess)]
     assert abs(hand.width - 0.04) < 5e-4
+
+
+def _gripper(command: GripperCommand, **fields) -> object:
+    data = build_gripper_request(command, 8, **fields)
+    return decode_request(Frame(int(command), 8, data), GRIPPER_REQUEST_STRUCTS)
+
+
+@pytest.mark.parametrize("then_open", [False, True], ids=["homing", "homing, then a move to max_width"])
+def test_after_homing_the_fingers_come_to_rest_clear_of_their_stops(then_open):
+    """Held at the opening homing measured while pressing its stops, the fingers would press
+    them for ever and never come to rest; the Hand holds them a hair inside."""
+    rig = Rig(hand=True)
+    rig.event()
+    hand = rig.cycle.hand
+    hand.request(GripperCommand.Homing, 8, _gripper(GripperCommand.Homing))
+    rig.event()
+    if then_open:
+        hand.request(GripperCommand.Move, 8, _gripper(GripperCommand.Move, width=hand.max_width,
+                                                      speed=0.1))
+        rig.event()
+    assert rig.cycle.at_rest and not rig.driver._trembling
+    assert hand.width == pytest.approx(hand.max_width, abs=1e-5)
+
+
+def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(monkeypatch):
+    """A grasped object's contacts tremble for ever at ~1e-6 rad/s, so that world never comes
+    to rest. With nothing under way it gets TREMBLE_CYCLES to settle; then, while the client is
+    away, its states go out unchanged but for message_id, and each event steps it once."""
+    rig = Rig()
+    rig.event()
+    rig.wait(1.0)
+    monkeypatch.setattr(RobotCycle, "at_rest", property(lambda cycle: False))
+    rig.event()
+    assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
+    stepped = rig.harness.backend.data.time
+    at = rig.message_id
+    rig.wait(0.5)  # the client is away: the clock ticks, the world is left as it is
+    assert rig.message_id - at == pytest.approx(400, abs=2)
+    assert rig.harness.backend.data.time == stepped
+    assert rig.states[-1][8:] == rig.states[-2][8:]
+    rig.event()
+    assert rig.ticks[-1][0] == 1  # the event's own cycle, stepped
+    assert rig.harness.backend.data.time > stepped

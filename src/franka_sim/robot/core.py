@@ -111,10 +111,16 @@ class RobotCore:
         return motion.reference.q_d
 
     @property
+    def busy(self) -> bool:
+        """Something is under way that ends by itself: a motion, a recovery, or a lost
+        client's motion coasting to a stop."""
+        return self.motion is not None or self._recovery is not None or bool(self.drives.coasting)
+
+    @property
     def settled(self) -> bool:
-        """Nothing here moves on by itself from one cycle to the next: no motion or recovery
-        under way, and the external-force estimate stood still over the last cycle."""
-        if self.motion is not None or self._recovery is not None or self.drives.coasting:
+        """Nothing here moves on by itself from one cycle to the next: nothing under way, and
+        the external-force estimate stood still over the last cycle."""
+        if self.busy:
             return False
         measured, external = self.measured, self.external
         if measured is None or external.untouched(measured.tau_ext):
@@ -169,6 +175,13 @@ class RobotCore:
         facts.measured = measured
         facts.desired_kinematics = desired_kinematics
         return self.publisher.pack(facts)
+
+    def republish(self) -> bytes:
+        """The last state again as the next cycle's, nothing stepped or estimated: a cycle of
+        a world left as it was (server/cycle_driver.py: lockstep's idle time)."""
+        self.message_id += 1
+        self._window_closed = False
+        return self.publisher.restamp(self.message_id)
 
     def run_deferred_checks(self) -> None:
         """The log-only limit checks queued this cycle (see LimitPolicy): the server runs them

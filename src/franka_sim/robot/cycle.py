@@ -86,6 +86,13 @@ class RobotCycle:
         return self.core.motion_running
 
     @property
+    def busy(self) -> bool:
+        """Something is under way that ends by itself: a motion, a recovery, a lost client's
+        motion stopping, a Hand action."""
+        hand = self.hand
+        return self.core.busy or (hand is not None and not hand.idle)
+
+    @property
     def at_rest(self) -> bool:
         """The next cycle would change nothing but message_id: no motion or recovery under way,
         the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
@@ -115,6 +122,14 @@ class RobotCycle:
             self._failed()
             state = None
         return Released(core.message_id, state, measured)
+
+    def repeat(self) -> Released:
+        """A cycle that leaves the world as it is: the last state again under the next
+        message_id, nothing stepped (complete it as any other). At rest it is the cycle that
+        stepping would give, bit for bit."""
+        core = self.core
+        state = core.republish()
+        return Released(core.message_id, state, self._measured)
 
     def complete(self, released: Released) -> Replies:
         """After the state has left: the Hand, the rest of the step, the log-only checks. A

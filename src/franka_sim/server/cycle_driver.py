@@ -24,14 +24,16 @@ Hand actions and pauses reproduces to the bit however long the client takes betw
 - a world that is not at rest (the arm settling onto its hold after a motion, the Hand moving,
   a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
   keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, only
-  the tick's first state and the state at rest are sent, and the replies of all those cycles
-  go out after it;
-- at rest the clock then holds: the client's next event releases the next cycle at once, and
-  only after LOCKSTEP_WINDOW without one do cycles go on the wall clock, at 1 kHz. Those
-  change nothing but message_id (the physics hands back the same measurement), and they keep
-  a client that reads states while idle served (libfranka takes only a newer message_id).
+  the tick's first state and the last are sent, and the replies of all those cycles go out
+  after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
+  grasped object's contacts tremble for ever) is taken as it is;
+- then the world is left as it is (`_frozen`) and the clock holds: the client's next event
+  releases the next cycle at once, and only after LOCKSTEP_WINDOW without one does a state go
+  out each ms of wall time, the last one again under the next message_id, nothing stepped
+  (RobotCycle.repeat: at rest, the very bits a step would give). They keep a client that reads
+  states while idle served: libfranka takes only a newer message_id.
 So every state a client can see after an event is the same bits in every run; only message_id
-counts wall time, and only the wall time a client spends longer than the window at rest.
+counts wall time, and only the wall time a client spends longer than the window between events.
 
 A request's replies wait for the first state published after it (`after_next_state`), and a
 reply the cycle itself produced (a Move's end, a recovery) goes out after the state that shows
@@ -58,10 +60,12 @@ from franka_sim.server.pacing import Pacer
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
-# Lockstep: cycles the idle world may take to come to rest in one go (10 s of robot time; the
-# arm settles in under 1 s, the Hand's homing takes ~2 s); a world that takes longer has its
-# idle cycles follow the wall clock until it rests.
-MAX_SETTLE_CYCLES = 10_000
+# Lockstep, idle: the cycles the world gets to come to rest when nothing is under way (the arm
+# settles onto its hold in ~650); one that still has not (a grasped object's contacts tremble
+# for ever at ~1e-6 rad/s) is left as it is. And the most cycles one tick runs: work under way
+# that takes longer (a Hand move at 1 mm/s) goes on in the next tick.
+TREMBLE_CYCLES = 2000
+MAX_SETTLE_CYCLES = 20_000
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
 
 # deliver(replies), on the loop: write a completed cycle's replies to their TCP connections.
@@ -108,7 +112,8 @@ class CycleDriver:
         self._requests = 0
         self._served = 0
         self._hold_until: float | None = None  # lockstep at rest: no cycle before, but on an event
-        self._restless = False  # lockstep: the world did not come to rest (MAX_SETTLE_CYCLES)
+        self._frozen = False  # lockstep, idle: the world is left as it is until a client event
+        self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         self.paused = False
 
     # -- the loop's side -------------------------------------------------------------------------
@@ -161,11 +166,6 @@ class CycleDriver:
     def _lockstep_now(self) -> bool:
         return self.lockstep and self.cycle.lockstep_applies
 
-    def _idle_rules(self) -> bool:
-        """(In lockstep) idle time follows the client: no client motion runs, and the world
-        came to rest in time when it last had to."""
-        return not self.cycle.client_driven and not self._restless
-
     def _tick(self, _physics, due: bool) -> float | None:
         try:
             with self.lock:
@@ -209,7 +209,8 @@ class CycleDriver:
         ready = self._prepared is not None  # an idle cycle released ahead: it goes first
         if due and not ready:
             answered = self._read_socket() or answered
-        requested = self._requests != self._served and self.lockstep and self._idle_rules()
+        requested = (self._requests != self._served and self.lockstep
+                     and not cycle.client_driven)
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         self.paused = False
@@ -219,12 +220,18 @@ class CycleDriver:
         # cycle after it is decided when it goes, not ahead of it.
         moved = released is None and moving
         if released is None:
-            released = cycle.release()
+            if self._frozen and not requested:  # lockstep's idle time, the client away
+                released = cycle.repeat()
+            else:
+                self._frozen = False
+                released = cycle.release()
         if released.state is not None:
             self.send_state(released.state)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         replies = cycle.complete(released)
-        if self.lockstep and not self._restless and not cycle.client_driven:  # _idle_rules
+        if self.lockstep and not cycle.client_driven:
+            if moved:
+                self._trembling = 0  # the arm settles anew after a motion
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         if replies or self._awaiting:
             try:
@@ -238,8 +245,6 @@ class CycleDriver:
             self.paused = True
             self._deadline = None
             return None
-        if self._restless and cycle.at_rest:
-            self._restless = False  # it came to rest: lockstep's idle rules again
         if not cycle.in_motion and not moved:  # idle: the next command is the hold
             self._prepared = cycle.release()
         self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now())
@@ -251,20 +256,23 @@ class CycleDriver:
 
         The world settles in this one tick, cycle after cycle, while the lock keeps every
         request out: so it reaches rest the same number of cycles after the client's event
-        however fast this machine is. Of the cycles run here only the state at rest is sent
+        however fast this machine is. Of the cycles run here only the last state is sent
         (hundreds of states in a few ms would overflow the client's socket, and a read would
         then find one of them, a different one each run), and every reply of the way waits for
-        it."""
+        it. Then the world is left as it is (`_frozen`) until the client's next event."""
         cycle = self.cycle
         robot, hand = list(replies.robot), list(replies.hand)
         settled = 0
         paused = self._unwatched_pause()
         while not paused and not cycle.at_rest:
+            if cycle.busy:
+                self._trembling = 0
+            elif self._trembling == TREMBLE_CYCLES:
+                break  # nothing under way, yet it does not come to rest: left as it is
+            else:
+                self._trembling += 1
             if settled == MAX_SETTLE_CYCLES:
-                log.warning("the world did not come to rest within %d cycles: idle lockstep "
-                            "cycles follow the wall clock until it does", settled)
-                self._restless = True
-                break
+                break  # work this long goes on in the next tick (requests may come between)
             released = cycle.release()
             replies = cycle.complete(released)
             robot += replies.robot
@@ -278,11 +286,15 @@ class CycleDriver:
         self._post(released.message_id, Replies(robot, hand, replies.hand_state))
         if paused:
             return None
-        if self._restless:
-            self._hold_until = None
-        elif event or settled:  # the client's event, or the world it disturbed at rest
+        if settled == MAX_SETTLE_CYCLES:
+            self._deadline = sent_at  # at once
+            return self._deadline
+        if cycle.at_rest:
+            self._trembling = 0
+        self._frozen = True
+        if event or settled:  # the client's event, or the world it disturbed come to rest
             self._hold_until = self.pacer.next_deadline(sent_at, lockstep=True)
-        else:  # the hold ran out: cycles that change nothing but message_id, on the wall clock
+        else:  # the hold ran out: the world as it is, under a new message_id each ms
             self._hold_until = None
         if self._hold_until is not None:
             self._deadline = self._hold_until
