@@ -114,7 +114,8 @@ class RobotCore:
     def busy(self) -> bool:
         """Something is under way that ends by itself: a motion, a recovery, or a lost
         client's motion coasting to a stop."""
-        return self.motion is not None or self._recovery is not None or bool(self.drives.coasting)
+        return (self.motion is not None or self._recovery is not None
+                or self.drives.coasting is not None)
 
     @property
     def settled(self) -> bool:
@@ -212,10 +213,8 @@ class RobotCore:
                 return  # a violating command never reaches the physics
             motion.apply(command)
             self._silent = False
-        elif self.measured is None:
-            motion.miss(lost)
         else:
-            motion.miss(lost, self.measured.q, self.measured.dq)
+            motion.miss(lost, self.measured)
         if (motion.cartesian is not None and not motion.braking
                 and self._judge(guard.judge_ik, motion.reference)):
             return

@@ -98,10 +98,7 @@ class Drives:
         """The coasting motion's next cycle (once per cycle, before the step)."""
         motion = self.coasting
         self._coast_lost += 1
-        if measured is None:
-            motion.miss(self._coast_lost)
-        else:
-            motion.miss(self._coast_lost, measured.q, measured.dq)
+        motion.miss(self._coast_lost, measured)
         if motion.braking and motion.reference.at_rest:
             self.hold_at(motion.reference.q_d)
 

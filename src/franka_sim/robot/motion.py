@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from franka_sim.physics.backend import Measured
 from franka_sim.robot.cartesian import (
     CartesianTarget,
     dls_step,
@@ -247,19 +248,18 @@ class Motion:
         self.elbow_target = float(command["elbow_c"][0]) if command["valid_elbow"] else None
         self._solve()
 
-    def miss(self, consecutive: int, q: np.ndarray | None = None,
-             dq: np.ndarray | None = None) -> None:
+    def miss(self, consecutive: int, measured: Measured | None = None) -> None:
         """No command for this cycle, `consecutive` in a row: extrapolate (torques are simply
-        held); past MAX_EXTRAPOLATED_CYCLES brake from the measured q, dq. An async motion's
+        held); past MAX_EXTRAPOLATED_CYCLES brake from the arm as measured. An async motion's
         gaps are normal: its generator goes on, unless its client is gone."""
         if self.async_target is not None and not self.orphaned:
             self.async_target.advance()
         elif self.braking or consecutive > MAX_EXTRAPOLATED_CYCLES:
             if not self.braking:
                 self.braking = True
-                if q is not None:  # the stop starts from the arm as measured, in any mode
-                    self.reference = JointReference(q)
-                    self.reference.dq_d = np.array(dq, dtype=float)
+                if measured is not None:  # the stop starts from the arm as measured, any mode
+                    self.reference = JointReference(measured.q)
+                    self.reference.dq_d = np.array(measured.dq, dtype=float)
             self.reference.brake()
         elif self.spec.generator in JOINT_GENERATORS:
             self.reference.extrapolate()

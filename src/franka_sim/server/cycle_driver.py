@@ -111,7 +111,6 @@ class CycleDriver:
         # followed: in lockstep, an idle cycle goes at once when they differ.
         self._requests = 0
         self._served = 0
-        self._hold_until: float | None = None  # lockstep at rest: no cycle before, but on an event
         self._frozen = False  # lockstep, idle: the world is left as it is until a client event
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         self.paused = False
@@ -262,7 +261,7 @@ class CycleDriver:
         it. Then the world is left as it is (`_frozen`) until the client's next event."""
         cycle = self.cycle
         robot, hand = list(replies.robot), list(replies.hand)
-        settled = 0
+        settled, more = 0, False
         paused = self._unwatched_pause()
         while not paused and not cycle.at_rest:
             if cycle.busy:
@@ -272,7 +271,8 @@ class CycleDriver:
             else:
                 self._trembling += 1
             if settled == MAX_SETTLE_CYCLES:
-                break  # work this long goes on in the next tick (requests may come between)
+                more = True  # work this long goes on in the next tick (requests may come between)
+                break
             released = cycle.release()
             replies = cycle.complete(released)
             robot += replies.robot
@@ -286,20 +286,15 @@ class CycleDriver:
         self._post(released.message_id, Replies(robot, hand, replies.hand_state))
         if paused:
             return None
-        if settled == MAX_SETTLE_CYCLES:
+        if more:
             self._deadline = sent_at  # at once
             return self._deadline
         if cycle.at_rest:
             self._trembling = 0
         self._frozen = True
-        if event or settled:  # the client's event, or the world it disturbed come to rest
-            self._hold_until = self.pacer.next_deadline(sent_at, lockstep=True)
-        else:  # the hold ran out: the world as it is, under a new message_id each ms
-            self._hold_until = None
-        if self._hold_until is not None:
-            self._deadline = self._hold_until
-        else:
-            self._deadline = self.pacer.next_deadline(sent_at, lockstep=False)
+        # After the client's event, or the world it disturbed come to rest: hold for its next
+        # one (LOCKSTEP_WINDOW). Once that ran out: the world as it is each ms, on the wall clock.
+        self._deadline = self.pacer.next_deadline(sent_at, lockstep=bool(event or settled))
         return self._deadline
 
     def _post(self, message_id: int, replies: Replies) -> None:
