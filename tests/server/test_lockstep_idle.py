@@ -185,19 +185,26 @@ def _gripper_move(width: float) -> object:
     return decode_request(Frame(int(GripperCommand.Move), 7, data), GRIPPER_REQUEST_STRUCTS)
 
 
-def test_a_hand_action_runs_to_its_end_in_the_tick_its_request_released():
+def test_a_hand_action_runs_on_the_wall_clock_and_the_fingers_settle_before_its_reply():
+    """A client may watch a Hand action and stop it, so it takes its time as in realtime; its
+    end, and the fingers settling, are one tick, and the reply follows the state at rest."""
     rig = Rig(hand=True)
     rig.event()
     rig.wait(1.0)
     hand = rig.cycle.hand
     assert rig.cycle.hand.request(GripperCommand.Move, 7, _gripper_move(0.04)) == []
     rig.event()
-    assert rig.ticks[-1][0] > 400  # 4 cm at 0.1 m/s, and the fingers' settling
+    rig.wait(0.3)  # 4 cm at 0.1 m/s: 0.4 s
+    assert not hand.idle and set(rig.ticks[-250:]) == {(1, 1)}  # a state each ms
+    rig.wait(0.2)
     assert hand.idle and rig.cycle.at_rest
-    message_id, replies = rig.delivered[-1]
-    assert message_id == rig.message_id
+    assert max(rig.ticks[-200:])[0] > 10  # the fingers' settling, in one tick
+    [(message_id, replies)] = [(m, r) for m, r in rig.delivered if r.hand]
     assert [struct.unpack("<HIIH", r) for r in replies.hand] == [
         (GripperCommand.Move, 7, 12, GripperStatus.kSuccess)]
+    [after] = [decode_state(state) for state in rig.states
+               if int(decode_state(state)["message_id"]) == message_id]
+    assert not after["dq"].any()  # the reply followed the state at rest
     assert abs(hand.width - 0.04) < 5e-4
 
 
@@ -215,18 +222,24 @@ def test_after_homing_the_fingers_come_to_rest_clear_of_their_stops(then_open):
     hand = rig.cycle.hand
     hand.request(GripperCommand.Homing, 8, _gripper(GripperCommand.Homing))
     rig.event()
+    rig.wait(2.0)
     if then_open:
+        hand.request(GripperCommand.Move, 8, _gripper(GripperCommand.Move, width=0.04,
+                                                      speed=0.1))
+        rig.event()
+        rig.wait(1.0)
         hand.request(GripperCommand.Move, 8, _gripper(GripperCommand.Move, width=hand.max_width,
                                                       speed=0.1))
         rig.event()
+        rig.wait(1.0)
     assert rig.cycle.at_rest and not rig.driver._trembling
     assert hand.width == pytest.approx(hand.max_width, abs=1e-5)
 
 
 def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(monkeypatch):
     """A grasped object's contacts tremble for ever at ~1e-6 rad/s, so that world never comes
-    to rest. With nothing under way it gets TREMBLE_CYCLES to settle; then, while the client is
-    away, its states go out unchanged but for message_id, and each event steps it once."""
+    to rest. With nothing under way it gets TREMBLE_CYCLES to settle after each event; then,
+    while the client is away, its states go out unchanged but for message_id."""
     rig = Rig()
     rig.event()
     rig.wait(1.0)
@@ -239,6 +252,6 @@ def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(mo
     assert rig.message_id - at == pytest.approx(400, abs=2)
     assert rig.harness.backend.data.time == stepped
     assert rig.states[-1][8:] == rig.states[-2][8:]
-    rig.event()
-    assert rig.ticks[-1][0] == 1  # the event's own cycle, stepped
+    rig.event()  # an event: its cycle, and the world gets its settling cycles again
+    assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
     assert rig.harness.backend.data.time > stepped

@@ -89,8 +89,13 @@ class RobotCycle:
     def busy(self) -> bool:
         """Something is under way that ends by itself: a motion, a recovery, a lost client's
         motion stopping, a Hand action."""
+        return self.core.busy or self.hand_busy
+
+    @property
+    def hand_busy(self) -> bool:
+        """A Hand action runs (a client may watch it and stop it)."""
         hand = self.hand
-        return self.core.busy or (hand is not None and not hand.idle)
+        return hand is not None and not hand.idle
 
     @property
     def at_rest(self) -> bool:

@@ -21,12 +21,14 @@ sleep watching it, see `_await_answer`), and the state leaves as soon as it is p
 In lockstep, idle time is not wall time: while no client motion runs, the cycles follow the
 client's events (a TCP request to the robot or the Hand, a disconnect), so a program of motions,
 Hand actions and pauses reproduces to the bit however long the client takes between them:
-- a world that is not at rest (the arm settling onto its hold after a motion, the Hand moving,
+- a world that is not at rest (the arm settling onto its hold after a motion or a Hand action,
   a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
   keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, only
   the tick's first state and the last are sent, and the replies of all those cycles go out
   after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
-  grasped object's contacts tremble for ever) is taken as it is;
+  grasped object's contacts tremble for ever) is taken as it is. A Hand action alone runs on the
+  wall clock, a cycle each ms as in realtime: a client may watch the Hand's states and stop it,
+  and one that waits for its reply gets it after the same cycles all the same;
 - then the world is left as it is (`_frozen`) and the clock holds: the client's next event
   releases the next cycle at once, and only after LOCKSTEP_WINDOW without one does a state go
   out each ms of wall time, the last one again under the next message_id, nothing stepped
@@ -60,10 +62,10 @@ from franka_sim.server.pacing import Pacer
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
-# Lockstep, idle: the cycles the world gets to come to rest when nothing is under way (the arm
-# settles onto its hold in ~650); one that still has not (a grasped object's contacts tremble
-# for ever at ~1e-6 rad/s) is left as it is. And the most cycles one tick runs: work under way
-# that takes longer (a Hand move at 1 mm/s) goes on in the next tick.
+# Lockstep, idle: the cycles the world gets to come to rest after a motion or a request when
+# nothing is under way (the arm settles onto its hold in ~650); one that still has not (a
+# grasped object's contacts tremble for ever at ~1e-6 rad/s) is left as it is. And the most
+# cycles one tick runs: work under way that takes longer goes on in the next tick.
 TREMBLE_CYCLES = 2000
 MAX_SETTLE_CYCLES = 20_000
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
@@ -229,8 +231,8 @@ class CycleDriver:
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         replies = cycle.complete(released)
         if self.lockstep and not cycle.client_driven:
-            if moved:
-                self._trembling = 0  # the arm settles anew after a motion
+            if moved or requested:
+                self._trembling = 0  # what a motion or a request disturbed gets to settle
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         if replies or self._awaiting:
             try:
@@ -264,6 +266,8 @@ class CycleDriver:
         settled, more = 0, False
         paused = self._unwatched_pause()
         while not paused and not cycle.at_rest:
+            if cycle.hand_busy:
+                break  # a Hand action takes its time (a client may watch it and stop it)
             if cycle.busy:
                 self._trembling = 0
             elif self._trembling == TREMBLE_CYCLES:
@@ -288,6 +292,10 @@ class CycleDriver:
             return None
         if more:
             self._deadline = sent_at  # at once
+            return self._deadline
+        if cycle.hand_busy:  # its cycles go on the wall clock, the world stepped and sent
+            self._frozen = False
+            self._deadline = self.pacer.next_deadline(sent_at, lockstep=False)
             return self._deadline
         if cycle.at_rest:
             self._trembling = 0
