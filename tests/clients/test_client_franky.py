@@ -219,14 +219,17 @@ def scenario_setters(host: str) -> dict:
     EE_T_K[2, 3] = 0.02
     robot.set_ee(NE_T_EE.ravel(order="F").tolist())
     robot.set_k(EE_T_K.ravel(order="F").tolist())
-    inertia = [1e-3, 0.0, 0.0, 0.0, 2e-3, 0.0, 0.0, 0.0, 3e-3]
-    robot.set_load(0.5, [0.0, 0.0, 0.05], inertia)
     s = _fresh(robot)
     out["frames"] = {
         "F_T_EE_before": _affine(before.F_T_EE), "F_T_EE": _affine(s.F_T_EE),
         "NE_T_EE": _affine(s.NE_T_EE), "EE_T_K": _affine(s.EE_T_K),
         "O_T_EE_before": _affine(before.O_T_EE), "O_T_EE": _affine(s.O_T_EE),
     }
+    # (After the frames: a load declared but not carried lifts the arm a little against the
+    # joint impedance, and in lockstep a read after a request finds the arm settled.)
+    inertia = [1e-3, 0.0, 0.0, 0.0, 2e-3, 0.0, 0.0, 0.0, 3e-3]
+    robot.set_load(0.5, [0.0, 0.0, 0.05], inertia)
+    s = _fresh(robot)
     out["load"] = {"m_load": s.m_load, "F_x_Cload": list(s.F_x_Cload),
                    "I_load": np.asarray(s.I_load).ravel(order="F").tolist(),
                    "m_ee": s.m_ee, "m_total": s.m_total}

@@ -126,7 +126,9 @@ def test_a_collision_over_lowered_thresholds_aborts_with_cartesian_reflex(over_t
     state = robot.read_once()
     assert state.robot_mode == pylibfranka.RobotMode.Reflex
     assert "cartesian_reflex" in str(state.last_motion_errors)
-    assert state.cartesian_collision[2] == 1.0 and state.O_F_ext_hat_K[2] < -10.0
+    # Latched until recovery. (The force itself has gone with the impedance that pushed: in
+    # lockstep the Move's reply, and so this read, comes once the braked arm is at rest.)
+    assert state.cartesian_collision[2] == 1.0
     robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [100.0] * 6, [100.0] * 6)
     robot.automatic_error_recovery()
     robot.read_once()

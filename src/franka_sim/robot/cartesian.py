@@ -111,12 +111,8 @@ class CartesianTarget:
         self._twist = twist.copy()
         self._integrate()
 
-    def extrapolate(self, stand_still: bool = False) -> None:
+    def extrapolate(self) -> None:
         self._settle()
-        if stand_still:
-            self._twist = np.zeros(6)
-            self._twist_rate = np.zeros(6)
-            return
         self._twist = self._twist + self._twist_rate * DT
         self._integrate()
 

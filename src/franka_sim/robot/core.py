@@ -68,6 +68,8 @@ class RobotCore:
         self._recovery: Recovery | None = None
         self._stray_commands = 0  # this client's: its first one is logged
         self._window_closed = False  # the open cycle's command window was closed early
+        self._silent = False  # the running motion's client missed MAX_EXTRAPOLATED_CYCLES
+        self._estimate_before = None  # the external torque estimate before the last update
 
     # -- questions the server asks -----------------------------------------------------------
     @property
@@ -90,43 +92,73 @@ class RobotCore:
 
     @property
     def desired_q(self) -> np.ndarray | None:
-        """Joint positions whose kinematics the published state needs (None: the measured q)."""
+        """Joint positions whose kinematics the published state (or a motion coasting to a
+        stop) needs (None: the measured q)."""
         motion = self.motion
-        if motion is None or motion.spec.generator is MoveMotionGeneratorMode.kNone:
+        if motion is None:
+            motion = self.drives.coasting
+            if motion is None:
+                return None
+        if motion.spec.generator is MoveMotionGeneratorMode.kNone:
             return None
         return motion.reference.q_d
 
     @property
+    def busy(self) -> bool:
+        """Something is under way that ends by itself: a motion, a recovery, or a lost
+        client's motion coasting to a stop."""
+        return (self.motion is not None or self._recovery is not None
+                or self.drives.coasting is not None)
+
+    @property
+    def settled(self) -> bool:
+        """Nothing here moves on by itself from one cycle to the next: nothing under way, and
+        the external-force estimate stood still over the last cycle."""
+        if self.busy:
+            return False
+        measured, external = self.measured, self.external
+        if measured is None or external.untouched(measured.tau_ext):
+            return True
+        before = self._estimate_before
+        return before is not None and np.array_equal(before, external.tau_ext_hat_filtered)
+
+    @property
     def client_silent(self) -> bool:
-        """The client went silent mid-motion and its arm is held (enforcement off): as far as
-        the robot can tell it is gone, so a new client may take its place."""
-        return self.motion is not None and self.drives.stalled_at is not None
+        """The client went silent mid-motion and its arm is braked and held (enforcement off):
+        as far as the robot can tell it is gone, so a new client may take its place."""
+        return self.motion is not None and self._silent
 
     # -- the cycle -----------------------------------------------------------------------------
     def release_cycle(self) -> JointCommand:
         """Release the next cycle: close the open command window if an answer has not closed
         it already, then say what the drives do. A second call before `publish` only
         recomputes the drives' task."""
-        motion = self.motion
-        if motion is not None and motion.running and not self._window_closed:
+        if not self._window_closed:
             self._window_closed = True
-            self._close_window(motion)
+            motion = self.motion
+            if motion is not None and motion.running:
+                self._close_window(motion)
+            elif self.drives.coasting is not None:
+                self.drives.coast_on(self.measured)
         return self.drives.command(self.motion, self.measured)  # closing may have ended it
 
     def publish(self, measured: Measured, desired_kinematics=None) -> bytes:
         """Close the cycle: take the measurement, advance the clock, pack the RobotState."""
         self.message_id += 1
         self.measured = measured
+        self._window_closed = False
         motion = self.motion
         if motion is not None:
             if not motion.running:
                 motion.running = True  # the modes flip on the first state after kMotionStarted
                 self.status.motion_started()
             self.window.opened(self.message_id)
-            self._window_closed = False
             motion.kinematics = desired_kinematics
             self._judge(self.guard.judge_measured, measured.q, measured.dq)
+        elif self.drives.coasting is not None:
+            self.drives.coasting.kinematics = desired_kinematics
         if not self.external.untouched(measured.tau_ext):
+            self._estimate_before = self.external.tau_ext_hat_filtered
             self._estimate_external_forces(measured)
         if self._recovery is not None and self._recovery.done(measured.dq):
             self._recovered(measured)
@@ -138,6 +170,13 @@ class RobotCore:
         facts.measured = measured
         facts.desired_kinematics = desired_kinematics
         return self.publisher.pack(facts)
+
+    def republish(self) -> bytes:
+        """The last state again as the next cycle's, nothing stepped or estimated: a cycle of
+        a world left as it was (server/cycle_driver.py: lockstep's idle time)."""
+        self.message_id += 1
+        self._window_closed = False
+        return self.publisher.restamp(self.message_id)
 
     def run_deferred_checks(self) -> None:
         """The log-only limit checks queued this cycle (see LimitPolicy): the server runs them
@@ -161,16 +200,17 @@ class RobotCore:
         self.limit_policy.run_deferred()  # the last cycle's first: the checks difference samples
         command = self.window.close()
         lost = self.window.consecutive_lost
-        guard, drives = self.guard, self.drives
+        guard = self.guard
         guard.released()
         if command is not None:
             if self._judge(guard.judge_command, command):
                 return  # a violating command never reaches the physics
             motion.apply(command)
-            drives.stalled_at = None
+            self._silent = False
         else:
-            motion.miss(lost)
-        if motion.cartesian is not None and self._judge(guard.judge_ik, motion.reference):
+            motion.miss(lost, self.measured)
+        if (motion.cartesian is not None and not motion.braking
+                and self._judge(guard.judge_ik, motion.reference)):
             return
         if lost >= MAX_EXTRAPOLATED_CYCLES and not motion.spec.use_async:
             if self.enforce_comm_constraints:
@@ -179,10 +219,9 @@ class RobotCore:
                 self._reflex(["communication_constraints_violation"])
                 return
             if lost == MAX_EXTRAPOLATED_CYCLES:
-                log.warning("client silent for %d cycles: holding the arm until it is heard "
-                            "again", lost)
-            if drives.stalled_at is None and self.measured is not None:
-                drives.stalled_at = self.measured.q.copy()
+                log.warning("client silent for %d cycles: braking the arm to rest, held until "
+                            "the client is heard again", lost)
+            self._silent = True
         if command is not None and motion.finished:
             self._finish(motion)
 
@@ -237,7 +276,8 @@ class RobotCore:
             elbow_start=start.elbow, joint_discontinuity_scale=self.joint_discontinuity_scale)
         self.motion = motion
         self.window = CommandWindow()
-        self.drives.stalled_at = None
+        self._silent = False
+        self.drives.coasting = None  # a lost client's motion still stopping: this one takes over
         return [build_response(Command.Move, command_id, MoveStatus.kMotionStarted)]
 
     def request_stop(self, command_id: int) -> list[bytes]:
@@ -302,10 +342,20 @@ class RobotCore:
         self._stray_commands = 0
 
     def client_gone(self) -> None:
-        """The client closed TCP: its motion ends as if it went silent, and the arm holds."""
-        if self.motion is not None:
-            if self.enforce_comm_constraints and self.motion.running:
+        """The client closed TCP. Under enforcement its motion ends in the reflex. Without, the
+        robot runs it on as it runs any motion whose commands stop coming (extrapolated, then
+        braked to rest: Drives.coast), but reports idle at once: nobody is left to answer, and
+        the next client may start its own motion straight away."""
+        motion = self.motion
+        if motion is not None:
+            if self.enforce_comm_constraints and motion.running:
                 self._reflex(["communication_constraints_violation"])
+            elif motion.running:
+                motion.orphaned = True
+                self.motion = None
+                self._silent = False
+                self.status.robot_mode = RobotMode.kIdle
+                self.drives.coast(motion, self.window.consecutive_lost)
             else:
                 self._end_motion(RobotMode.kIdle)
         self._recovery = None
@@ -341,7 +391,7 @@ class RobotCore:
     def _end_motion(self, mode: RobotMode) -> None:
         """Stop where the arm is: the impedance hold brings it to rest."""
         self.motion = None
-        self.drives.stalled_at = None
+        self._silent = False
         self.status.robot_mode = mode
         if self.measured is not None:
             self.drives.hold_at(self.measured.q)

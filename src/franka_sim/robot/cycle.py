@@ -65,6 +65,8 @@ class RobotCycle:
         self.hand = hand
         self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
         self._failures = 0
+        self._measured = None  # the last step's measurement
+        self._unchanged = False  # the last step handed back the one before (physics at rest)
 
     # -- questions a pacer asks ----------------------------------------------------------------
     @property
@@ -82,6 +84,31 @@ class RobotCycle:
         """The client answers every state now, so a lockstep pacer may wait for it."""
         return self.core.streams_commands
 
+    @property
+    def client_driven(self) -> bool:
+        """A client's motion runs (its commands, not the robot alone, decide what comes next)."""
+        return self.core.motion_running
+
+    @property
+    def busy(self) -> bool:
+        """Something is under way that ends by itself: a motion, a recovery, a lost client's
+        motion stopping, a Hand action."""
+        return self.core.busy or self.hand_busy
+
+    @property
+    def hand_busy(self) -> bool:
+        """A Hand action runs (a client may watch it and stop it)."""
+        hand = self.hand
+        return hand is not None and not hand.idle
+
+    @property
+    def at_rest(self) -> bool:
+        """The next cycle would change nothing but message_id: no motion or recovery under way,
+        the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
+        change nothing hands back the last measurement itself, physics "Rest")."""
+        hand = self.hand
+        return self._unchanged and self.core.settled and (hand is None or hand.idle)
+
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
         """A decoded RobotCommand; True if it answered the open cycle in time."""
@@ -95,6 +122,8 @@ class RobotCycle:
             measured = physics.step(joint_command)
         else:
             measured = physics.step(joint_command, self.hand.command)
+        self._unchanged = measured is self._measured
+        self._measured = measured
         kinematics = None if q_d is None else physics.flange_pose_and_jacobian(q_d)
         try:
             state = core.publish(measured, kinematics)
@@ -102,6 +131,14 @@ class RobotCycle:
             self._failed()
             state = None
         return Released(core.message_id, state, measured)
+
+    def repeat(self) -> Released:
+        """A cycle that leaves the world as it is: the last state again under the next
+        message_id, nothing stepped (complete it as any other). At rest it is the cycle that
+        stepping would give, bit for bit."""
+        core = self.core
+        state = core.republish()
+        return Released(core.message_id, state, self._measured)
 
     def complete(self, released: Released) -> Replies:
         """After the state has left: the Hand, the rest of the step, the log-only checks. A

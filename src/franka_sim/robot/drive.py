@@ -2,9 +2,10 @@
 
 Idle, the arm holds its pose under the joint impedance. A running motion's generator feeds the
 internal joint impedance (q_d, dq_d), or the Cartesian impedance, or the client's torque goes
-straight to the drives; a client gone silent mid-motion (enforcement off) is held where the arm
-stood. The robot always adds gravity compensation; a load declared with SetLoad is part of the
-model it compensates.
+straight to the drives; when the client has gone silent (enforcement off) the joint impedance
+follows the motion's reference braking to rest (motion.py). A motion whose client closed its
+connection is run on here, without it, until the arm has stopped (`coast`). The robot always
+adds gravity compensation; a load declared with SetLoad is part of the model it compensates.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ class Drives:
     def __init__(self, settings: RobotSettings, q_hold: np.ndarray) -> None:
         self.settings = settings
         self.q_hold = np.array(q_hold, dtype=float)  # where the idle arm is held
-        self.stalled_at: np.ndarray | None = None  # a silent client's arm is held here
+        self.coasting: Motion | None = None  # a motion whose client is gone, run on to stop
+        self._coast_lost = 0  # its cycles without a command, in a row
         self._payload: Payload | None = None  # the declared load, as the drives' model carries it
         self._hold: tuple | None = None  # (q_hold, K_theta, the idle command)
         self._motion_F_T_K: tuple | None = None  # (motion, EE_T_K, its F_T_EE @ EE_T_K)
@@ -39,10 +41,14 @@ class Drives:
 
     def _task(self, motion: Motion | None, measured: Measured | None) -> JointCommand:
         if motion is None or not motion.running:
-            return self._hold_command()
+            motion = self.coasting
+            if motion is None:
+                return self._hold_command()
         settings = self.settings
-        if self.stalled_at is not None:
-            return JointCommand.impedance(self.stalled_at, settings.K_theta, settings.D_theta)
+        if motion.braking:
+            ref = motion.reference
+            return JointCommand.impedance(ref.q_d, settings.K_theta, settings.D_theta,
+                                          dq_d=ref.dq_d)
         if motion.spec.torque_controlled:
             return JointCommand.torque(motion.tau_J_d)
         if motion.spec.controller is MoveControllerMode.kCartesianImpedance:
@@ -81,6 +87,21 @@ class Drives:
     def hold_at(self, q: np.ndarray) -> None:
         """From now on (idle) the arm is held at q."""
         self.q_hold = q.copy()
+        self.coasting = None
+
+    def coast(self, motion: Motion, lost: int) -> None:
+        """Run on a motion whose client is gone, as the robot runs any motion whose commands
+        stop coming: extrapolated (its `lost` cycles in a row so far count), then braked to
+        rest, where the idle hold takes over."""
+        self.coasting, self._coast_lost = motion, lost
+
+    def coast_on(self, measured: Measured | None) -> None:
+        """The coasting motion's next cycle (once per cycle, before the step)."""
+        motion = self.coasting
+        self._coast_lost += 1
+        motion.miss(self._coast_lost, measured)
+        if motion.braking and motion.reference.at_rest:
+            self.hold_at(motion.reference.q_d)
 
     def set_load(self, load: Load) -> None:
         """The load becomes part of the robot's model: gravity compensation and the estimate."""

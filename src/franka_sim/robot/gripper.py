@@ -13,7 +13,9 @@ Figures and choices (fr3_facts §3 where sourced, ours otherwise):
   faster requests are clamped. Move and Grasp ramp the opening at constant speed, so a Move takes
   |Δwidth|/speed, to the cycle, and ends when the opening is within 0.5 mm of its goal.
 - Homing closes, then opens to the mechanical stops, both at 0.1 m/s, and measures max_width
-  there. Before any homing, max_width is the datasheet's 0.08 m.
+  there. Before any homing, max_width is the datasheet's 0.08 m. Once homed, the Hand holds its
+  fingers STOP_CLEARANCE inside that opening, never against the stops: max_width is read while
+  pressing them, and they give a few µm under that force.
 - Grasp closes at `speed` pushing with at most `force` per finger. When the fingers stop on
   something (they trail the closing ramp by 2 mm) or the ramp has closed them, the hand squeezes
   with `force` and, 50 ms later, tests width − ε_inner < d < width + ε_outer on the opening d:
@@ -56,6 +58,7 @@ SETTLE_TIMEOUT = 1000  # cycles after a ramp: fingers still not at rest count as
 BLOCKED_LAG = 2e-3  # m: fingers this far behind their ramp are stopped by something
 SQUEEZE_CYCLES = 50  # cycles a grasp squeezes before it judges the width
 AT_REST_SPEED = 1e-3  # m/s
+STOP_CLEARANCE = 8e-6  # m of opening: a homed Hand holds at most max_width less this
 TEMPERATURE = 30  # °C, constant (no thermal model)
 
 
@@ -191,6 +194,7 @@ class Gripper:
         self.state_period = state_period
         self.max_width = max_width
         self.width = max_width  # last measured opening (the fingers start open)
+        self._widest_hold = max_width  # no hold opens wider (homing: just inside its stops)
         self.is_grasped = False
         self.cycle = 0  # last advanced cycle
         self._action: _Move | _Grasp | _Homing | None = None
@@ -201,6 +205,11 @@ class Gripper:
         self._buffer.temperature[...] = TEMPERATURE
 
     # -- the cycle ---------------------------------------------------------------------------
+    @property
+    def idle(self) -> bool:
+        """No action runs (a held grasp is no action: nothing in it moves on by itself)."""
+        return self._action is None
+
     @property
     def command(self) -> FingerCommand | None:
         """The finger drive's command for the next cycle (None: unchanged)."""
@@ -232,6 +241,7 @@ class Gripper:
             return
         if isinstance(action, _Homing) and action.max_width is not None:
             self.max_width = action.max_width
+            self._widest_hold = action.max_width - STOP_CLEARANCE
         if isinstance(action, _Move) and status is GripperStatus.kSuccess:
             self._hold(action.ramp.goal)
         else:  # stay where the fingers stopped (a missed grasp stops squeezing)
@@ -331,7 +341,7 @@ class Gripper:
         return [build_gripper_response(action.kind, action.command_id, GripperStatus.kAborted)]
 
     def _hold(self, width: float) -> None:
-        self._idle = FingerCommand(max(0.0, width), 0.0, MAX_FORCE)
+        self._idle = FingerCommand(min(max(0.0, width), self._widest_hold), 0.0, MAX_FORCE)
 
     # -- argument checks: a reason string when the hand refuses ---------------------------------
     def _fail(self, command: GripperCommand, command_id: int, problem: str) -> list[bytes]:

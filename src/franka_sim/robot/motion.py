@@ -4,7 +4,9 @@ The robot turns each applied RobotCommand into desired joint signals (q_d, dq_d,
 desired torque (tau_J_d), differentiating by backward differences at the 1 ms cycle. A cycle
 the client missed is filled in as the FCI fills it: motion signals continue at constant
 acceleration, torques repeat. After 20 consecutive misses the robot stops extrapolating (that is
-where it would abort); from then on the reference stands still until the client is heard again.
+where it would abort): it brakes the arm to rest from where it measures it, as its own stop does
+(every joint slowing together along its way, none faster than BRAKE_DECELERATION), and holds it
+there until the client is heard again.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from franka_sim.physics.backend import Measured
 from franka_sim.robot.cartesian import CartesianTarget, dls_step, ee_jacobian
 from franka_sim.protocol.enums import (
     STATE_CONTROLLER_MODE,
@@ -27,6 +30,9 @@ from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.spatial import pose_error
 
 MAX_EXTRAPOLATED_CYCLES = 20
+# How fast the robot's own stop slows a joint: the FR3's joint acceleration limit (every joint,
+# robot/checks/figures.py). From 0.3 rad/s it stops in 30 ms, 4.5 mrad on.
+BRAKE_DECELERATION = 10.0  # rad/s²
 # A finished motion must end at rest: |dq_d| above this on the finishing cycle is "still moving".
 FINISH_VELOCITY_TOLERANCE = 0.05  # rad/s
 
@@ -111,9 +117,23 @@ class JointReference:
         self.dq_d = self.dq_d + self.ddq_d * DT
         self.q_d = self.q_d + self.dq_d * DT
 
-    def stand_still(self) -> None:
-        self.dq_d = np.zeros(7)
-        self.ddq_d = np.zeros(7)
+    def brake(self) -> None:
+        """One cycle of the robot's stop: every joint slows by the same share, so they reach
+        rest together and the arm stays on its way, none slowing faster than
+        BRAKE_DECELERATION."""
+        dq = self.dq_d
+        to_rest = float(np.max(np.abs(dq))) / BRAKE_DECELERATION  # s
+        if to_rest == 0.0:
+            self.ddq_d = np.zeros(7)
+            return
+        slower = dq * (1.0 - DT / to_rest) if to_rest > DT else np.zeros(7)
+        self.ddq_d = (slower - dq) / DT
+        self.dq_d = slower
+        self.q_d = self.q_d + slower * DT
+
+    @property
+    def at_rest(self) -> bool:
+        return not self.dq_d.any()
 
 
 # Acceleration the robot's own point-to-point generator uses for async targets (the FR3's
@@ -201,6 +221,11 @@ class Motion:
         self.tau_J_d = np.zeros(7)
         self.last_command = None
         self.finished = False
+        # The client's commands stopped coming: past MAX_EXTRAPOLATED_CYCLES the robot brakes
+        # the arm (its joint impedance follows `reference` braking to rest) until it hears
+        # from the client again; `orphaned`: it never will (the client closed its connection).
+        self.braking = False
+        self.orphaned = False
         # What a command means for this Move, decided once: the generator's signal to follow
         # (None: torque only), whether it carries tau_J_d, and which flag finishes it.
         generator = spec.generator
@@ -219,6 +244,7 @@ class Motion:
     def apply(self, command) -> None:
         """Take the command the client sent for this cycle."""
         self.last_command = command
+        self.braking = False
         if self._follow is not None:
             self._follow(command)
         if self._torque_controlled:
@@ -250,20 +276,25 @@ class Motion:
                 self.elbow.follow(position, flag)
         self._solve()
 
-    def miss(self, consecutive: int) -> None:
-        """No command for this cycle: extrapolate (torques are simply held)."""
-        if self.async_target is not None:
+    def miss(self, consecutive: int, measured: Measured | None = None) -> None:
+        """No command for this cycle, `consecutive` in a row: extrapolate (torques are simply
+        held); past MAX_EXTRAPOLATED_CYCLES brake from the arm as measured. An async motion's
+        gaps are normal: its generator goes on, unless its client is gone."""
+        if self.async_target is not None and not self.orphaned:
             self.async_target.advance()
+        elif self.braking or consecutive > MAX_EXTRAPOLATED_CYCLES:
+            if not self.braking:
+                self.braking = True
+                if measured is not None:  # the stop starts from the arm as measured, any mode
+                    self.reference = JointReference(measured.q)
+                    self.reference.dq_d = np.array(measured.dq, dtype=float)
+            self.reference.brake()
         elif self.spec.generator in JOINT_GENERATORS:
-            if consecutive <= MAX_EXTRAPOLATED_CYCLES:
-                self.reference.extrapolate()
-            else:
-                self.reference.stand_still()
+            self.reference.extrapolate()
         elif self.cartesian is not None:
-            stand_still = consecutive > MAX_EXTRAPOLATED_CYCLES
-            self.cartesian.extrapolate(stand_still=stand_still)
+            self.cartesian.extrapolate()
             if self.elbow is not None:
-                self.elbow.extrapolate(stand_still)
+                self.elbow.extrapolate(False)
             self._solve()
 
     def _solve(self) -> None:

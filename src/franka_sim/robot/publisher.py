@@ -135,6 +135,12 @@ class StatePublisher:
         self._external_forces(facts.external)
         return s.pack()
 
+    def restamp(self, message_id: int) -> bytes:
+        """The last packed state again, under another message_id."""
+        s = self.buffer
+        s.message_id[...] = message_id
+        return s.pack()
+
     def published_start(self) -> PublishedStart:
         """The arm as the last state showed it (fresh arrays, safe to keep)."""
         q = self._written[0].q.copy()

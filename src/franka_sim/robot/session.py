@@ -74,6 +74,7 @@ class Session:
         self.handle = handle
         self.handshake: Handshake | None = None
         self.closed = False
+        self.requests = 0  # frames handled, Connect included
         self._reader = FrameReader(service.header, service.request_sizes, service.max_size)
 
     def receive(self, data: bytes) -> list[bytes]:
@@ -87,6 +88,7 @@ class Session:
             raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
         replies: list[bytes] = []
         for frame in frames:
+            self.requests += 1
             replies.extend(self._dispatch(frame))
             if self.closed:
                 break

@@ -18,9 +18,24 @@ the command comes from the client, so the cycle is released when its deadline co
 or when the answer arrives (lockstep; the tick reads the socket for a moment before it goes to
 sleep watching it, see `_await_answer`), and the state leaves as soon as it is packed.
 
-In lockstep the cycle after a motion's last waits for the client's next request (or a lockstep
-window), so how many idle cycles separate two motions does not depend on how fast the client
-was: back-to-back motions reproduce to the bit.
+In lockstep, idle time is not wall time: while no client motion runs, the cycles follow the
+client's events (a TCP request to the robot or the Hand, a disconnect), so a program of motions,
+Hand actions and pauses reproduces to the bit however long the client takes between them:
+- a world that is not at rest (the arm settling onto its hold after a motion or a Hand action,
+  a recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick that
+  keeps the lock, until it is at rest (RobotCycle.at_rest); no request is taken meanwhile, only
+  the tick's first state and the last are sent, and the replies of all those cycles go out
+  after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
+  grasped object's contacts tremble for ever) is taken as it is. A Hand action alone runs on the
+  wall clock, a cycle each ms as in realtime: a client may watch the Hand's states and stop it,
+  and one that waits for its reply gets it after the same cycles all the same;
+- then the world is left as it is (`_frozen`) and the clock holds: the client's next event
+  releases the next cycle at once, and only after LOCKSTEP_WINDOW without one does a state go
+  out each ms of wall time, the last one again under the next message_id, nothing stepped
+  (RobotCycle.repeat: at rest, the very bits a step would give). They keep a client that reads
+  states while idle served: libfranka takes only a newer message_id.
+So every state a client can see after an event is the same bits in every run; only message_id
+counts wall time, and only the wall time a client spends longer than the window between events.
 
 A request's replies wait for the first state published after it (`after_next_state`), and a
 reply the cycle itself produced (a Move's end, a recovery) goes out after the state that shows
@@ -42,11 +57,17 @@ from typing import Callable
 
 from franka_sim.robot.cycle import Released, Replies, RobotCycle
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.pacing import LOCKSTEP_WINDOW, Pacer
+from franka_sim.server.pacing import Pacer
 
 log = logging.getLogger(__name__)
 
 PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the arm settles first)
+# Lockstep, idle: the cycles the world gets to come to rest after a motion or a request when
+# nothing is under way (the arm settles onto its hold in ~650); one that still has not (a
+# grasped object's contacts tremble for ever at ~1e-6 rad/s) is left as it is. And the most
+# cycles one tick runs: work under way that takes longer goes on in the next tick.
+TREMBLE_CYCLES = 2000
+MAX_SETTLE_CYCLES = 20_000
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the socket for the answer before sleeping
 
 # deliver(replies), on the loop: write a completed cycle's replies to their TCP connections.
@@ -88,11 +109,12 @@ class CycleDriver:
         self._prepared: Released | None = None  # an idle cycle released ahead
         self._deadline: float | None = None
         self._unwatched = 0  # cycles since a client was last connected
-        # Lockstep, after a motion: the next cycle waits for the client's next request (see
-        # _tick_locked). `_requests` counts requests (loop, lock held), `_holding` is the
-        # count the hold began at.
+        # Client events (client_event: loop, lock held) and the count the last released cycle
+        # followed: in lockstep, an idle cycle goes at once when they differ.
         self._requests = 0
-        self._holding: int | None = None
+        self._served = 0
+        self._frozen = False  # lockstep, idle: the world is left as it is until a client event
+        self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         self.paused = False
 
     # -- the loop's side -------------------------------------------------------------------------
@@ -117,15 +139,20 @@ class CycleDriver:
         clock running releases nothing)."""
         self.thread.wake()
 
+    def client_event(self) -> None:
+        """A TCP request (robot or Hand) or a client's disconnect, lock held. In lockstep,
+        while no client motion runs, it releases the next cycle at once (the idle clock holds
+        for the client otherwise)."""
+        self._requests += 1
+        if self.lockstep:
+            self.thread.wake()
+
     def after_next_state(self, deliver: Callable[[], None]) -> bool:
         """Call `deliver` (a request's replies) once the first state published after now has
         been sent; False while no state is coming (stopped, paused): deliver now. Lock held."""
         if not self._running or self.paused:
             return False
         self._awaiting.append((self.cycle.message_id + 1, deliver))
-        self._requests += 1
-        if self._holding is not None:
-            self.thread.wake()  # the held cycle goes now, after this request
         return True
 
     def keep_running(self) -> None:
@@ -196,22 +223,31 @@ class CycleDriver:
         # is counted and logged within a cycle); in lockstep also in _await_answer (_tick).
         ready = self._prepared is not None  # an idle cycle released ahead: it goes first
         if due and not ready:
-            answered = self._read_socket() or answered  # an answer in time counts
-        requested = self._holding is not None and self._requests != self._holding
+            answered = self._read_socket() or answered
+        requested = (self._requests != self._served and self.lockstep
+                     and not cycle.client_driven)
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         self.paused = False
-        self._holding = None
+        self._served = self._requests
         released, self._prepared = self._prepared, None
         # A motion's cycle (or its last): the client may start its next motion at once, so the
         # cycle after it is decided when it goes, not ahead of it.
         moved = released is None and moving
         if released is None:
-            released = cycle.release()
+            if self._frozen and not requested:  # lockstep's idle time, the client away
+                released = cycle.repeat()
+            else:
+                self._frozen = False
+                released = cycle.release()
         if released.state is not None:
             self.send_state(released.state)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)
         replies = cycle.complete(released)
+        if self.lockstep and not cycle.client_driven:
+            if moved or requested:
+                self._trembling = 0  # what a motion or a request disturbed gets to settle
+            return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         if replies or self._awaiting:
             try:
                 self._loop.call_soon_threadsafe(self._sent, released.message_id, replies)
@@ -226,16 +262,80 @@ class CycleDriver:
             return None
         if not cycle.in_motion and not moved:  # idle: the next command is the hold
             self._prepared = cycle.release()
-        if moved and self.lockstep and not cycle.in_motion:
-            # A lockstep motion just ended. Its client's next step (the next Move, a read)
-            # decides when the next cycle goes, not how fast it answered within a 1 ms
-            # deadline: so a program of back-to-back motions reproduces to the bit. The cycle
-            # goes on the client's next request, or at the end of a lockstep window.
-            self._holding = self._requests
-            self._deadline = sent_at + LOCKSTEP_WINDOW
-            return self._deadline
         self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now())
         return self._deadline
+
+    def _idle_in_lockstep(self, released: Released, sent_at: float, replies: Replies,
+                          event: bool) -> float | None:
+        """Lockstep, no client motion: idle time is not wall time (see the module docstring).
+
+        The world settles in this one tick, cycle after cycle, while the lock keeps every
+        request out: so it reaches rest the same number of cycles after the client's event
+        however fast this machine is. Of the cycles run here only the last state is sent
+        (hundreds of states in a few ms would overflow the client's socket, and a read would
+        then find one of them, a different one each run), and every reply of the way waits for
+        it. Then the world is left as it is (`_frozen`) until the client's next event."""
+        cycle = self.cycle
+        robot, hand = list(replies.robot), list(replies.hand)
+        settled, more = 0, False
+        paused = self._unwatched_pause()
+        while not paused and not cycle.at_rest:
+            if cycle.hand_busy:
+                break  # a Hand action takes its time (a client may watch it and stop it)
+            if cycle.busy:
+                self._trembling = 0
+            elif self._trembling == TREMBLE_CYCLES:
+                break  # nothing under way, yet it does not come to rest: left as it is
+            else:
+                self._trembling += 1
+            if settled == MAX_SETTLE_CYCLES:
+                more = True  # work this long goes on in the next tick (requests may come between)
+                break
+            released = cycle.release()
+            replies = cycle.complete(released)
+            robot += replies.robot
+            hand += replies.hand
+            settled += 1
+            paused = self._unwatched_pause()
+        if settled and released.state is not None:
+            self.send_state(released.state)
+            sent_at = self.clock()
+        # Hand states of cycles on the way to rest would reach a client late: only the last.
+        self._post(released.message_id, Replies(robot, hand, replies.hand_state))
+        if paused:
+            return None
+        if more:
+            self._deadline = sent_at  # at once
+            return self._deadline
+        if cycle.hand_busy:  # its cycles go on the wall clock, the world stepped and sent
+            self._frozen = False
+            self._deadline = self.pacer.next_deadline(sent_at, lockstep=False)
+            return self._deadline
+        if cycle.at_rest:
+            self._trembling = 0
+        self._frozen = True
+        # After the client's event, or the world it disturbed come to rest: hold for its next
+        # one (LOCKSTEP_WINDOW). Once that ran out: the world as it is each ms, on the wall clock.
+        self._deadline = self.pacer.next_deadline(sent_at, lockstep=bool(event or settled))
+        return self._deadline
+
+    def _post(self, message_id: int, replies: Replies) -> None:
+        """Hand the loop what waited for the state of `message_id`, now that it has left."""
+        if replies or self._awaiting:
+            try:
+                self._loop.call_soon_threadsafe(self._sent, message_id, replies)
+            except RuntimeError:  # loop closed during shutdown
+                pass
+
+    def _unwatched_pause(self) -> bool:
+        """Count a cycle nobody was connected for; True when the clock pauses now (as
+        _tick_locked does inline)."""
+        self._unwatched = 0 if self.has_client() else self._unwatched + 1
+        if self._unwatched >= PAUSE_AFTER and not self.cycle.in_motion:
+            self.paused = True
+            self._deadline = None
+            return True
+        return False
 
     def _read_socket(self) -> bool:
         """The datagrams on the socket now, to the cycle; True if one answered in time."""

@@ -19,9 +19,10 @@ class GripperEndpoint(SingleClientEndpoint):
 
     def __init__(self, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None],
-                 lock: AbstractContextManager | None = None) -> None:
+                 lock: AbstractContextManager | None = None,
+                 on_request: Callable[[], None] = lambda: None) -> None:
         super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect,
-                         lock=lock)
+                         lock=lock, on_request=on_request)
         self._client_gone = on_disconnect
         self.state_target: tuple[str, int] | None = None
         self.udp: asyncio.DatagramTransport | None = None

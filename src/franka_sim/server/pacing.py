@@ -12,7 +12,8 @@ runs) releases the next cycle as soon as the command answering the current one a
 otherwise waits up to LOCKSTEP_WINDOW of wall time, from when the state left, for it: long
 enough that a client descheduled on a loaded machine (CI) loses no cycle, so the outcome of a
 run does not depend on the host's timing; short enough that a client that went away is still
-noticed (20 lost cycles take 2 s).
+noticed (20 lost cycles take 2 s). Idle in lockstep, the same window is how long the clock
+holds at rest for the client's next request (cycle_driver.py).
 """
 
 from __future__ import annotations

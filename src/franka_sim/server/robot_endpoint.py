@@ -18,6 +18,7 @@ class RobotEndpoint(SingleClientEndpoint):
                  on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
                  lock: AbstractContextManager | None = None,
-                 replaceable: Callable[[], bool] = lambda: False) -> None:
+                 replaceable: Callable[[], bool] = lambda: False,
+                 on_request: Callable[[], None] = lambda: None) -> None:
         super().__init__("FCI", make_session, on_handshake, on_disconnect, defer_replies, lock,
-                         replaceable)
+                         replaceable, on_request)

@@ -63,11 +63,13 @@ class FrankaSim:
         # (each TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
         self.gripper_endpoint = GripperEndpoint(
-            self._make_gripper_session, self._on_gripper_disconnect, lock=self.lock)
+            self._make_gripper_session, self._on_gripper_disconnect, lock=self.lock,
+            on_request=self._client_event)
         self.udp = UdpEndpoint(self._on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
                                    defer_replies=self._defer_replies, lock=self.lock,
-                                   replaceable=self._client_silent)
+                                   replaceable=self._client_silent,
+                                   on_request=self._client_event)
         self.driver = CycleDriver(
             self._make_cycle, self.worker, self.lock, self.udp.send_state,
             lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
@@ -209,6 +211,9 @@ class FrankaSim:
         self.driver.resume()
         return gripper_session(self.gripper)
 
+    def _client_event(self) -> None:
+        self.driver.client_event()  # in lockstep, what releases an idle cycle
+
     def _defer_replies(self, deliver) -> bool:
         return self.driver.after_next_state(deliver)  # see CycleDriver.after_next_state
 
@@ -226,6 +231,7 @@ class FrankaSim:
     def _on_disconnect(self) -> None:
         self.udp.target = None
         self.core.client_gone()
+        self.driver.client_event()
 
     def _on_command(self, command) -> None:
         self.driver.receive(command)
@@ -245,3 +251,4 @@ class FrankaSim:
 
     def _on_gripper_disconnect(self) -> None:
         self.gripper.client_gone()
+        self.driver.client_event()

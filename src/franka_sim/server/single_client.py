@@ -75,12 +75,15 @@ class ClientConnection(asyncio.Protocol):
 
     def _receive(self, data: bytes) -> None:
         was_connected = self.session.handshake is not None
+        requests = self.session.requests
         try:
             replies = self.session.receive(data)
         except SessionError as exc:
             log.warning("closing %s connection from %s:%s: %s", self.owner.what, *self.peer, exc)
             self.transport.close()
             return
+        if self.session.requests != requests:
+            self.owner.on_request()
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
         closed = self.session.closed
@@ -117,6 +120,7 @@ class SingleClientEndpoint:
         defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
         lock: "AbstractContextManager | None" = None,
         replaceable: Callable[[], bool] = lambda: False,
+        on_request: Callable[[], None] = lambda: None,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
@@ -129,6 +133,8 @@ class SingleClientEndpoint:
         self.lock = lock if lock is not None else nullcontext()
         # replaceable() → True: the active client counts as gone, and a newcomer replaces it.
         self.replaceable = replaceable
+        # on_request(): the active client's requests were handled (lock held): the clock's cue.
+        self.on_request = on_request
         self.active: ClientConnection | None = None
         self.server: asyncio.AbstractServer | None = None
 

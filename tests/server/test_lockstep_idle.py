@@ -1,0 +1,257 @@
+"""Lockstep's idle time, on the cycle driver with a fake clock: it follows the client's events,
+not the wall clock, so a program reproduces to the bit however long the client pauses.
+
+No sockets and no threads: the driver's tick is called by hand, its wall clock is a number and
+its event loop a recorder (server/cycle_driver.py says what a tick does).
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+
+import numpy as np
+import pytest
+
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.scene import default_scene_path
+from franka_sim.protocol.codec import decode_command, decode_state, encode_command
+from franka_sim.protocol.enums import Command, GripperCommand, GripperStatus, MoveStatus
+from franka_sim.protocol.framing import Frame, decode_request
+from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
+from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.cycle import RobotCycle
+from franka_sim.server.cycle_driver import TREMBLE_CYCLES, CycleDriver
+from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD
+
+from support.harness import Harness, reply_status
+
+DESC = load_arm_description(default_urdf_text())
+
+
+class _Clock:
+    """Wall time that moves 1 µs per reading (a lockstep tick reads it while it waits for an
+    answer), and as the test says."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        self.now += 1e-6
+        return self.now
+
+
+class _Worker:
+    def __init__(self) -> None:
+        self.wakes = 0
+
+    def wake(self) -> None:
+        self.wakes += 1
+
+    def watch(self, sock) -> None:
+        pass
+
+
+class _Loop:
+    """The event loop as the driver uses it: what it was handed, run at once."""
+
+    def call_soon_threadsafe(self, fn, *args) -> None:
+        fn(*args)
+
+
+class Rig:
+    """A lockstep driver ticking a harness's cycle (with the Hand), its states and replies."""
+
+    def __init__(self, hand: bool = False) -> None:
+        self.harness = Harness()
+        if hand:
+            self.harness.backend = MujocoBackend(DESC, self.harness.core.drives.q_hold,
+                                                 scene_xml=default_scene_path(), fingers=True)
+            self.harness.robot_cycle.hand = Gripper()
+        self.clock = _Clock()
+        self.states: list[bytes] = []
+        self.delivered: list[tuple[int, object]] = []  # (last message_id sent, replies)
+        self.on_socket: list[bytes] = []
+        self.ticks: list[tuple[int, int]] = []  # (cycles released, states sent) by each tick
+        driver = self.driver = CycleDriver(
+            lambda physics: self.harness.robot_cycle, _Worker(), threading.Lock(),
+            self.states.append, lockstep=True, deliver=self._deliver,
+            poll_commands=self._poll, command_socket=lambda: None, clock=self.clock)
+        driver.cycle = self.harness.robot_cycle
+        driver._loop = _Loop()
+        driver._running = True
+
+    @property
+    def cycle(self):
+        return self.harness.robot_cycle
+
+    def _deliver(self, replies) -> None:
+        self.delivered.append((self.message_id, replies))
+
+    def _poll(self, limit: int = 64) -> None:
+        for _ in range(min(limit, len(self.on_socket))):
+            self.driver.receive(decode_command(self.on_socket.pop(0)))
+
+    @property
+    def message_id(self) -> int:
+        return int(decode_state(self.states[-1])["message_id"])
+
+    def tick(self, due: bool) -> float | None:
+        cycles, states = self.cycle.message_id, len(self.states)
+        deadline = self.driver._tick(None, due)
+        self.ticks.append((self.cycle.message_id - cycles, len(self.states) - states))
+        return deadline
+
+    def event(self) -> float | None:
+        """A client request (robot or Hand) has been handled: it wakes the clock."""
+        self.driver.client_event()
+        return self.tick(False)
+
+    def wait(self, seconds: float) -> None:
+        """The client takes `seconds` of wall time: every deadline in it comes."""
+        end = self.clock.now + seconds
+        while True:
+            deadline = self.driver._deadline
+            if deadline is None or deadline > end:
+                break
+            self.clock.now = deadline
+            self.tick(True)
+        self.clock.now = end
+
+    def motion(self, velocities) -> None:
+        """A joint-velocity Move answered cycle by cycle, the last command finishing it."""
+        assert self.harness.move(0, 1) == MoveStatus.kMotionStarted
+        self.event()  # the Move's request releases the motion's first state
+        for k, dq in enumerate(velocities):
+            self.on_socket.append(encode_command(
+                message_id=self.message_id, dq_c=list(dq),
+                motion_generation_finished=k == len(velocities) - 1))
+            self.tick(False)  # the answer woke it
+
+
+def _swing(n: int = 300) -> list[np.ndarray]:
+    return [np.full(7, 0.3) * np.sin(np.pi * k / n) for k in range(1, n + 1)]
+
+
+def test_after_a_motion_the_arm_settles_in_the_same_tick_and_the_reply_waits_for_rest():
+    rig = Rig()
+    rig.motion(_swing())
+    cycles, states = rig.ticks[-1]
+    assert cycles > 100  # the finishing answer's tick ran the arm to rest
+    assert states == 2  # the first idle state, and the one at rest: none in between
+    assert rig.cycle.at_rest and rig.message_id == rig.cycle.message_id
+    message_id, replies = rig.delivered[-1]
+    assert message_id == rig.message_id  # after the state at rest, not the motion's last
+    assert [reply_status(r) for r in replies.robot] == [(Command.Move, 5, MoveStatus.kSuccess)]
+    assert rig.driver._deadline == pytest.approx(rig.clock.now + LOCKSTEP_WINDOW)
+
+
+def test_at_rest_the_clock_holds_for_the_client_then_ticks_on_the_wall_clock():
+    rig = Rig()
+    rig.motion(_swing())
+    at_rest = rig.message_id
+    measured = rig.cycle.core.measured
+    assert rig.tick(False) is not None and rig.message_id == at_rest  # a wake alone: nothing
+    rig.event()  # a request: its cycle goes at once, and the clock holds again
+    assert rig.message_id == at_rest + 1
+    assert rig.driver._deadline == pytest.approx(rig.clock.now + LOCKSTEP_WINDOW)
+    rig.wait(LOCKSTEP_WINDOW + 10.5 * PERIOD)  # then 1 kHz, 11 cycles in the rest of the wait
+    assert rig.message_id == at_rest + 1 + 11
+    assert rig.cycle.core.measured is measured  # cycles that changed nothing but message_id
+
+
+def _program(rig: Rig, pauses: tuple[float, float]) -> bytes:
+    """Two motions and a set command with pauses of the client's in between; the last state."""
+    rig.motion(_swing())
+    rig.wait(pauses[0])
+    rig.event()  # e.g. SetCollisionBehavior: its cycle, and its reply after it
+    rig.wait(pauses[1])
+    rig.motion(_swing(200)[::-1] + [np.zeros(7)])
+    return rig.states[-1]
+
+
+def test_a_program_ends_in_the_same_bits_however_long_the_client_paused():
+    quick = _program(Rig(), (0.0, 0.0))
+    slow_rig = Rig()
+    slow = _program(slow_rig, (0.05, 1.3))
+    assert quick[8:] == slow[8:]  # everything but message_id
+    later = int(decode_state(slow)["message_id"]) - int(decode_state(quick)["message_id"])
+    assert later == pytest.approx(1200, abs=2)  # the wall time past the window, at rest
+
+
+def _gripper_move(width: float) -> object:
+    data = build_gripper_request(GripperCommand.Move, 7, width=width, speed=0.1)
+    return decode_request(Frame(int(GripperCommand.Move), 7, data), GRIPPER_REQUEST_STRUCTS)
+
+
+def test_a_hand_action_runs_on_the_wall_clock_and_the_fingers_settle_before_its_reply():
+    """A client may watch a Hand action and stop it, so it takes its time as in realtime; its
+    end, and the fingers settling, are one tick, and the reply follows the state at rest."""
+    rig = Rig(hand=True)
+    rig.event()
+    rig.wait(1.0)
+    hand = rig.cycle.hand
+    assert rig.cycle.hand.request(GripperCommand.Move, 7, _gripper_move(0.04)) == []
+    rig.event()
+    rig.wait(0.3)  # 4 cm at 0.1 m/s: 0.4 s
+    assert not hand.idle and set(rig.ticks[-250:]) == {(1, 1)}  # a state each ms
+    rig.wait(0.2)
+    assert hand.idle and rig.cycle.at_rest
+    assert max(rig.ticks[-200:])[0] > 10  # the fingers' settling, in one tick
+    [(message_id, replies)] = [(m, r) for m, r in rig.delivered if r.hand]
+    assert [struct.unpack("<HIIH", r) for r in replies.hand] == [
+        (GripperCommand.Move, 7, 12, GripperStatus.kSuccess)]
+    [after] = [decode_state(state) for state in rig.states
+               if int(decode_state(state)["message_id"]) == message_id]
+    assert not after["dq"].any()  # the reply followed the state at rest
+    assert abs(hand.width - 0.04) < 5e-4
+
+
+def _gripper(command: GripperCommand, **fields) -> object:
+    data = build_gripper_request(command, 8, **fields)
+    return decode_request(Frame(int(command), 8, data), GRIPPER_REQUEST_STRUCTS)
+
+
+@pytest.mark.parametrize("then_open", [False, True], ids=["homing", "homing, then a move to max_width"])
+def test_after_homing_the_fingers_come_to_rest_clear_of_their_stops(then_open):
+    """Held at the opening homing measured while pressing its stops, the fingers would press
+    them for ever and never come to rest; the Hand holds them a hair inside."""
+    rig = Rig(hand=True)
+    rig.event()
+    hand = rig.cycle.hand
+    hand.request(GripperCommand.Homing, 8, _gripper(GripperCommand.Homing))
+    rig.event()
+    rig.wait(2.0)
+    if then_open:
+        hand.request(GripperCommand.Move, 8, _gripper(GripperCommand.Move, width=0.04,
+                                                      speed=0.1))
+        rig.event()
+        rig.wait(1.0)
+        hand.request(GripperCommand.Move, 8, _gripper(GripperCommand.Move, width=hand.max_width,
+                                                      speed=0.1))
+        rig.event()
+        rig.wait(1.0)
+    assert rig.cycle.at_rest and not rig.driver._trembling
+    assert hand.width == pytest.approx(hand.max_width, abs=1e-5)
+
+
+def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(monkeypatch):
+    """A grasped object's contacts tremble for ever at ~1e-6 rad/s, so that world never comes
+    to rest. With nothing under way it gets TREMBLE_CYCLES to settle after each event; then,
+    while the client is away, its states go out unchanged but for message_id."""
+    rig = Rig()
+    rig.event()
+    rig.wait(1.0)
+    monkeypatch.setattr(RobotCycle, "at_rest", property(lambda cycle: False))
+    rig.event()
+    assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
+    stepped = rig.harness.backend.data.time
+    at = rig.message_id
+    rig.wait(0.5)  # the client is away: the clock ticks, the world is left as it is
+    assert rig.message_id - at == pytest.approx(400, abs=2)
+    assert rig.harness.backend.data.time == stepped
+    assert rig.states[-1][8:] == rig.states[-2][8:]
+    rig.event()  # an event: its cycle, and the world gets its settling cycles again
+    assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
+    assert rig.harness.backend.data.time > stepped
