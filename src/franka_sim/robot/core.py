@@ -82,9 +82,17 @@ class RobotCore:
 
     @property
     def streams_commands(self) -> bool:
-        """A motion runs whose client answers every state (an async motion's does not)."""
+        """A motion runs whose client answers every state (an async motion's does not), and
+        the open state is not the motion's first: libfranka never answers the state on which
+        the modes flip (its start-motion handshake reads it), so nothing waits for that one."""
         motion = self.motion
-        return motion is not None and motion.running and not motion.spec.use_async
+        return (motion is not None and motion.running and not motion.spec.use_async
+                and motion.first_state != self.message_id)
+
+    @property
+    def first_motion_state(self) -> bool:
+        motion = self.motion
+        return motion is not None and motion.first_state == self.message_id
 
     @property
     def success_rate(self) -> float:
@@ -151,6 +159,7 @@ class RobotCore:
         if motion is not None:
             if not motion.running:
                 motion.running = True  # the modes flip on the first state after kMotionStarted
+                motion.first_state = self.message_id
                 self.status.motion_started()
             self.window.opened(self.message_id)
             motion.kinematics = desired_kinematics
@@ -207,8 +216,11 @@ class RobotCore:
                 return  # a violating command never reaches the physics
             motion.apply(command)
             self._silent = False
-        else:
+        elif (motion.last_command is not None or motion.spec.use_async
+              or lost > MAX_EXTRAPOLATED_CYCLES):
             motion.miss(lost, self.measured)
+        # else: no command yet, the motion holds its start (so however many states a client's
+        # start-motion handshake happened to read first, its first command meets the same arm)
         if (motion.cartesian is not None and not motion.braking
                 and self._judge(guard.judge_ik, motion.reference)):
             return

@@ -85,6 +85,11 @@ class RobotCycle:
         return self.core.streams_commands
 
     @property
+    def first_motion_state(self) -> bool:
+        """The last state published is the one on which a motion's modes flipped."""
+        return self.core.first_motion_state
+
+    @property
     def client_driven(self) -> bool:
         """A client's motion runs (its commands, not the robot alone, decide what comes next)."""
         return self.core.motion_running

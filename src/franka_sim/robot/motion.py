@@ -208,6 +208,7 @@ class Motion:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
+        self.first_state: int | None = None  # message_id of that cycle
         self.reference = JointReference(q_start)
         self.cartesian = (
             CartesianTarget(O_T_EE_start) if spec.generator in CARTESIAN_GENERATORS else None

@@ -181,11 +181,18 @@ class CycleDriver:
     def _lockstep_now(self) -> bool:
         return self.lockstep and self.cycle.lockstep_applies
 
+    def _answer_awaited(self) -> bool:
+        """Lockstep: an answer to the open state releases the next cycle at once. Also for a
+        motion's first state, which nothing waits for beyond a period: libfranka never answers
+        it, but a client that does has its answer taken at once all the same."""
+        cycle = self.cycle
+        return self.lockstep and (cycle.lockstep_applies or cycle.first_motion_state)
+
     def _tick(self, _physics, due: bool) -> float | None:
         try:
             with self.lock:
                 deadline = self._tick_locked(due)
-            while self._lockstep_now():
+            while self._answer_awaited():
                 if not self._await_answer():
                     self.thread.watch(self.command_socket())  # wait asleep for the answer
                     break
@@ -216,7 +223,7 @@ class CycleDriver:
 
     def _tick_locked(self, due: bool) -> float | None:
         cycle = self.cycle
-        lockstep = self._lockstep_now()  # (before the answer: it may end the motion)
+        lockstep = self._answer_awaited()  # (before the answer: it may end the motion)
         moving = cycle.in_motion
         answered = self._take_commands()
         # Only this thread reads the socket: at every deadline, idle ones too (a stray datagram
@@ -262,6 +269,12 @@ class CycleDriver:
             return None
         if not cycle.in_motion and not moved:  # idle: the next command is the hold
             self._prepared = cycle.release()
+        if self.lockstep and cycle.first_motion_state:
+            # Nothing answers a motion's first state (libfranka's handshake reads it): the next
+            # goes one period after it, not a lockstep window. A period, not less, so that the
+            # handshake has read the first state alone before the second arrives.
+            self._deadline = sent_at + self.pacer.period
+            return self._deadline
         self._deadline = self.pacer.next_deadline(sent_at, lockstep=self._lockstep_now())
         return self._deadline
 
