@@ -21,7 +21,6 @@ from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
-    AutomaticErrorRecoveryStatus,
     Command,
     MoveMotionGeneratorMode,
     MoveStatus,
@@ -36,7 +35,7 @@ from franka_sim.robot.drive import Drives
 from franka_sim.robot.external_forces import ExternalForces
 from franka_sim.robot.motion import MAX_EXTRAPOLATED_CYCLES, Motion, MoveRejected
 from franka_sim.robot.publisher import CycleFacts, StatePublisher
-from franka_sim.robot.recovery import Recovery
+from franka_sim.robot.recovery import Recovery, complete_recovery, request_recovery
 from franka_sim.robot.settings import Load, RobotSettings
 from franka_sim.robot.status import RobotStatus
 from franka_sim.thinned_log import worth_logging
@@ -302,20 +301,9 @@ class RobotCore:
         return replies
 
     def request_recovery(self, command_id: int) -> list[bytes]:
-        status = self.status
-        if status.robot_mode is RobotMode.kMove:
-            return [build_response(Command.AutomaticErrorRecovery, command_id,
-                                   AutomaticErrorRecoveryStatus.kCommandNotPossibleRejected)]
-        if not status.errors.any() and status.robot_mode is RobotMode.kIdle:
-            self.external.clear_collisions()
-            return [build_response(Command.AutomaticErrorRecovery, command_id,
-                                   AutomaticErrorRecoveryStatus.kSuccess)]
-        status.robot_mode = RobotMode.kAutomaticErrorRecovery
-        if self._recovery is None:
-            self._recovery = Recovery(command_id)
-        else:  # one more request for the recovery under way: answered with it
-            self._recovery.also_answer(command_id)
-        return []  # answered once the arm is at rest (publish)
+        replies, self._recovery = request_recovery(self.status, self.external, self._recovery,
+                                                   command_id)
+        return replies
 
     def set_load(self, load: Load) -> None:
         self.drives.set_load(load)
@@ -336,7 +324,6 @@ class RobotCore:
                 setattr(self.settings, setting.name, getattr(defaults, setting.name))
         self.drives.set_load(self.settings.load)
         self.drives.hold_at(q)
-        self.drives.stalled_at = None
         status = self.status
         status.reflex_reason[:] = False
         status.clear_errors()
@@ -409,12 +396,5 @@ class RobotCore:
             self.drives.hold_at(self.measured.q)
 
     def _recovered(self, measured: Measured) -> None:
-        command_ids = self._recovery.command_ids
-        self._recovery = None
-        self.status.clear_errors()
-        self.external.clear_collisions()
-        self.status.robot_mode = RobotMode.kIdle
-        self.drives.hold_at(measured.q)
-        self.status.replies.extend(build_response(
-            Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess)
-            for command_id in command_ids)
+        recovery, self._recovery = self._recovery, None
+        complete_recovery(recovery, self.status, self.external, self.drives, measured)

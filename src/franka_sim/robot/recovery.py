@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from franka_sim.protocol.enums import AutomaticErrorRecoveryStatus, Command, RobotMode
+from franka_sim.protocol.robot_messages import build_response
+
 RECOVERY_MAX_CYCLES = 700
 RECOVERY_REST_VELOCITY = 1e-3  # rad/s
 
@@ -29,3 +32,32 @@ class Recovery:
             return True
         self.waited += 1
         return False
+
+
+def request_recovery(status, external, recovery: Recovery | None,
+                     command_id: int) -> tuple[list[bytes], Recovery | None]:
+    """An AutomaticErrorRecovery request: the replies due now, and the recovery under way."""
+    if status.robot_mode is RobotMode.kMove:
+        return [build_response(Command.AutomaticErrorRecovery, command_id,
+                               AutomaticErrorRecoveryStatus.kCommandNotPossibleRejected)], recovery
+    if not status.errors.any() and status.robot_mode is RobotMode.kIdle:
+        external.clear_collisions()
+        return [build_response(Command.AutomaticErrorRecovery, command_id,
+                               AutomaticErrorRecoveryStatus.kSuccess)], recovery
+    status.robot_mode = RobotMode.kAutomaticErrorRecovery
+    if recovery is None:
+        return [], Recovery(command_id)  # answered once the arm is at rest
+    recovery.also_answer(command_id)  # one more request for the recovery under way
+    return [], recovery
+
+
+def complete_recovery(recovery: Recovery, status, external, drives, measured) -> None:
+    """The arm is at rest: errors and collisions cleared, Idle, held where it stands, and every
+    request answered."""
+    status.clear_errors()
+    external.clear_collisions()
+    status.robot_mode = RobotMode.kIdle
+    drives.hold_at(measured.q)
+    status.replies.extend(build_response(
+        Command.AutomaticErrorRecovery, command_id, AutomaticErrorRecoveryStatus.kSuccess)
+        for command_id in recovery.command_ids)
