@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import socket
 
+from franka_sim.blocking_io import recv_exact
 from franka_sim.protocol.enums import Command, ConnectStatus
 from franka_sim.protocol.robot_messages import ConnectResponse, build_request
 from franka_sim.protocol.robot_state import ROBOT_STATE_SIZE
@@ -60,11 +61,8 @@ def probe_fci(host: str, timeout: float = 2.0, port: int = ROBOT_PORT) -> int:
 
 
 def _recv_exact(sock: socket.socket, n: int, where: str) -> bytes:
-    out = b""
-    while len(out) < n:
-        chunk = sock.recv(n - len(out))
-        if not chunk:
-            raise ProbeFailed(f"{where}: the connection was closed during Connect "
-                              "(another client connected?)")
-        out += chunk
-    return out
+    try:
+        return recv_exact(sock, n)
+    except ConnectionError:
+        raise ProbeFailed(f"{where}: the connection was closed during Connect "
+                          "(another client connected?)") from None

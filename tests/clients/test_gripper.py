@@ -15,6 +15,7 @@ from pathlib import Path
 import pylibfranka
 import pytest
 
+from franka_sim.blocking_io import recv_exact
 from franka_sim.protocol.codec import decode_gripper_state
 from franka_sim.protocol.enums import GripperCommand
 from franka_sim.protocol.gripper_messages import GRIPPER_STATE_SIZE, build_gripper_request
@@ -137,13 +138,7 @@ class RawGripperClient:
         self.connect_reply = struct.unpack("<HIIHH", self._recv(14))
 
     def _recv(self, n: int) -> bytes:
-        data = b""
-        while len(data) < n:
-            chunk = self.tcp.recv(n - len(data))
-            if not chunk:
-                raise ConnectionError("closed by the server")
-            data += chunk
-        return data
+        return recv_exact(self.tcp, n)
 
     def send(self, command: GripperCommand, command_id: int, **fields) -> None:
         self.tcp.sendall(build_gripper_request(command, command_id, **fields))

@@ -8,6 +8,7 @@ import socket
 import struct
 import time
 
+from franka_sim.blocking_io import recv_exact
 from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import decode_state, encode_command
 from franka_sim.protocol.enums import Command
@@ -46,13 +47,7 @@ class RawClient:
             self.state = decode_state(data)
 
     def _recv_exact(self, n: int) -> bytes:
-        out = b""
-        while len(out) < n:
-            chunk = self.tcp.recv(n - len(out))
-            if not chunk:
-                raise ConnectionError("server closed the connection")
-            out += chunk
-        return out
+        return recv_exact(self.tcp, n)
 
     def reply(self) -> tuple[int, int, int]:
         """(command, command_id, status) of the next TCP reply."""
