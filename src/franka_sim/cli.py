@@ -11,7 +11,7 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
-from franka_sim.config import ClockMode, Config
+from franka_sim.config import ArmSpec, ClockMode, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -64,10 +64,18 @@ def serve(
         help="Scale of the joint acceleration/jerk limits the joint side of Cartesian commands "
         "(the IK output) is held to.",
     ),
-    scene: Path | None = typer.Option(
-        None, envvar="FRANKA_SIM_SCENE", exists=True, dir_okay=False,
-        help="MJCF file whose bodies (a table, objects) are placed around the arm, named "
-        "scene/<name>. Default: the packaged table with a 5 cm cube in reach.",
+    scene: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_SCENE",
+        help="A packaged scene's name (default, dual_arm_table) or an MJCF file whose bodies "
+        "(a table, objects) are placed around the arms, named scene/<name>; its sites "
+        "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
+    ),
+    arm: list[str] = typer.Option(
+        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME=ADDRESS[@x,y,z[,yaw_deg]]",
+        help="An arm of the world, served on its own ADDRESS (FCI, Hand and control API), its "
+        "base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
+        "site, else the origin). Repeat for several arms in one world. Default: one arm "
+        "named fr3 on --host.",
     ),
     no_gripper: bool = typer.Option(
         False, "--no-gripper", envvar="FRANKA_SIM_NO_GRIPPER",
@@ -107,14 +115,54 @@ def serve(
             param_hint="--control-port")
     if control_token is not None and not control_token.strip():
         raise typer.BadParameter("an empty token protects nothing", param_hint="--control-token")
+    try:
+        arms = tuple(parse_arm(text) for text in arm)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--arm") from None
+    scene_path = None
+    if scene is not None:
+        from franka_sim.physics.scene import SceneError, resolve_scene
+
+        try:
+            scene_path = resolve_scene(scene)
+        except SceneError as exc:
+            raise typer.BadParameter(str(exc), param_hint="--scene") from None
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
-        scene=scene, gripper=not no_gripper, control_port=control_port,
-        control_token=control_token,
+        scene=scene_path, gripper=not no_gripper, control_port=control_port,
+        control_token=control_token, arms=arms,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level)
+
+
+def parse_arm(text: str) -> ArmSpec:
+    """NAME=ADDRESS[@x,y,z[,yaw_deg]] as an ArmSpec (ValueError saying what is wrong)."""
+    import ipaddress
+    import math
+
+    name, sep, rest = text.partition("=")
+    name = name.strip()
+    if not sep or not name or not rest:
+        raise ValueError(f"{text!r}: expected NAME=ADDRESS[@x,y,z[,yaw_deg]]")
+    if "/" in name or not name.isprintable() or " " in name:
+        raise ValueError(f"arm {name!r}: a name has no '/' and no spaces")
+    host, at, pose = rest.partition("@")
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        raise ValueError(f"arm {name}: {host!r} is not an IP address") from None
+    if not at:
+        return ArmSpec(name, host)
+    try:
+        figures = [float(v) for v in pose.split(",")]
+    except ValueError:
+        raise ValueError(f"arm {name}: {pose!r} is not x,y,z[,yaw_deg] in numbers") from None
+    if len(figures) not in (3, 4) or not all(math.isfinite(v) for v in figures):
+        raise ValueError(f"arm {name}: {pose!r} is not x,y,z[,yaw_deg] (3 or 4 finite numbers)")
+    x, y, z, yaw = (figures + [0.0])[:4]
+    return ArmSpec(name, host, (x, y, z, math.radians(yaw)))
 
 
 @app.command()

@@ -13,6 +13,22 @@ import numpy as np
 READY_POSE = (0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4)
 
 
+DEFAULT_ARM = "fr3"  # the name of the one arm a world holds when no --arm says otherwise
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """One arm of the world: its name, the address it is served on, and where its base stands.
+
+    `base` is (x, y, z, yaw) in the world frame (m, rad); None: where the scene's `arm/NAME`
+    site puts it, else the world origin.
+    """
+
+    name: str
+    host: str
+    base: tuple[float, float, float, float] | None = None
+
+
 class ClockMode(str, Enum):
     realtime = "realtime"
     lockstep = "lockstep"
@@ -30,6 +46,11 @@ class Config:
     q0: tuple[float, ...] = field(default=READY_POSE)
     gripper: bool = True  # serve the Franka Hand (TCP 1338 + its state stream); False: no Hand
     gripper_port: int = 1338  # libfranka pins it too
-    scene: Path | None = None  # MJCF whose bodies surround the arm; None: the packaged default
+    scene: Path | None = None  # MJCF whose bodies surround the arms; None: the packaged default
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
+    # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
+    arms: tuple[ArmSpec, ...] = ()
+
+    def arm_specs(self) -> tuple[ArmSpec, ...]:
+        return self.arms or (ArmSpec(DEFAULT_ARM, self.host),)

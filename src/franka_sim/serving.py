@@ -58,7 +58,7 @@ def _become_serving(blob: str) -> None:
 
 
 def _config(settings: dict) -> Config:
-    from franka_sim.config import ClockMode, Config  # (numpy: after the SIGTERM handler)
+    from franka_sim.config import ArmSpec, ClockMode, Config  # (numpy: after SIGTERM's handler)
 
     settings = dict(settings)
     for name in ("urdf", "scene"):
@@ -67,6 +67,9 @@ def _config(settings: dict) -> Config:
     settings["clock"] = ClockMode(settings["clock"])
     settings["control_token"] = os.environ.get(_TOKEN)
     settings["q0"] = tuple(settings["q0"])
+    settings["arms"] = tuple(
+        ArmSpec(arm["name"], arm["host"], None if arm["base"] is None else tuple(arm["base"]))
+        for arm in settings.get("arms", ()))
     return Config(**settings)
 
 
@@ -152,22 +155,22 @@ async def _serve(config: Config) -> None:
 
     from franka_sim.description.urdf import DescriptionError
     from franka_sim.physics.scene import SceneError
-    from franka_sim.server.sim import AddressInUse, FrankaSim
+    from franka_sim.server.sim import FrankaSim
 
     try:
         sim = FrankaSim(config)
     except DescriptionError as exc:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
-        raise _Failed(f"cannot load the scene {exc}") from None
+        raise _Failed(str(exc)) from None
     # Everything built so far lives as long as the server: keep it out of the collector's
     # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
     gc.collect()
     gc.freeze()
     try:
         await sim.start()
-    except AddressInUse as exc:
-        raise _Failed(exc.strerror) from None
+    except OSError as exc:  # an address in use or that cannot be served: nothing is served
+        raise _Failed(exc.strerror or str(exc)) from None
     _release_unused_heap()
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()

@@ -200,6 +200,7 @@ class Fingers:
         reset data)."""
         width = OPEN_WIDTH if width is None else float(width)
         self._q[:] = 0.5 * width
+        self._v[:] = 0.0
         self.command = FingerCommand(width, 0.0, MAX_FINGER_FORCE)
         self._drive = (0.0, 0.0)
         self._palm_at = None

@@ -1,8 +1,12 @@
-"""The MuJoCo implementation of the physics Backend: a world of one arm, one step per state.
+"""The MuJoCo implementation of the physics Backend: one arm's view of a world.
 
-The world (physics/world.py) steps, the arm (physics/arm.py) drives and reads; this facade is
-the Backend protocol over them for the one arm a server serves, with the arm's own names
-("hand", "flange", "fr3_joint1", ...) and the scene's objects as "scene/<name>".
+The world (physics/world.py) steps, the arm (physics/arm.py) drives and reads; `ArmBackend` is
+the Backend protocol over them for one arm of a world that may hold several. `MujocoBackend` is
+the common case, a world of one arm with the arm's own names ("hand", "flange",
+"fr3_joint1", ...) and the scene's objects as "scene/<name>".
+
+With several arms, the world steps once for all of them: each arm's cycle gives its arm its
+command (`command`), then the world steps (`World.step`), then each reads (`measure`).
 """
 
 from __future__ import annotations
@@ -21,24 +25,24 @@ from franka_sim.physics.world import World
 _UNPREPARED = object()
 
 
-class MujocoBackend:
-    """One arm in a world of its own; not thread-safe (the cycle thread serialises access)."""
+class ArmBackend:
+    """One arm of `world` (by name); not thread-safe (the cycle thread serialises access)."""
 
-    def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | os.PathLike | None = None,
-                 armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:
-        self.desc = desc
-        placement = ArmPlacement(desc, fingers=fingers, armature=tuple(armature))
-        self.world = World([placement], {placement.name: q0}, scene_xml=scene_xml)
-        self.arm = self.world.arms[placement.name]
-        self.model: mujoco.MjModel = self.world.model
-        self.data: mujoco.MjData = self.world.data
-        self._scratch = self.world.scratch  # where the queries leave their kinematics
-        self.timestep = self.world.timestep
-        self.has_fingers = fingers
-        self._queries = self.arm.queries
+    def __init__(self, world: World, name: str) -> None:
+        self.world = world
+        self.arm = arm = world.arms[name]
+        self.desc = arm.desc
+        self.model: mujoco.MjModel = world.model
+        self.data: mujoco.MjData = world.data
+        self._scratch = world.scratch  # where the queries leave their kinematics
+        self.timestep = world.timestep
+        self.has_fingers = arm.fingers is not None
+        self._queries = arm.queries
+        self.command = arm.command  # (cmd, fingers): what the arm does in the world's next step
 
     # -- the hot path ---------------------------------------------------------------------------
     def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+        """Command this arm and step the world (the world's other arms keep their commands)."""
         self.arm.command(cmd, fingers)
         self.world.step()
         return self.arm.last
@@ -71,11 +75,15 @@ class MujocoBackend:
 
     # -- run-time changes -------------------------------------------------------------------------
     def reset(self, q0, gripper_width: float | None = None) -> None:
-        """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values.
-        Everything else in the world is back where it started; the Hand's fingers are open, or
-        `gripper_width` apart."""
-        widths = None if gripper_width is None else {self.arm.name: gripper_width}
-        self.world.reset({self.arm.name: q0}, widths)
+        """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values;
+        the Hand's fingers are open, or `gripper_width` apart. In a world of one arm everything
+        else is back where it started too; in a world of several, the others and the bodies
+        are left as they are (another arm's client may be at work)."""
+        if len(self.world.arms) == 1:
+            widths = None if gripper_width is None else {self.arm.name: gripper_width}
+            self.world.reset({self.arm.name: q0}, widths)
+        else:
+            self.world.reset_arm(self.arm.name, q0, gripper_width)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace the rigid body on the flange (see World.set_end_effector)."""
@@ -97,3 +105,13 @@ class MujocoBackend:
     def flange_pose(self, q) -> np.ndarray:
         """O_T_F at q computed by MuJoCo (for cross-checks against the numpy kinematics)."""
         return self._queries.flange_pose(q)
+
+
+class MujocoBackend(ArmBackend):
+    """One arm in a world of its own, at the origin, with the arm's own names."""
+
+    def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | os.PathLike | None = None,
+                 armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:
+        placement = ArmPlacement(desc, fingers=fingers, armature=tuple(armature))
+        super().__init__(World([placement], {placement.name: q0}, scene_xml=scene_xml),
+                         placement.name)

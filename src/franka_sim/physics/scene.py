@@ -99,19 +99,68 @@ def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
 
 
 class SceneError(ValueError):
-    """An MJCF scene that cannot be loaded or attached around the arm."""
+    """An MJCF scene that cannot be loaded or attached around the arms, or arms that cannot
+    stand where they are placed."""
+
+
+MOUNT_PREFIX = "arm/"  # a scene's site "arm/NAME" is where arm NAME's base stands
+
+
+def packaged_scenes() -> dict[str, Path]:
+    """The scenes the package ships, by name ("default", "dual_arm_table")."""
+    folder = importlib.resources.files("franka_sim").joinpath("scenes")
+    return {Path(str(entry)).stem: Path(str(entry)) for entry in folder.iterdir()
+            if entry.name.endswith(".xml")}
 
 
 def default_scene_path() -> Path:
     """The packaged world: a table under the arm and a 5 cm cube within reach."""
-    packaged = importlib.resources.files("franka_sim").joinpath("scenes", "default.xml")
-    return Path(str(packaged))
+    return packaged_scenes()["default"]
+
+
+def resolve_scene(scene: str | os.PathLike) -> Path:
+    """A packaged scene's name or an MJCF file's path, as a path (SceneError: neither)."""
+    packaged = packaged_scenes()
+    if isinstance(scene, str) and scene in packaged:
+        return packaged[scene]
+    path = Path(scene)
+    if path.is_file():
+        return path
+    raise SceneError(f"unknown scene {str(scene)!r}: neither a packaged scene "
+                     f"({', '.join(sorted(packaged))}) nor an MJCF file")
+
+
+def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, float]]:
+    """Where the scene at `path` stands its arms: (x, y, z, yaw) of each `arm/NAME` site of
+    its worldbody, by NAME (the yaw of the site's orientation about the vertical)."""
+    try:
+        spec = mujoco.MjSpec.from_file(os.fspath(path))
+    except ValueError as exc:
+        raise SceneError(f"cannot load the scene {path}: {' '.join(str(exc).split())}") from None
+    names = [site.name[len(MOUNT_PREFIX):] for site in spec.worldbody.sites
+             if site.name.startswith(MOUNT_PREFIX)]
+    if not names:
+        return {}
+    model = spec.compile()  # resolves euler, axisangle, zaxis, ... into positions and quats
+    placed = {}
+    for name in names:
+        site = model.site(MOUNT_PREFIX + name)
+        x, y, z = (float(v) for v in site.pos)
+        w, qx, qy, qz = site.quat
+        yaw = float(np.arctan2(2.0 * (w * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
+        placed[name] = (x, y, z, yaw)
+    return placed
 
 
 def check_scene(desc: ArmDescription, path: os.PathLike, *, fingers: bool) -> None:
     """Raise SceneError (one line) unless the arm compiles inside the scene at `path`."""
+    check_world([ArmPlacement(desc, fingers=fingers)], path)
+
+
+def check_world(arms: list[ArmPlacement], path: os.PathLike | None) -> None:
+    """Raise SceneError (one line) unless the arms compile inside the scene at `path`."""
     try:
-        build_model(desc, scene_xml=Path(path), fingers=fingers)
+        build_world_model(arms, scene_xml=None if path is None else Path(path))
     except ValueError as exc:  # MuJoCo's parse and compile errors
         message = " ".join(str(exc).split())
-        raise SceneError(f"{path}: {message}") from None
+        raise SceneError(f"cannot load the scene {path}: {message}") from None

@@ -205,6 +205,42 @@ class World:
         for arm in self._arms:
             arm.record_rest()
 
+    def reset_arm(self, name: str, q0, gripper_width: float | None = None) -> None:
+        """One arm at rest at q0 (its fingers open, or `gripper_width` apart), held by gravity
+        compensation alone; the other arms and the bodies are left as they are (a world of
+        several arms, whose other clients may be at work)."""
+        q0 = np.asarray(q0, dtype=float)
+        if q0.shape != (7,):
+            raise ValueError(f"q0 must have shape (7,), got {q0.shape}")
+        arm = self.arms[name]
+        self.finish_step()
+        self._still = 0
+        self._unfinished, self._prepared = False, False
+        arm.place(q0, gripper_width)
+        self.data.qvel[arm.vs] = 0.0
+        self._gravity_at_rest()
+        arm.hold_still()
+        mujoco.mj_forward(self.model, self.data)
+        arm.record_rest()
+
+    def touching_arms(self) -> list[tuple[str, str]]:
+        """Pairs of arms whose bodies touch now (arms placed into each other), by name."""
+        m, d = self.model, self.data
+        mujoco.mj_forward(m, d)
+        owner = {}
+        for name in self.arms:
+            prefix = f"{name}/"
+            for body in range(m.nbody):
+                if m.body(body).name.startswith(prefix):
+                    owner[body] = name
+        pairs = set()
+        for contact in d.contact[:d.ncon]:
+            a = owner.get(int(m.geom_bodyid[contact.geom1]))
+            b = owner.get(int(m.geom_bodyid[contact.geom2]))
+            if a is not None and b is not None and a != b:
+                pairs.add(tuple(sorted((a, b))))
+        return sorted(pairs)
+
     def set_end_effector(self, arm: str, mass: float, com, inertia) -> None:
         """Replace the rigid body on an arm's flange (Hand + load): mass, CoM in F, inertia
         about CoM.

@@ -5,9 +5,10 @@ harness and the benchmarks all run it through `RobotCycle`:
 
 1. `receive(command)` for each RobotCommand that arrived (an on-time answer closes the open
    cycle's command window at once);
-2. `release()`: the core closes the window if still open and says what the drives do, the
-   physics steps once (with the Hand's finger command), the desired-side kinematics are taken
-   at q_d when a generator sets it, and the core packs the RobotState;
+2. `release()`: the core closes the window if still open and says what the drives do
+   (`drive`), the physics steps once (with the Hand's finger command), the desired-side
+   kinematics are taken at q_d when a generator sets it, and the core packs the RobotState
+   (`publish`);
 3. the caller sends the state;
 4. `complete(released)`: the Hand advances on the new finger reading, the part of the physics
    step that no reading needed is done, the log-only limit checks run, and the replies the cycle
@@ -53,6 +54,11 @@ class Replies:
     def __bool__(self) -> bool:
         return bool(self.robot or self.hand or self.hand_state)
 
+    def then(self, later: "Replies") -> "Replies":
+        """These replies and a later cycle's, to go out together after the later state (its
+        GripperState only: an earlier one would reach a client late)."""
+        return Replies(self.robot + later.robot, self.hand + later.hand, later.hand_state)
+
 
 NO_REPLIES = Replies([], [], None)  # what most cycles leave: shared, never written to
 
@@ -67,6 +73,7 @@ class RobotCycle:
         self._failures = 0
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
+        self._q_d = None  # the desired q of the cycle being released (None: no generator)
 
     # -- questions a pacer asks ----------------------------------------------------------------
     @property
@@ -120,13 +127,22 @@ class RobotCycle:
         return self.core.receive_command(command)
 
     def release(self) -> Released:
-        core, physics = self.core, self.physics
+        self.physics.step(*self.drive())
+        return self.publish()
+
+    def drive(self) -> tuple:
+        """The first half of `release`: the core closes the window and says what the drives
+        do; (joint command, finger command or None) for the physics. (A world of several arms
+        gives each arm its command, steps once, then has each cycle `publish`.)"""
+        core = self.core
         joint_command = core.release_cycle()
-        q_d = core.desired_q
-        if self.hand is None:
-            measured = physics.step(joint_command)
-        else:
-            measured = physics.step(joint_command, self.hand.command)
+        self._q_d = core.desired_q
+        return joint_command, (None if self.hand is None else self.hand.command)
+
+    def publish(self) -> Released:
+        """The second half, once the physics stepped: the state from the new measurement."""
+        core, physics, q_d = self.core, self.physics, self._q_d
+        measured = physics.measure()
         self._unchanged = measured is self._measured
         self._measured = measured
         kinematics = None if q_d is None else physics.flange_pose_and_jacobian(q_d)

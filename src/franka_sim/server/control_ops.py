@@ -74,23 +74,28 @@ def _pose(state) -> dict:
 
 
 class ControlOps:
-    """The control operations on one simulated arm, its Hand (None: none) and its world."""
+    """The control operations on one simulated arm, its Hand (None: none) and its world (whose
+    bodies every arm's API sees alike)."""
 
     def __init__(self, *, core: RobotCore, gripper: Gripper | None, driver: CycleDriver,
                  worker: CycleThread, lock: threading.Lock, description: ArmDescription,
-                 q0, clock: str, client_connected: Callable[[], bool]) -> None:
+                 q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
+                 arm_index: int = 0) -> None:
         self.core, self.gripper, self.driver = core, gripper, driver
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
         self.client_connected = client_connected
+        self.arm, self.arm_index = arm, arm_index  # the worker's physics: one backend per arm
 
     async def _job(self, fn: Callable[[Any], Any]) -> Any:
-        """fn(physics) in the cycle thread; a refusal it raises comes back raised here (and is
-        not logged there as a failed job)."""
-        def job(physics):
+        """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
+        here (and is not logged there as a failed job)."""
+        index = self.arm_index
+
+        def job(arms):
             try:
-                return fn(physics)
+                return fn(arms[index])
             except ControlError as refusal:
                 return refusal
         return await self.worker.call(job)
@@ -99,7 +104,7 @@ class ControlOps:
     def health(self) -> dict:
         """Cheap: no job, no lock (each figure is one attribute read)."""
         core = self.core
-        return {"ready": True, "clock": self.clock, "cycle": core.message_id,
+        return {"ready": True, "arm": self.arm, "clock": self.clock, "cycle": core.message_id,
                 "client_connected": self.client_connected(),
                 "robot_mode": mode_name(core.robot_mode)}
 
@@ -137,8 +142,10 @@ class ControlOps:
 
     # -- changing ----------------------------------------------------------------------------------
     async def reset(self, q=None, gripper_width=None) -> dict:
-        """Arm at rest at q, the robot as it powers up, the world as it started, the Hand open
-        (or `gripper_width` apart): all in one job, or nothing (Conflict while busy)."""
+        """Arm at rest at q, the robot as it powers up, the Hand open (or `gripper_width`
+        apart), and in a world of one arm the bodies as they started: all in one job, or
+        nothing (Conflict while busy). Another arm and the bodies of a world of several are
+        left as they are (another client may be at work)."""
         q = self.q0 if q is None else numbers("q", q, 7)
         desc = self.description
         if np.any(q < desc.lower) or np.any(q > desc.upper):

@@ -289,7 +289,6 @@ class CycleDriver:
         then find one of them, a different one each run), and every reply of the way waits for
         it. Then the world is left as it is (`_frozen`) until the client's next event."""
         cycle = self.cycle
-        robot, hand = list(replies.robot), list(replies.hand)
         settled, more = 0, False
         paused = self._unwatched_pause()
         while not paused and not cycle.at_rest:
@@ -305,16 +304,14 @@ class CycleDriver:
                 more = True  # work this long goes on in the next tick (requests may come between)
                 break
             released = cycle.release()
-            replies = cycle.complete(released)
-            robot += replies.robot
-            hand += replies.hand
+            replies = replies.then(cycle.complete(released))
             settled += 1
             paused = self._unwatched_pause()
         if settled and released.state is not None:
             self.send_state(released.state)
             sent_at = self.clock()
         # Hand states of cycles on the way to rest would reach a client late: only the last.
-        self._post(released.message_id, Replies(robot, hand, replies.hand_state))
+        self._post(released.message_id, replies)
         if paused:
             return None
         if more:

@@ -69,7 +69,7 @@ class CycleThread:
         # Only touched by the worker thread:
         self._tick: Tick | None = None
         self._deadline: float | None = None
-        self._watched: socket.socket | None = None
+        self._watched: socket.socket | tuple[socket.socket, ...] | None = None
 
     async def start(self) -> None:
         """Build the backend inside the worker thread (MjData must live where it steps)."""
@@ -117,9 +117,10 @@ class CycleThread:
         """Run the tick now (any thread); `due` is False."""
         self._put(_WAKE)
 
-    def watch(self, sock: socket.socket | None) -> None:
-        """From a tick: run the next tick (`due` False) as soon as `sock` has data, if that
-        comes before the deadline. Holds until the next tick runs."""
+    def watch(self, sock: socket.socket | tuple[socket.socket, ...] | None) -> None:
+        """From a tick: run the next tick (`due` False) as soon as `sock` (or one of several:
+        a world of several arms) has data, if that comes before the deadline. Holds until the
+        next tick runs."""
         self._watched = sock
 
     async def stop(self) -> None:
@@ -141,7 +142,12 @@ class CycleThread:
                 if timeout <= 0:
                     return None
             watched = self._watched
-            if watched is not None and watched.fileno() >= 0:
+            if isinstance(watched, tuple):
+                watched = tuple(sock for sock in watched if sock.fileno() >= 0)
+                ready = select.select((doorbell, *watched), (), (), timeout)[0]
+                if ready and doorbell not in ready:
+                    return _WAKE
+            elif watched is not None and watched.fileno() >= 0:
                 ready = select.select((doorbell, watched), (), (), timeout)[0]
                 if watched in ready and doorbell not in ready:
                     return _WAKE

@@ -1,40 +1,34 @@
-"""FrankaSim: one simulated FR3 on one address, usable as `async with FrankaSim(...)`.
+"""FrankaSim: a simulated world of one or several FR3 arms, usable as `async with FrankaSim(...)`.
 
 It wires the pieces and nothing else: description + scene → the cycle thread (which owns the
-physics), robot core, the TCP and UDP endpoints, the Hand (gripper state machine + its
-endpoint), the robot's cycle and the driver that paces it, and the control API (HTTP on
-`control_port`; its operations are also this object's async methods). Works on any asyncio
-loop (uvloop is the CLI's choice, not a requirement here).
+world's physics), one ArmServer per arm (its robot core, Hand, endpoints and control API on its
+own address: server/arm_server.py), the world's cycle and the driver that paces it. With one
+arm the driver runs that arm's RobotCycle; with several, a WorldCycle (robot/world_cycle.py)
+around one physics step for all. Works on any asyncio loop (uvloop is the CLI's choice, not a
+requirement here).
 """
 
 from __future__ import annotations
 
-import errno
 import logging
 import threading
+
 import numpy as np
 
 from franka_sim.config import ClockMode, Config
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
-from franka_sim.physics.mujoco_backend import MujocoBackend
-from franka_sim.physics.scene import check_scene, default_scene_path
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import Replies, RobotCycle
-from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.requests import RequestHandler
-from franka_sim.robot.session import gripper_session, robot_session, Session
-from franka_sim.server.control_ops import ControlOps
+from franka_sim.physics.mujoco_backend import ArmBackend
+from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
+                                      resolve_scene, scene_mounts)
+from franka_sim.physics.world import World
+from franka_sim.robot.world_cycle import WorldCycle
+from franka_sim.server.arm_server import AddressInUse, ArmServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.gripper_endpoint import GripperEndpoint
-from franka_sim.server.robot_endpoint import RobotEndpoint
-from franka_sim.server.udp_endpoint import UdpEndpoint
+
+__all__ = ["AddressInUse", "FrankaSim"]
 
 log = logging.getLogger(__name__)
-
-
-class AddressInUse(OSError):
-    """The robot port on this address is taken (another simulator, or a robot bridge)."""
 
 
 class FrankaSim:
@@ -47,126 +41,110 @@ class FrankaSim:
             config.urdf.read_text() if config.urdf is not None else default_urdf_text()
         )
         self.description = load_arm_description(self.urdf_text)
-        q0 = np.array(config.q0, dtype=float)
-        self.core = RobotCore(
-            self.description, q0, enforce_comm_constraints=config.enforce_comm_constraints,
-            enforce_motion_limits=config.enforce_motion_limits,
-            joint_discontinuity_scale=config.joint_discontinuity_scale,
-        )
-        self.scene = config.scene if config.scene is not None else default_scene_path()
-        check_scene(self.description, self.scene, fingers=config.gripper)  # SceneError: say so now
-        self.worker = CycleThread(lambda: MujocoBackend(
-            self.description, q0, scene_xml=self.scene, fingers=config.gripper))
-        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
-        self.gripper = Gripper() if config.gripper else None
-        # The core and the Hand are shared by the physics thread (each cycle) and the loop
-        # (each TCP request): whoever touches them holds this lock (see cycle_driver.py).
+        self.scene = resolve_scene(config.scene) if config.scene is not None \
+            else default_scene_path()
+        specs = config.arm_specs()
+        self.placements = self._place(specs)
+        self._check_world()  # SceneError: say so now, before anything is served
+        # The arms and the Hands are shared by the cycle thread (each cycle) and the loop (each
+        # TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
-        self.gripper_endpoint = GripperEndpoint(
-            self._make_gripper_session, self._on_gripper_disconnect, lock=self.lock,
-            on_request=self._client_event)
-        self.udp = UdpEndpoint(self._on_command)
-        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
-                                   defer_replies=self._defer_replies, lock=self.lock,
-                                   replaceable=self._client_silent,
-                                   on_request=self._client_event)
+        self.worker = CycleThread(self._make_physics)
+        one = len(specs) == 1
         self.driver = CycleDriver(
-            self._make_cycle, self.worker, self.lock, self.udp.send_state,
+            self._make_cycle, self.worker, self.lock, self._send_states,
             lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
-            has_client=self._has_client, poll_commands=self.udp.poll,
-            command_socket=lambda: self.udp.sock,
+            has_client=self._has_client, poll_commands=self._poll,
+            command_socket=(lambda: self.arms[0].udp.sock) if one else
+            (lambda: tuple(arm.udp.sock for arm in self.arms)),
         )
-        self.control = ControlOps(
-            core=self.core, gripper=self.gripper, driver=self.driver, worker=self.worker,
-            lock=self.lock, description=self.description, q0=q0, clock=config.clock.value,
-            client_connected=lambda: self.robot.active is not None)
-        self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+        self.arms = [
+            ArmServer(spec, i, config, description=self.description, urdf_text=self.urdf_text,
+                      driver=self.driver, worker=self.worker, lock=self.lock,
+                      on_command=self.driver.receive if one else
+                      (lambda command, i=i: self.driver.receive((i, command))))
+            for i, spec in enumerate(specs)]
+        if one:  # the one arm's own endpoints, without a per-cycle loop over a list
+            self._send_states = self.arms[0].udp.send_state
+            self.driver.send_state = self._send_states
+            self.driver.deliver = self.arms[0].deliver
+            self.driver.poll_commands = self.arms[0].udp.poll
         self._started = False
+
+    def _place(self, specs) -> list[ArmPlacement]:
+        """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
+        the origin; a lone arm keeps the arm's own names."""
+        names = [spec.name for spec in specs]
+        hosts = [spec.host for spec in specs]
+        for spec in specs:
+            if names.count(spec.name) > 1:
+                raise SceneError(f"arm {spec.name}: two arms have that name")
+            if hosts.count(spec.host) > 1:
+                raise SceneError(f"arm {spec.name}: {spec.host} serves another arm too "
+                                 "(one address per arm)")
+        mounts = scene_mounts(self.scene)
+        fingers = self.config.gripper
+        if len(specs) == 1:
+            spec = specs[0]
+            base = spec.base if spec.base is not None else mounts.get(spec.name)
+            return [ArmPlacement(self.description, base=base, fingers=fingers)]
+        return [ArmPlacement(self.description, spec.name,
+                             base=spec.base if spec.base is not None else mounts.get(spec.name),
+                             fingers=fingers)
+                for spec in specs]
+
+    def _check_world(self) -> None:
+        check_world(self.placements, self.scene)
+        if len(self.placements) > 1:
+            world = World(self.placements, self._q0s(), scene_xml=self.scene)
+            for a, b in world.touching_arms():
+                raise SceneError(f"arm {a}: placed into arm {b} (their bodies intersect at the "
+                                 "starting pose; move their bases apart)")
+
+    def _q0s(self) -> dict:
+        q0 = np.array(self.config.q0, dtype=float)
+        return {p.name: q0 for p in self.placements}
+
+    def _make_physics(self) -> list[ArmBackend]:
+        """In the cycle thread: the world, and each arm's view of it (by arm index)."""
+        world = World(self.placements, self._q0s(), scene_xml=self.scene)
+        return [ArmBackend(world, p.name) for p in self.placements]
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> "FrankaSim":
+        """Serve every arm, or none: an endpoint that cannot open closes all that did."""
         await self.worker.start()
+        started = []
         try:
-            await self.robot.start(self.config.host, self.config.robot_port)
-        except OSError as exc:
+            for arm in self.arms:
+                await arm.start()
+                started.append(arm)
+            await self.driver.start()
+        except BaseException:
+            for arm in reversed(started):
+                await arm.stop_control_api()
+                await arm.stop_endpoints()
+                arm.udp.close()
             await self.worker.stop()
-            if exc.errno == errno.EADDRINUSE:
-                raise AddressInUse(
-                    exc.errno,
-                    f"{self.config.host}:{self.config.robot_port} is already in use "
-                    "(another franka-sim or robot bridge on this address?)",
-                ) from exc
             raise
-        # The physics thread alone reads the commands (udp_endpoint).
-        try:
-            self.udp.open(self.config.host)
-        except OSError:
-            await self._undo_start()
-            raise
-        if self.gripper is not None:
-            try:
-                await self.gripper_endpoint.start(self.config.host, self.config.gripper_port)
-            except OSError as exc:
-                await self._undo_start()
-                if exc.errno == errno.EADDRINUSE:
-                    raise AddressInUse(
-                        exc.errno, f"{self.config.host}:{self.config.gripper_port} (gripper) is "
-                        "already in use (another franka-sim or robot bridge on this address?)",
-                    ) from exc
-                raise
-        await self.driver.start()
-        if self.config.control_port:
-            try:
-                await self._start_control_api()
-            except OSError:
-                await self.driver.stop()
-                if self.gripper is not None:
-                    await self.gripper_endpoint.stop()
-                await self._undo_start()
-                raise
         self._started = True
-        control = (f"control API on {self.config.control_port}" if self.config.control_port
-                   else "no control API")
-        log.info(
-            "simulated FR3 serving on %s:%d (clock %s; %s; %s; scene %s)",
-            self.config.host, self.config.robot_port, self.config.clock.value,
-            f"Franka Hand on {self.config.gripper_port}" if self.gripper is not None
-            else "no gripper", control, self.scene,
-        )
+        config = self.config
+        for arm in self.arms:
+            log.info("simulated FR3 %s; clock %s; scene %s)", arm.describe(),
+                     config.clock.value, self.scene)
         return self
-
-    async def _start_control_api(self) -> None:
-        from franka_sim.server.control_api import ControlApi  # aiohttp: only when served
-
-        api = ControlApi(self.control, token=self.config.control_token)
-        try:
-            await api.start(self.config.host, self.config.control_port)
-        except OSError as exc:
-            if exc.errno == errno.EADDRINUSE:
-                raise AddressInUse(
-                    exc.errno, f"{self.config.host}:{self.config.control_port} (control API) is "
-                    "already in use (another franka-sim on this address?)") from exc
-            raise
-        self._control_api = api
-
-    async def _undo_start(self) -> None:
-        """A later endpoint could not open: close what start() opened before it."""
-        await self.robot.stop()
-        self.udp.close()
-        await self.worker.stop()
 
     async def stop(self) -> None:
         if not self._started:
             return
         self._started = False
-        if self._control_api is not None:
-            await self._control_api.stop()
-            self._control_api = None
-        await self.robot.stop()
-        if self.gripper is not None:
-            await self.gripper_endpoint.stop()
+        for arm in self.arms:
+            await arm.stop_control_api()
+        for arm in self.arms:
+            await arm.stop_endpoints()
         await self.driver.stop()
-        self.udp.close()
+        for arm in self.arms:
+            arm.udp.close()
         await self.worker.stop()
 
     async def __aenter__(self) -> "FrankaSim":
@@ -175,12 +153,44 @@ class FrankaSim:
     async def __aexit__(self, *exc) -> None:
         await self.stop()
 
+    # -- the first (or only) arm, as a lone robot's simulator offers it ----------------------------
     @property
     def address(self) -> tuple[str, int]:
-        """(host, port) of the robot's TCP endpoint."""
-        return self.config.host, self.config.robot_port
+        """(host, port) of the first arm's robot endpoint."""
+        return self.arms[0].host, self.config.robot_port
 
-    # -- the control API's operations (docs/control_api.md), for an embedding program ------------
+    @property
+    def core(self):
+        return self.arms[0].core
+
+    @property
+    def gripper(self):
+        return self.arms[0].gripper
+
+    @property
+    def control(self):
+        return self.arms[0].control
+
+    @property
+    def robot(self):
+        return self.arms[0].robot
+
+    @property
+    def udp(self):
+        return self.arms[0].udp
+
+    @property
+    def gripper_endpoint(self):
+        return self.arms[0].gripper_endpoint
+
+    def arm(self, name: str) -> ArmServer:
+        """The arm of that name (KeyError: none)."""
+        for arm in self.arms:
+            if arm.spec.name == name:
+                return arm
+        raise KeyError(f"no arm named {name!r} ({', '.join(a.spec.name for a in self.arms)})")
+
+    # -- the control API's operations on the first arm (docs/control_api.md) ----------------------
     async def health(self) -> dict:
         return self.control.health()
 
@@ -202,53 +212,28 @@ class FrankaSim:
     async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
         return await self.control.push(body, force, torque, duration)
 
-    # -- wiring --------------------------------------------------------------------------------
-    def _make_session(self) -> Session:
-        self.driver.resume()  # a paused clock starts again for the newcomer
-        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
+    # -- the world's cycle -------------------------------------------------------------------------
+    def _make_cycle(self, physics: list[ArmBackend]):
+        cycles = [arm.make_cycle(physics[i]) for i, arm in enumerate(self.arms)]
+        if len(cycles) == 1:
+            return cycles[0]
+        return WorldCycle(cycles, physics[0].world.step)
 
-    def _make_gripper_session(self) -> Session:
-        self.driver.resume()
-        return gripper_session(self.gripper)
+    def _send_states(self, states: tuple) -> None:
+        """Each arm's state of a world cycle to its client (None: packing failed)."""
+        for arm, state in zip(self.arms, states):
+            if state is not None:
+                arm.udp.send_state(state)
 
-    def _client_event(self) -> None:
-        self.driver.client_event()  # in lockstep, what releases an idle cycle
+    def _deliver(self, replies) -> None:
+        """Each arm's replies of a world cycle, on the loop, once the states have left."""
+        for arm, arm_replies in zip(self.arms, replies.arms):
+            if arm_replies:
+                arm.deliver(arm_replies)
 
-    def _defer_replies(self, deliver) -> bool:
-        return self.driver.after_next_state(deliver)  # see CycleDriver.after_next_state
+    def _poll(self, *limit) -> None:
+        for arm in self.arms:
+            arm.udp.poll(*limit)
 
     def _has_client(self) -> bool:
-        return self.robot.active is not None or self.gripper_endpoint.active is not None
-
-    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.target = (peer_ip, udp_port)
-        self.core.client_connected()
-
-    def _client_silent(self) -> bool:
-        with self.lock:
-            return self.core.client_silent
-
-    def _on_disconnect(self) -> None:
-        self.udp.target = None
-        self.core.client_gone()
-        self.driver.client_event()
-
-    def _on_command(self, command) -> None:
-        self.driver.receive(command)
-
-    def _make_cycle(self, physics) -> RobotCycle:
-        return RobotCycle(self.core, physics, self.gripper,
-                          hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
-
-    def _deliver(self, replies: Replies) -> None:
-        """A cycle's replies, on the loop, once its state has left."""
-        for reply in replies.robot:
-            self.robot.send(reply)
-        for reply in replies.hand:
-            self.gripper_endpoint.send(reply)
-        if replies.hand_state is not None:
-            self.gripper_endpoint.send_state(replies.hand_state)
-
-    def _on_gripper_disconnect(self) -> None:
-        self.gripper.client_gone()
-        self.driver.client_event()
+        return any(arm.has_client() for arm in self.arms)

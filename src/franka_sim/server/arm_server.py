@@ -1,0 +1,179 @@
+"""One arm of the world, served on its own address exactly as a lone robot is served.
+
+Everything a robot has of its own lives here: its robot core (modes, errors, reflexes, Set*
+settings, success rate), its Hand, its FCI endpoints (TCP 1337 + UDP) and the Hand's (1338),
+and its control API. What the arms share (the cycle thread and its world, the lock, the
+driver that paces the world's cycles) is FrankaSim's (server/sim.py), which wires them.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+import threading
+
+import numpy as np
+
+from franka_sim.config import ArmSpec, Config
+from franka_sim.description.urdf import ArmDescription
+from franka_sim.robot.core import RobotCore
+from franka_sim.robot.cycle import Replies, RobotCycle
+from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.requests import RequestHandler
+from franka_sim.robot.session import Session, gripper_session, robot_session
+from franka_sim.server.control_ops import ControlOps
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.cycle_thread import CycleThread
+from franka_sim.server.gripper_endpoint import GripperEndpoint
+from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.udp_endpoint import UdpEndpoint
+
+log = logging.getLogger(__name__)
+
+
+class AddressInUse(OSError):
+    """A port on an arm's address is taken (another simulator, or a robot bridge)."""
+
+
+class ArmServer:
+    """Arm `index` of the world, named and addressed by `spec`. `driver` is the world's (its
+    clock serves every arm); `on_command(index, command)` hands it this arm's commands."""
+
+    def __init__(self, spec: ArmSpec, index: int, config: Config, *, description: ArmDescription,
+                 urdf_text: str, driver: CycleDriver, worker: CycleThread,
+                 lock: threading.Lock, on_command) -> None:
+        self.spec, self.index, self.config = spec, index, config
+        self.driver, self.lock, self.urdf_text = driver, lock, urdf_text
+        q0 = np.array(config.q0, dtype=float)
+        self.core = RobotCore(
+            description, q0, enforce_comm_constraints=config.enforce_comm_constraints,
+            enforce_motion_limits=config.enforce_motion_limits,
+            joint_discontinuity_scale=config.joint_discontinuity_scale,
+        )
+        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
+        self.gripper = Gripper() if config.gripper else None
+        self.gripper_endpoint = GripperEndpoint(
+            self._make_gripper_session, self._on_gripper_disconnect, lock=lock,
+            on_request=driver.client_event)
+        self.udp = UdpEndpoint(on_command)
+        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
+                                   defer_replies=driver.after_next_state, lock=lock,
+                                   replaceable=self._client_silent,
+                                   on_request=driver.client_event)
+        self.control = ControlOps(
+            core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
+            description=description, q0=q0, clock=config.clock.value,
+            client_connected=lambda: self.robot.active is not None, arm=spec.name,
+            arm_index=index)
+        self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+
+    @property
+    def host(self) -> str:
+        return self.spec.host
+
+    # -- lifecycle -------------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Open every endpoint on the arm's address, or none (AddressInUse / OSError naming
+        the arm and the port)."""
+        config, host = self.config, self.host
+        opened = []
+        try:
+            await self._open(self.robot.start(host, config.robot_port), config.robot_port, "")
+            opened.append(self.robot.stop)
+            try:
+                self.udp.open(host)
+            except OSError as exc:
+                raise OSError(exc.errno, f"arm {self.spec.name}: no UDP socket on {host}: "
+                              f"{exc.strerror}") from exc
+            if self.gripper is not None:
+                await self._open(self.gripper_endpoint.start(host, config.gripper_port),
+                                 config.gripper_port, " (gripper)")
+                opened.append(self.gripper_endpoint.stop)
+            if config.control_port:
+                await self._open(self._start_control_api(), config.control_port,
+                                 " (control API)")
+        except BaseException:
+            for stop in reversed(opened):
+                await stop()
+            self.udp.close()
+            raise
+
+    async def _open(self, opening, port: int, what: str) -> None:
+        try:
+            await opening
+        except OSError as exc:
+            where = f"arm {self.spec.name}: {self.host}:{port}{what}"
+            if exc.errno == errno.EADDRINUSE:
+                raise AddressInUse(exc.errno, f"{where} is already in use (another franka-sim "
+                                   "or robot bridge on this address?)") from exc
+            raise OSError(exc.errno, f"{where} cannot be served: {exc.strerror or exc}") from exc
+
+    async def _start_control_api(self) -> None:
+        from franka_sim.server.control_api import ControlApi  # aiohttp: only when served
+
+        api = ControlApi(self.control, token=self.config.control_token)
+        await api.start(self.host, self.config.control_port)
+        self._control_api = api
+
+    async def stop_control_api(self) -> None:
+        if self._control_api is not None:
+            await self._control_api.stop()
+            self._control_api = None
+
+    async def stop_endpoints(self) -> None:
+        await self.robot.stop()
+        if self.gripper is not None:
+            await self.gripper_endpoint.stop()
+
+    def describe(self) -> str:
+        """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
+        config = self.config
+        return "serving on {}:{} (arm {}; {}; {}".format(
+            self.host, config.robot_port, self.spec.name,
+            f"Franka Hand on {config.gripper_port}" if self.gripper is not None
+            else "no gripper",
+            f"control API on {config.control_port}" if config.control_port
+            else "no control API")
+
+    # -- the cycle -------------------------------------------------------------------------------
+    def make_cycle(self, physics) -> RobotCycle:
+        return RobotCycle(self.core, physics, self.gripper,
+                          hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
+
+    def deliver(self, replies: Replies) -> None:
+        """A cycle's replies, on the loop, once its state has left."""
+        for reply in replies.robot:
+            self.robot.send(reply)
+        for reply in replies.hand:
+            self.gripper_endpoint.send(reply)
+        if replies.hand_state is not None:
+            self.gripper_endpoint.send_state(replies.hand_state)
+
+    def has_client(self) -> bool:
+        return self.robot.active is not None or self.gripper_endpoint.active is not None
+
+    # -- the endpoints' callbacks ----------------------------------------------------------------
+    def _make_session(self) -> Session:
+        self.driver.resume()  # a paused clock starts again for the newcomer
+        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
+
+    def _make_gripper_session(self) -> Session:
+        self.driver.resume()
+        return gripper_session(self.gripper)
+
+    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
+        self.udp.target = (peer_ip, udp_port)
+        self.core.client_connected()
+
+    def _client_silent(self) -> bool:
+        with self.lock:
+            return self.core.client_silent
+
+    def _on_disconnect(self) -> None:
+        self.udp.target = None
+        self.core.client_gone()
+        self.driver.client_event()
+
+    def _on_gripper_disconnect(self) -> None:
+        self.gripper.client_gone()
+        self.driver.client_event()
