@@ -93,6 +93,14 @@ def serve(
     log_level: str = typer.Option(
         "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
     ),
+    record: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_RECORD", dir_okay=False,
+        help="Record everything the robot and its clients exchange to this MCAP file "
+        "(docs/recording.md): `franka-sim replay`, `plot` and `render` read it.",
+    ),
+    viewer: bool = typer.Option(
+        False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
+    ),
 ) -> None:
     """Run the simulated robot until Ctrl-C or SIGTERM."""
     from franka_sim.serving import exec_serving
@@ -112,7 +120,7 @@ def serve(
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
         scene=scene, gripper=not no_gripper, control_port=control_port,
-        control_token=control_token,
+        control_token=control_token, record=record,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level)
 

@@ -33,3 +33,4 @@ class Config:
     scene: Path | None = None  # MJCF whose bodies surround the arm; None: the packaged default
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
+    record: Path | None = None  # write everything the run exchanged to this MCAP file

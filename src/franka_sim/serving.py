@@ -61,7 +61,7 @@ def _config(settings: dict) -> Config:
     from franka_sim.config import ClockMode, Config  # (numpy: after the SIGTERM handler)
 
     settings = dict(settings)
-    for name in ("urdf", "scene"):
+    for name in ("urdf", "scene", "record"):
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
@@ -160,6 +160,8 @@ async def _serve(config: Config) -> None:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
         raise _Failed(f"cannot load the scene {exc}") from None
+    except OSError as exc:  # only the recording's target is opened here
+        raise _Failed(f"cannot record to {config.record}: {exc.strerror or exc}") from None
     # Everything built so far lives as long as the server: keep it out of the collector's
     # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
     gc.collect()

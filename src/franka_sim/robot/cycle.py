@@ -67,6 +67,8 @@ class RobotCycle:
         self._failures = 0
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
+        self.completed_id = 0  # the last completed cycle's message_id
+        self.recorder = None  # recording.Recorder, when the run is recorded
 
     # -- questions a pacer asks ----------------------------------------------------------------
     @property
@@ -117,7 +119,10 @@ class RobotCycle:
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
         """A decoded RobotCommand; True if it answered the open cycle in time."""
-        return self.core.receive_command(command)
+        on_time = self.core.receive_command(command)
+        if self.recorder is not None:
+            self.recorder.command(command, on_time)
+        return on_time
 
     def release(self) -> Released:
         core, physics = self.core, self.physics
@@ -135,6 +140,8 @@ class RobotCycle:
         except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
             self._failed()
             state = None
+        if self.recorder is not None:
+            self.recorder.released(core.message_id)
         return Released(core.message_id, state, measured)
 
     def repeat(self) -> Released:
@@ -162,6 +169,7 @@ class RobotCycle:
                     self._failed()
         self.physics.finish_step()
         core.run_deferred_checks()
+        self.completed_id = released.message_id
         if robot_replies or hand_replies or hand_state is not None:
             return Replies(robot_replies, hand_replies, hand_state)
         return NO_REPLIES

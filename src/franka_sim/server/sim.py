@@ -12,17 +12,11 @@ from __future__ import annotations
 import errno
 import logging
 import threading
-import numpy as np
 
+from franka_sim.assembly import ArmParts
 from franka_sim.config import ClockMode, Config
-from franka_sim.description.urdf import default_urdf_text, load_arm_description
-from franka_sim.physics.mujoco_backend import MujocoBackend
-from franka_sim.physics.scene import check_scene, default_scene_path
-from franka_sim.robot.core import RobotCore
 from franka_sim.robot.cycle import Replies, RobotCycle
-from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.requests import RequestHandler
-from franka_sim.robot.session import gripper_session, robot_session, Session
+from franka_sim.robot.session import Session
 from franka_sim.server.control_ops import ControlOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -43,22 +37,11 @@ class FrankaSim:
         for key, value in overrides.items():
             setattr(config, key, value)
         self.config = config
-        self.urdf_text = (
-            config.urdf.read_text() if config.urdf is not None else default_urdf_text()
-        )
-        self.description = load_arm_description(self.urdf_text)
-        q0 = np.array(config.q0, dtype=float)
-        self.core = RobotCore(
-            self.description, q0, enforce_comm_constraints=config.enforce_comm_constraints,
-            enforce_motion_limits=config.enforce_motion_limits,
-            joint_discontinuity_scale=config.joint_discontinuity_scale,
-        )
-        self.scene = config.scene if config.scene is not None else default_scene_path()
-        check_scene(self.description, self.scene, fingers=config.gripper)  # SceneError: say so now
-        self.worker = CycleThread(lambda: MujocoBackend(
-            self.description, q0, scene_xml=self.scene, fingers=config.gripper))
-        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
-        self.gripper = Gripper() if config.gripper else None
+        self.parts = parts = ArmParts(config)
+        self.urdf_text, self.description = parts.urdf_text, parts.description
+        self.core, self.scene, self.gripper = parts.core, parts.scene, parts.gripper
+        q0 = parts.q0
+        self.worker = CycleThread(parts.make_physics)
         # The core and the Hand are shared by the physics thread (each cycle) and the loop
         # (each TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
@@ -81,6 +64,11 @@ class FrankaSim:
             lock=self.lock, description=self.description, q0=q0, clock=config.clock.value,
             client_connected=lambda: self.robot.active is not None)
         self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+        self.recorder = None
+        if config.record is not None:  # OSError: the target cannot be written
+            from franka_sim.recording.taps import install_recorder
+
+            self.recorder = install_recorder(self)
         self._started = False
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -125,6 +113,8 @@ class FrankaSim:
                 await self._undo_start()
                 raise
         self._started = True
+        if self.recorder is not None:
+            self.recorder.start()  # (what the taps queued so far is written first)
         control = (f"control API on {self.config.control_port}" if self.config.control_port
                    else "no control API")
         log.info(
@@ -168,6 +158,8 @@ class FrankaSim:
         await self.driver.stop()
         self.udp.close()
         await self.worker.stop()
+        if self.recorder is not None:
+            self.recorder.stop()
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()
@@ -205,11 +197,11 @@ class FrankaSim:
     # -- wiring --------------------------------------------------------------------------------
     def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
-        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
+        return self.parts.robot_session()
 
     def _make_gripper_session(self) -> Session:
         self.driver.resume()
-        return gripper_session(self.gripper)
+        return self.parts.gripper_session()
 
     def _client_event(self) -> None:
         self.driver.client_event()  # in lockstep, what releases an idle cycle
@@ -237,8 +229,12 @@ class FrankaSim:
         self.driver.receive(command)
 
     def _make_cycle(self, physics) -> RobotCycle:
-        return RobotCycle(self.core, physics, self.gripper,
-                          hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
+        cycle = self.parts.make_cycle(
+            physics, hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
+        if self.recorder is not None:
+            cycle.recorder = self.recorder
+            self.recorder.attach(cycle, physics)
+        return cycle
 
     def _deliver(self, replies: Replies) -> None:
         """A cycle's replies, on the loop, once its state has left."""
