@@ -94,7 +94,7 @@ def serve(
         "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
     ),
     record: Path | None = typer.Option(
-        None, envvar="FRANKA_SIM_RECORD", dir_okay=False,
+        None, dir_okay=False,
         help="Record everything the robot and its clients exchange to this MCAP file "
         "(docs/recording.md): `franka-sim replay`, `plot` and `render` read it.",
     ),
@@ -157,6 +157,39 @@ def check(
                          control_port=control_port, token=token)
     if reason is not None:
         typer.echo(f"franka-sim check: {reason}", err=True)
+        raise typer.Exit(1)
+
+
+def _open(path: Path):
+    """The recording at `path`, or its one-line error and exit 1."""
+    from franka_sim.recording.reader import RecordingError, open_recording
+
+    try:
+        return open_recording(path)
+    except RecordingError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def replay(
+    recording: Path = typer.Argument(..., metavar="RECORDING", help="An MCAP file from "
+                                     "`franka-sim serve --record`."),
+    until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
+) -> None:
+    """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
+    `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
+    from franka_sim.recording.metadata import Incompatible
+    from franka_sim.recording.replay import replay as run_replay
+
+    loaded = _open(recording)
+    try:
+        outcome = run_replay(loaded, until)
+    except Incompatible as exc:
+        typer.echo(f"franka-sim: {recording}: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(outcome.line())
+    if not outcome.identical:
         raise typer.Exit(1)
 
 
