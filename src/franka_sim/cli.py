@@ -193,5 +193,54 @@ def replay(
         raise typer.Exit(1)
 
 
+@app.command()
+def plot(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
+    joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
+    start: float | None = typer.Option(None, "--from", help="From this robot time [s]."),
+    end: float | None = typer.Option(None, "--to", help="To this robot time [s]."),
+    fields: str | None = typer.Option(
+        None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
+) -> None:
+    """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
+    rate, and the robot mode with motions and errors (needs franka-sim[plot])."""
+    from franka_sim.recording.plot import PlotError, parse_fields, parse_joints
+    from franka_sim.recording.plot import plot as draw
+
+    try:
+        chosen, extra = parse_joints(joints), parse_fields(fields)
+        loaded = _open(recording)
+        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra)
+    except PlotError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        typer.echo(f"franka-sim: cannot write {output}: {exc.strerror or exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def render(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
+                                help="The video to write (.mp4)."),
+    camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
+    fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
+) -> None:
+    """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
+    needs franka-sim[render])."""
+    from franka_sim.recording.render import RenderError
+    from franka_sim.recording.render import render as make_video
+
+    loaded = _open(recording)
+    try:
+        frames = make_video(loaded, output, fps=fps, camera=camera)
+    except RenderError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(f"{output}: {frames} frames")
+
+
 def main() -> None:
     app()
