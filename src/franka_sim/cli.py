@@ -115,6 +115,14 @@ def serve(
             param_hint="--control-port")
     if control_token is not None and not control_token.strip():
         raise typer.BadParameter("an empty token protects nothing", param_hint="--control-token")
+    if viewer:
+        from franka_sim.server.viewer import NoDisplay, check_display
+
+        try:
+            check_display()
+        except NoDisplay as exc:
+            typer.echo(f"franka-sim: {exc}", err=True)
+            raise typer.Exit(1) from None
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
@@ -122,7 +130,7 @@ def serve(
         scene=scene, gripper=not no_gripper, control_port=control_port,
         control_token=control_token, record=record,
     )
-    exec_serving(config, rt_priority=rt_priority, log_level=log_level)
+    exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
 
 
 @app.command()

@@ -34,7 +34,8 @@ log = logging.getLogger("franka_sim")
 _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 
 
-def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
+def exec_serving(config: Config, *, rt_priority: int, log_level: str,
+                 viewer: bool = False) -> None:
     """Become the serving process (does not return)."""
     settings = {name: value.value if isinstance(value, Enum) else
                 str(value) if isinstance(value, Path) else value
@@ -44,7 +45,7 @@ def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
     if token is not None:
         os.environ[_TOKEN] = token
     _become_serving(json.dumps({"config": settings, "rt_priority": rt_priority,
-                                "log_level": log_level}))
+                                "log_level": log_level, "viewer": viewer}))
 
 
 def _become_serving(blob: str) -> None:
@@ -90,10 +91,11 @@ def _stop_on_sigterm() -> None:
 
 def main(blob: str) -> int:
     _stop_on_sigterm()
-    leave_out_renderer()
+    args = json.loads(blob)
+    if not args.get("viewer"):
+        leave_out_renderer()
     if _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
-    args = json.loads(blob)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:
@@ -102,7 +104,7 @@ def main(blob: str) -> int:
     if args["config"]["control_port"]:
         import_without_tls("aiohttp.web")  # before the control API imports it
     try:
-        uvloop.run(_serve(_config(args["config"])))
+        uvloop.run(_serve(_config(args["config"]), viewer=args.get("viewer", False)))
     except _Failed as exc:
         print(f"franka-sim: {exc}", file=sys.stderr)
         return 1
@@ -147,7 +149,7 @@ def _release_unused_heap() -> None:
         pass
 
 
-async def _serve(config: Config) -> None:
+async def _serve(config: Config, viewer: bool = False) -> None:
     import asyncio
 
     from franka_sim.description.urdf import DescriptionError
@@ -171,6 +173,10 @@ async def _serve(config: Config) -> None:
     except AddressInUse as exc:
         raise _Failed(exc.strerror) from None
     _release_unused_heap()
+    from franka_sim.server.status_line import show_status
+
+    status = asyncio.create_task(show_status(sim))
+    live = await _open_viewer(sim) if viewer else None
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -179,7 +185,23 @@ async def _serve(config: Config) -> None:
         await stop.wait()
     finally:
         log.info("stopping")
+        status.cancel()
+        if live is not None:
+            live.stop()
         await sim.stop()
+
+
+async def _open_viewer(sim):
+    from franka_sim.server.viewer import LiveViewer
+
+    world = await sim.worker.call(lambda physics: physics.world)
+    viewer = LiveViewer(world.model, world.data)
+    try:
+        viewer.start()
+    except RuntimeError as exc:
+        await sim.stop()
+        raise _Failed(str(exc)) from None
+    return viewer
 
 
 if __name__ == "__main__":
