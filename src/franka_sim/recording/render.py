@@ -33,7 +33,8 @@ def frame_cycles(first: int, last: int, fps: float) -> np.ndarray:
 def render(recording: Recording, output: Path, *, fps: float = 30.0,
            camera: str | None = None) -> int:
     """Write the video; the number of frames."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
+    if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's default: no GL)
+        os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
     try:
         import imageio_ffmpeg
     except ImportError:
