@@ -101,6 +101,14 @@ def serve(
     log_level: str = typer.Option(
         "info", envvar="FRANKA_SIM_LOG_LEVEL", help="debug, info, warning or error."
     ),
+    record: Path | None = typer.Option(
+        None, dir_okay=False,
+        help="Record everything the robot and its clients exchange to this MCAP file "
+        "(docs/recording.md): `franka-sim replay`, `plot` and `render` read it.",
+    ),
+    viewer: bool = typer.Option(
+        False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
+    ),
 ) -> None:
     """Run the simulated robot until Ctrl-C or SIGTERM."""
     from franka_sim.serving import exec_serving
@@ -119,6 +127,9 @@ def serve(
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--arm") from None
+    if record is not None and len(arms) > 1:
+        raise typer.BadParameter("records a world of one arm; several arms cannot be recorded "
+                                 "yet", param_hint="--record")
     scene_path = None
     if scene is not None:
         from franka_sim.physics.scene import SceneError, resolve_scene
@@ -127,14 +138,22 @@ def serve(
             scene_path = resolve_scene(scene)
         except SceneError as exc:
             raise typer.BadParameter(str(exc), param_hint="--scene") from None
+    if viewer:
+        from franka_sim.server.viewer import NoDisplay, check_display
+
+        try:
+            check_display()
+        except NoDisplay as exc:
+            typer.echo(f"franka-sim: {exc}", err=True)
+            raise typer.Exit(1) from None
     config = Config(
         host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
         scene=scene_path, gripper=not no_gripper, control_port=control_port,
-        control_token=control_token, arms=arms,
+        control_token=control_token, arms=arms, record=record,
     )
-    exec_serving(config, rt_priority=rt_priority, log_level=log_level)
+    exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
 
 
 def parse_arm(text: str) -> ArmSpec:
@@ -198,6 +217,88 @@ def check(
     if reason is not None:
         typer.echo(f"franka-sim check: {reason}", err=True)
         raise typer.Exit(1)
+
+
+def _open(path: Path):
+    """The recording at `path`, or its one-line error and exit 1."""
+    from franka_sim.recording.reader import RecordingError, open_recording
+
+    try:
+        return open_recording(path)
+    except RecordingError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def replay(
+    recording: Path = typer.Argument(..., metavar="RECORDING", help="An MCAP file from "
+                                     "`franka-sim serve --record`."),
+    until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
+) -> None:
+    """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
+    `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
+    from franka_sim.recording.metadata import Incompatible
+    from franka_sim.recording.replay import replay as run_replay
+
+    loaded = _open(recording)
+    try:
+        outcome = run_replay(loaded, until)
+    except Incompatible as exc:
+        typer.echo(f"franka-sim: {recording}: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(outcome.line())
+    if not outcome.identical:
+        raise typer.Exit(1)
+
+
+@app.command()
+def plot(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
+    joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
+    start: float | None = typer.Option(None, "--from", help="From this robot time [s]."),
+    end: float | None = typer.Option(None, "--to", help="To this robot time [s]."),
+    fields: str | None = typer.Option(
+        None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
+) -> None:
+    """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
+    rate, and the robot mode with motions and errors (needs franka-sim[plot])."""
+    from franka_sim.recording.plot import PlotError, parse_fields, parse_joints
+    from franka_sim.recording.plot import plot as draw
+
+    try:
+        chosen, extra = parse_joints(joints), parse_fields(fields)
+        loaded = _open(recording)
+        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra)
+    except PlotError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        typer.echo(f"franka-sim: cannot write {output}: {exc.strerror or exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def render(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
+                                help="The video to write (.mp4)."),
+    camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
+    fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
+) -> None:
+    """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
+    needs franka-sim[render])."""
+    from franka_sim.recording.render import RenderError
+    from franka_sim.recording.render import render as make_video
+
+    loaded = _open(recording)
+    try:
+        frames = make_video(loaded, output, fps=fps, camera=camera)
+    except RenderError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(f"{output}: {frames} frames")
 
 
 def main() -> None:

@@ -49,6 +49,7 @@ class Config:
     scene: Path | None = None  # MJCF whose bodies surround the arms; None: the packaged default
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
+    record: Path | None = None  # write everything the run exchanged to this MCAP file
     # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
     arms: tuple[ArmSpec, ...] = ()
 

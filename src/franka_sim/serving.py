@@ -34,7 +34,8 @@ log = logging.getLogger("franka_sim")
 _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 
 
-def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
+def exec_serving(config: Config, *, rt_priority: int, log_level: str,
+                 viewer: bool = False) -> None:
     """Become the serving process (does not return)."""
     settings = {name: value.value if isinstance(value, Enum) else
                 str(value) if isinstance(value, Path) else value
@@ -44,7 +45,7 @@ def exec_serving(config: Config, *, rt_priority: int, log_level: str) -> None:
     if token is not None:
         os.environ[_TOKEN] = token
     _become_serving(json.dumps({"config": settings, "rt_priority": rt_priority,
-                                "log_level": log_level}))
+                                "log_level": log_level, "viewer": viewer}))
 
 
 def _become_serving(blob: str) -> None:
@@ -61,7 +62,7 @@ def _config(settings: dict) -> Config:
     from franka_sim.config import ArmSpec, ClockMode, Config  # (numpy: after SIGTERM's handler)
 
     settings = dict(settings)
-    for name in ("urdf", "scene"):
+    for name in ("urdf", "scene", "record"):
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
@@ -93,10 +94,11 @@ def _stop_on_sigterm() -> None:
 
 def main(blob: str) -> int:
     _stop_on_sigterm()
-    leave_out_renderer()
+    args = json.loads(blob)
+    if not args.get("viewer"):
+        leave_out_renderer()
     if _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
-    args = json.loads(blob)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:
@@ -105,7 +107,7 @@ def main(blob: str) -> int:
     if args["config"]["control_port"]:
         import_without_tls("aiohttp.web")  # before the control API imports it
     try:
-        uvloop.run(_serve(_config(args["config"])))
+        uvloop.run(_serve(_config(args["config"]), viewer=args.get("viewer", False)))
     except _Failed as exc:
         print(f"franka-sim: {exc}", file=sys.stderr)
         return 1
@@ -150,7 +152,7 @@ def _release_unused_heap() -> None:
         pass
 
 
-async def _serve(config: Config) -> None:
+async def _serve(config: Config, viewer: bool = False) -> None:
     import asyncio
 
     from franka_sim.description.urdf import DescriptionError
@@ -163,6 +165,8 @@ async def _serve(config: Config) -> None:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
         raise _Failed(str(exc)) from None
+    except OSError as exc:  # only the recording's target is opened here
+        raise _Failed(f"cannot record to {config.record}: {exc.strerror or exc}") from None
     # Everything built so far lives as long as the server: keep it out of the collector's
     # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
     gc.collect()
@@ -172,6 +176,10 @@ async def _serve(config: Config) -> None:
     except OSError as exc:  # an address in use or that cannot be served: nothing is served
         raise _Failed(exc.strerror or str(exc)) from None
     _release_unused_heap()
+    from franka_sim.server.status_line import show_status
+
+    status = asyncio.create_task(show_status(sim))
+    live = await _open_viewer(sim) if viewer else None
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -180,7 +188,23 @@ async def _serve(config: Config) -> None:
         await stop.wait()
     finally:
         log.info("stopping")
+        status.cancel()
+        if live is not None:
+            live.stop()
         await sim.stop()
+
+
+async def _open_viewer(sim):
+    from franka_sim.server.viewer import LiveViewer
+
+    world = await sim.worker.call(lambda physics: physics.world)
+    viewer = LiveViewer(world.model, world.data)
+    try:
+        viewer.start()
+    except RuntimeError as exc:
+        await sim.stop()
+        raise _Failed(str(exc)) from None
+    return viewer
 
 
 if __name__ == "__main__":

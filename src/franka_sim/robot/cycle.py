@@ -74,6 +74,8 @@ class RobotCycle:
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
         self._q_d = None  # the desired q of the cycle being released (None: no generator)
+        self.completed_id = 0  # the last completed cycle's message_id
+        self.recorder = None  # recording.Recorder, when the run is recorded
 
     # -- questions a pacer asks ----------------------------------------------------------------
     @property
@@ -124,7 +126,10 @@ class RobotCycle:
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
         """A decoded RobotCommand; True if it answered the open cycle in time."""
-        return self.core.receive_command(command)
+        on_time = self.core.receive_command(command)
+        if self.recorder is not None:
+            self.recorder.command(command, on_time)
+        return on_time
 
     def release(self) -> Released:
         self.physics.step(*self.drive())
@@ -151,6 +156,8 @@ class RobotCycle:
         except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
             self._failed()
             state = None
+        if self.recorder is not None:
+            self.recorder.released(core.message_id)
         return Released(core.message_id, state, measured)
 
     def repeat(self) -> Released:
@@ -178,6 +185,7 @@ class RobotCycle:
                     self._failed()
         self.physics.finish_step()
         core.run_deferred_checks()
+        self.completed_id = released.message_id
         if robot_replies or hand_replies or hand_state is not None:
             return Replies(robot_replies, hand_replies, hand_state)
         return NO_REPLIES

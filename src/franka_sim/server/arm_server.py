@@ -12,15 +12,9 @@ import errno
 import logging
 import threading
 
-import numpy as np
-
-from franka_sim.config import ArmSpec, Config
-from franka_sim.description.urdf import ArmDescription
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import Replies, RobotCycle
-from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.requests import RequestHandler
-from franka_sim.robot.session import Session, gripper_session, robot_session
+from franka_sim.assembly import ArmParts
+from franka_sim.robot.cycle import Replies
+from franka_sim.robot.session import Session
 from franka_sim.server.control_ops import ControlOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -36,22 +30,15 @@ class AddressInUse(OSError):
 
 
 class ArmServer:
-    """Arm `index` of the world, named and addressed by `spec`. `driver` is the world's (its
-    clock serves every arm); `on_command(index, command)` hands it this arm's commands."""
+    """Arm `index` of the world (its parts: assembly.ArmParts, named and addressed by their
+    spec). `driver` is the world's (its clock serves every arm); `on_command(command)` hands it
+    this arm's commands."""
 
-    def __init__(self, spec: ArmSpec, index: int, config: Config, *, description: ArmDescription,
-                 urdf_text: str, driver: CycleDriver, worker: CycleThread,
+    def __init__(self, parts: ArmParts, index: int, *, driver: CycleDriver, worker: CycleThread,
                  lock: threading.Lock, on_command) -> None:
-        self.spec, self.index, self.config = spec, index, config
-        self.driver, self.lock, self.urdf_text = driver, lock, urdf_text
-        q0 = np.array(config.q0, dtype=float)
-        self.core = RobotCore(
-            description, q0, enforce_comm_constraints=config.enforce_comm_constraints,
-            enforce_motion_limits=config.enforce_motion_limits,
-            joint_discontinuity_scale=config.joint_discontinuity_scale,
-        )
-        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
-        self.gripper = Gripper() if config.gripper else None
+        self.parts, self.spec, self.index, self.config = parts, parts.spec, index, parts.config
+        self.driver, self.lock = driver, lock
+        self.core, self.gripper = parts.core, parts.gripper
         self.gripper_endpoint = GripperEndpoint(
             self._make_gripper_session, self._on_gripper_disconnect, lock=lock,
             on_request=driver.client_event)
@@ -62,8 +49,8 @@ class ArmServer:
                                    on_request=driver.client_event)
         self.control = ControlOps(
             core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
-            description=description, q0=q0, clock=config.clock.value,
-            client_connected=lambda: self.robot.active is not None, arm=spec.name,
+            description=parts.description, q0=parts.q0, clock=self.config.clock.value,
+            client_connected=lambda: self.robot.active is not None, arm=self.spec.name,
             arm_index=index)
         self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
 
@@ -136,9 +123,9 @@ class ArmServer:
             else "no control API")
 
     # -- the cycle -------------------------------------------------------------------------------
-    def make_cycle(self, physics) -> RobotCycle:
-        return RobotCycle(self.core, physics, self.gripper,
-                          hand_state_wanted=lambda: self.gripper_endpoint.state_target is not None)
+    def hand_state_wanted(self) -> bool:
+        """A Hand client takes GripperStates (its handshake said where)."""
+        return self.gripper_endpoint.state_target is not None
 
     def deliver(self, replies: Replies) -> None:
         """A cycle's replies, on the loop, once its state has left."""
@@ -155,11 +142,11 @@ class ArmServer:
     # -- the endpoints' callbacks ----------------------------------------------------------------
     def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
-        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
+        return self.parts.robot_session()
 
     def _make_gripper_session(self) -> Session:
         self.driver.resume()
-        return gripper_session(self.gripper)
+        return self.parts.gripper_session()
 
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
         self.udp.target = (peer_ip, udp_port)

@@ -87,17 +87,26 @@ class ControlOps:
         self.clock = clock
         self.client_connected = client_connected
         self.arm, self.arm_index = arm, arm_index  # the worker's physics: one backend per arm
+        self.recorder = None  # recording.Recorder: the operations that change the world
 
-    async def _job(self, fn: Callable[[Any], Any]) -> Any:
+    async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
         """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
-        here (and is not logged there as a failed job)."""
+        here (and is not logged there as a failed job). `call` (operation, arguments):
+        recorded, with the point in the cycle sequence where it ran, for replay."""
         index = self.arm_index
 
         def job(arms):
+            recorder = self.recorder if call is not None else None
+            at = recorder.position() if recorder is not None else None
             try:
-                return fn(arms[index])
+                result = fn(arms[index])
             except ControlError as refusal:
-                return refusal
+                result = refusal
+            if recorder is not None:
+                refused = isinstance(result, ControlError)
+                recorder.control(*call, at, result.status if refused else 200,
+                                 result.message if refused else result)
+            return result
         return await self.worker.call(job)
 
     # -- reading ---------------------------------------------------------------------------------
@@ -176,7 +185,8 @@ class ControlOps:
                 self.driver.keep_running()
                 return {"q": q.tolist(), "cycle": core.message_id,
                         "gripper_width": None if gripper is None else gripper.width}
-        return await self._job(reset)
+        return await self._job(reset, ("reset", {
+            "q": q.tolist(), "gripper_width": gripper_width}))
 
     async def set_pose(self, name: str, position, quaternion=None) -> dict:
         name = body_name(name)
@@ -197,7 +207,9 @@ class ControlOps:
                                "joints (only free bodies can be placed)") from None
             self.driver.keep_running()
             return _pose(world.body_state(name))
-        return await self._job(place)
+        return await self._job(place, ("set_pose", {
+            "name": name, "position": position.tolist(),
+            "quaternion": None if quaternion is None else quaternion.tolist()}))
 
     async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
         """A wrench at the body's centre of mass, base frame, for `duration` s of simulated
@@ -219,4 +231,6 @@ class ControlOps:
             self.driver.keep_running()
             return {"body": world.bodies.find(body), "force": force.tolist(),
                     "torque": torque.tolist(), "cycles": cycles}
-        return await self._job(push)
+        return await self._job(push, ("push", {
+            "body": body, "force": force.tolist(), "torque": torque.tolist(),
+            "duration": duration}))

@@ -43,6 +43,8 @@ class GripperEndpoint(SingleClientEndpoint):
     def send_state(self, data: bytes) -> None:
         if self.state_target is not None and self.udp is not None:
             self.udp.sendto(data, self.state_target)
+            if self.recorder is not None:
+                self.recorder.gripper_state(data)
 
     async def stop(self) -> None:
         await super().stop()

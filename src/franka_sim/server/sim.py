@@ -13,15 +13,9 @@ from __future__ import annotations
 import logging
 import threading
 
-import numpy as np
-
+from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
-from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import ArmBackend
-from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
-                                      resolve_scene, scene_mounts)
-from franka_sim.physics.world import World
-from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.arm_server import AddressInUse, ArmServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -37,20 +31,15 @@ class FrankaSim:
         for key, value in overrides.items():
             setattr(config, key, value)
         self.config = config
-        self.urdf_text = (
-            config.urdf.read_text() if config.urdf is not None else default_urdf_text()
-        )
-        self.description = load_arm_description(self.urdf_text)
-        self.scene = resolve_scene(config.scene) if config.scene is not None \
-            else default_scene_path()
-        specs = config.arm_specs()
-        self.placements = self._place(specs)
-        self._check_world()  # SceneError: say so now, before anything is served
+        # SceneError / DescriptionError: said now, before anything is served.
+        self.parts = parts = WorldParts(config)
+        self.urdf_text, self.description, self.scene = (
+            parts.urdf_text, parts.description, parts.scene)
         # The arms and the Hands are shared by the cycle thread (each cycle) and the loop (each
         # TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
-        self.worker = CycleThread(self._make_physics)
-        one = len(specs) == 1
+        self.worker = CycleThread(parts.make_physics)
+        one = len(parts.arms) == 1
         self.driver = CycleDriver(
             self._make_cycle, self.worker, self.lock, self._send_states,
             lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
@@ -59,56 +48,22 @@ class FrankaSim:
             (lambda: tuple(arm.udp.sock for arm in self.arms)),
         )
         self.arms = [
-            ArmServer(spec, i, config, description=self.description, urdf_text=self.urdf_text,
-                      driver=self.driver, worker=self.worker, lock=self.lock,
+            ArmServer(arm_parts, i, driver=self.driver, worker=self.worker, lock=self.lock,
                       on_command=self.driver.receive if one else
                       (lambda command, i=i: self.driver.receive((i, command))))
-            for i, spec in enumerate(specs)]
+            for i, arm_parts in enumerate(parts.arms)]
         if one:  # the one arm's own endpoints, without a per-cycle loop over a list
-            self._send_states = self.arms[0].udp.send_state
-            self.driver.send_state = self._send_states
+            self.driver.send_state = self.arms[0].udp.send_state
             self.driver.deliver = self.arms[0].deliver
             self.driver.poll_commands = self.arms[0].udp.poll
+        self.recorder = None
+        if config.record is not None:  # OSError: the target cannot be written
+            if not one:
+                raise ValueError("--record records a world of one arm (several: not supported)")
+            from franka_sim.recording.taps import install_recorder
+
+            self.recorder = install_recorder(self)
         self._started = False
-
-    def _place(self, specs) -> list[ArmPlacement]:
-        """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
-        the origin; a lone arm keeps the arm's own names."""
-        names = [spec.name for spec in specs]
-        hosts = [spec.host for spec in specs]
-        for spec in specs:
-            if names.count(spec.name) > 1:
-                raise SceneError(f"arm {spec.name}: two arms have that name")
-            if hosts.count(spec.host) > 1:
-                raise SceneError(f"arm {spec.name}: {spec.host} serves another arm too "
-                                 "(one address per arm)")
-        mounts = scene_mounts(self.scene)
-        fingers = self.config.gripper
-        if len(specs) == 1:
-            spec = specs[0]
-            base = spec.base if spec.base is not None else mounts.get(spec.name)
-            return [ArmPlacement(self.description, base=base, fingers=fingers)]
-        return [ArmPlacement(self.description, spec.name,
-                             base=spec.base if spec.base is not None else mounts.get(spec.name),
-                             fingers=fingers)
-                for spec in specs]
-
-    def _check_world(self) -> None:
-        check_world(self.placements, self.scene)
-        if len(self.placements) > 1:
-            world = World(self.placements, self._q0s(), scene_xml=self.scene)
-            for a, b in world.touching_arms():
-                raise SceneError(f"arm {a}: placed into arm {b} (their bodies intersect at the "
-                                 "starting pose; move their bases apart)")
-
-    def _q0s(self) -> dict:
-        q0 = np.array(self.config.q0, dtype=float)
-        return {p.name: q0 for p in self.placements}
-
-    def _make_physics(self) -> list[ArmBackend]:
-        """In the cycle thread: the world, and each arm's view of it (by arm index)."""
-        world = World(self.placements, self._q0s(), scene_xml=self.scene)
-        return [ArmBackend(world, p.name) for p in self.placements]
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> "FrankaSim":
@@ -128,6 +83,8 @@ class FrankaSim:
             await self.worker.stop()
             raise
         self._started = True
+        if self.recorder is not None:
+            self.recorder.start()  # (what the taps queued so far is written first)
         config = self.config
         for arm in self.arms:
             log.info("simulated FR3 %s; clock %s; scene %s)", arm.describe(),
@@ -146,6 +103,8 @@ class FrankaSim:
         for arm in self.arms:
             arm.udp.close()
         await self.worker.stop()
+        if self.recorder is not None:
+            self.recorder.stop()
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()
@@ -214,10 +173,11 @@ class FrankaSim:
 
     # -- the world's cycle -------------------------------------------------------------------------
     def _make_cycle(self, physics: list[ArmBackend]):
-        cycles = [arm.make_cycle(physics[i]) for i, arm in enumerate(self.arms)]
-        if len(cycles) == 1:
-            return cycles[0]
-        return WorldCycle(cycles, physics[0].world.step)
+        cycle = self.parts.make_cycle(physics, [arm.hand_state_wanted for arm in self.arms])
+        if self.recorder is not None:
+            cycle.recorder = self.recorder
+            self.recorder.attach(cycle, physics[0])
+        return cycle
 
     def _send_states(self, states: tuple) -> None:
         """Each arm's state of a world cycle to its client (None: packing failed)."""

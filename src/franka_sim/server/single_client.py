@@ -65,12 +65,16 @@ class ClientConnection(asyncio.Protocol):
             return
         owner.active = self
         self.session = owner.make_session()
+        if owner.recorder is not None:
+            owner.recorder.tcp(owner.what, "open")
         log.info("%s client %s:%s connected", owner.what, *self.peer)
 
     def data_received(self, data: bytes) -> None:  # type: ignore[override]
         if self.session is None:
             return
         with self.owner.lock:  # the robot's physics thread shares what the session changes
+            if self.owner.recorder is not None:
+                self.owner.recorder.tcp(self.owner.what, "data", data)
             self._receive(data)
 
     def _receive(self, data: bytes) -> None:
@@ -99,12 +103,16 @@ class ClientConnection(asyncio.Protocol):
     def write(self, data: bytes) -> None:
         if self.transport is not None and not self.transport.is_closing():
             self.transport.write(data)
+            if self.owner.recorder is not None:
+                self.owner.recorder.reply(self.owner.what, data)
 
     def connection_lost(self, exc) -> None:  # type: ignore[override]
         if self.owner.active is self:
             self.owner.active = None
             log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
             with self.owner.lock:
+                if self.owner.recorder is not None:
+                    self.owner.recorder.tcp(self.owner.what, "close")
                 self.owner.on_disconnect()
 
 
@@ -136,6 +144,7 @@ class SingleClientEndpoint:
         # on_request(): the active client's requests were handled (lock held): the clock's cue.
         self.on_request = on_request
         self.active: ClientConnection | None = None
+        self.recorder = None  # recording.Recorder: the active client's traffic
         self.server: asyncio.AbstractServer | None = None
 
     async def start(self, host: str, port: int) -> None:

@@ -33,6 +33,7 @@ class UdpEndpoint:
         self.sock: socket.socket | None = None
         self.dropped_foreign = 0
         self.dropped_malformed = 0
+        self.recorder = None  # recording.Recorder: every state sent, every datagram dropped
 
     def open(self, host: str) -> None:
         """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
@@ -64,6 +65,8 @@ class UdpEndpoint:
             sock.sendto(data, target)
         except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
             log.debug("state not sent: %s", exc)
+        if self.recorder is not None:
+            self.recorder.sent(data)
 
     def poll(self, limit: int = MAX_READ) -> None:
         """Take the datagrams queued on the socket now (up to `limit`), from any thread."""
@@ -83,6 +86,8 @@ class UdpEndpoint:
     def datagram_received(self, data: bytes, addr) -> None:
         if self.target is None or tuple(addr[:2]) != self.target:
             self.dropped_foreign += 1
+            if self.recorder is not None:
+                self.recorder.rejected("not the connected client", addr, data)
             if worth_logging(self.dropped_foreign):
                 log.warning(
                     "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
@@ -93,6 +98,8 @@ class UdpEndpoint:
             command = decode_command(data)
         except ProtocolError as exc:
             self.dropped_malformed += 1
+            if self.recorder is not None:
+                self.recorder.rejected(str(exc), addr, data)
             log.warning("dropped UDP datagram from the client: %s", exc)
             return
         self.on_command(command)

@@ -1,0 +1,8 @@
+"""Recording a run to MCAP, and what reads one back: replay, plot, render.
+
+`recorder.py` taps the server (a bounded queue the cycle thread only appends to) and
+`writer.py` drains it on a thread of its own; `channels.py` names what is recorded and how it is
+encoded; `reader.py` opens a recording and says in one line why it cannot.
+"""
+
+FORMAT_VERSION = 1  # bumped when a reader of the previous format would misread a new file

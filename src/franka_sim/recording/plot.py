@@ -1,0 +1,142 @@
+"""`franka-sim plot`: what happened in a recording, as one PNG of stacked panels on the robot's
+clock (seconds = cycles / 1000): q against q_d, dq, tau_J against tau_J_d, the external wrench,
+the success rate, and a timeline of the robot mode with motions and errors; every panel marks
+where motions started (solid) and ended (dashed). matplotlib is an optional extra."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from franka_sim.protocol.codec import STATE_DTYPE
+from franka_sim.protocol.timing import CYCLE_PERIOD
+from franka_sim.recording.reader import Recording
+from franka_sim.recording.timeline import error_onsets, mode_names, motion_ends, motion_starts
+
+WIDTH, PANEL_HEIGHT, DPI = 12.0, 2.2, 100  # inches, inches per panel, dots per inch
+
+
+class PlotError(Exception):
+    """Bad options (an unknown field, a joint out of 1-7, an empty window): one line."""
+
+
+class MissingExtra(PlotError):
+    pass
+
+
+def parse_joints(text: str | None) -> list[int]:
+    if not text:
+        return list(range(7))
+    try:
+        joints = [int(part) for part in text.split(",")]
+    except ValueError:
+        raise PlotError(f"--joints {text!r}: joint numbers 1-7, comma-separated") from None
+    if not all(1 <= j <= 7 for j in joints):
+        raise PlotError(f"--joints {text!r}: joints are numbered 1 to 7")
+    return [j - 1 for j in joints]
+
+
+def parse_fields(text: str | None) -> list[str]:
+    fields = [f for f in (text or "").split(",") if f]
+    for name in fields:
+        if name not in STATE_DTYPE.names:
+            raise PlotError(f"--fields: RobotState has no field {name!r}")
+    return fields
+
+
+def plot(recording: Recording, output: Path, *, joints: list[int], start: float | None = None,
+         end: float | None = None, fields: list[str] = ()) -> int:
+    """Write the PNG; the number of panels."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise MissingExtra("plotting needs matplotlib: pip install 'franka-sim[plot]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    states = recording.states()
+    t = states["message_id"].astype(float) * CYCLE_PERIOD
+    keep = np.ones(len(t), bool)
+    if start is not None:
+        keep &= t >= start
+    if end is not None:
+        keep &= t <= end
+    if not keep.any():
+        raise PlotError("no state in the window --from/--to")
+    states, t = states[keep], t[keep]
+    window = (t[0], t[-1])
+
+    panels = ["q", "dq", "tau", "wrench", "success", "timeline", *fields]
+    fig, axes = plt.subplots(len(panels), 1, sharex=True,
+                             figsize=(WIDTH, PANEL_HEIGHT * len(panels)), dpi=DPI)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, panel in zip(axes, panels):
+        if panel == "q":
+            for j in joints:
+                c = colors[j % len(colors)]
+                ax.plot(t, states["q"][:, j], color=c, label=f"q{j + 1}")
+                ax.plot(t, states["q_d"][:, j], color=c, ls=":", label=f"q_d{j + 1}")
+            ax.set_ylabel("q, q_d [rad]")
+        elif panel == "dq":
+            for j in joints:
+                ax.plot(t, states["dq"][:, j], color=colors[j % len(colors)], label=f"dq{j + 1}")
+            ax.set_ylabel("dq [rad/s]")
+        elif panel == "tau":
+            for j in joints:
+                c = colors[j % len(colors)]
+                ax.plot(t, states["tau_J"][:, j], color=c, label=f"tau_J{j + 1}")
+                ax.plot(t, states["tau_J_d"][:, j], color=c, ls=":", label=f"tau_J_d{j + 1}")
+            ax.set_ylabel("tau_J, tau_J_d [Nm]")
+        elif panel == "wrench":
+            for i, name in enumerate(("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")):
+                ax.plot(t, states["O_F_ext_hat_K"][:, i], label=name)
+            ax.set_ylabel("O_F_ext_hat_K")
+        elif panel == "success":
+            ax.plot(t, states["control_command_success_rate"], color="k")
+            ax.set_ylim(-0.05, 1.05)
+            ax.set_ylabel("success rate")
+        elif panel == "timeline":
+            _timeline(ax, recording, states, t, window)
+        else:
+            values = np.asarray(states[panel], dtype=float).reshape(len(t), -1)
+            ax.plot(t, values)
+            ax.set_ylabel(panel)
+        if panel in ("q", "dq", "tau", "wrench") and len(ax.get_lines()) <= 14:
+            ax.legend(loc="upper right", fontsize=6, ncol=7)
+        _boundaries(ax, recording, window)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
+    axes[0].set_title(f"{recording.path.name}: {len(states)} states")
+    fig.tight_layout()
+    fig.savefig(output, dpi=DPI)
+    plt.close(fig)
+    return len(panels)
+
+
+def _boundaries(ax, recording: Recording, window) -> None:
+    for mark in motion_starts(recording):
+        if window[0] <= mark.cycle * CYCLE_PERIOD <= window[1]:
+            ax.axvline(mark.cycle * CYCLE_PERIOD, color="g", lw=0.8)
+    for mark in motion_ends(recording):
+        if window[0] <= mark.cycle * CYCLE_PERIOD <= window[1]:
+            ax.axvline(mark.cycle * CYCLE_PERIOD, color="g", lw=0.8, ls="--")
+
+
+def _timeline(ax, recording: Recording, states, t, window) -> None:
+    names = mode_names()
+    modes = states["robot_mode"].astype(int)
+    ax.step(t, modes, where="post", color="k")
+    shown = sorted(set(modes.tolist()) | {1, 2, 4})
+    ax.set_yticks(shown, [names.get(m, str(m)) for m in shown])
+    ax.set_ylabel("robot mode")
+    for mark in error_onsets(states):
+        x = mark.cycle * CYCLE_PERIOD
+        ax.axvline(x, color="r", lw=1)
+        ax.annotate(mark.label, (x, 0.95), xycoords=("data", "axes fraction"), rotation=90,
+                    fontsize=6, va="top", color="r")
+    for mark in motion_starts(recording):
+        x = mark.cycle * CYCLE_PERIOD
+        if window[0] <= x <= window[1]:
+            ax.annotate(mark.label, (x, 0.05), xycoords=("data", "axes fraction"),
+                        rotation=90, fontsize=6, va="bottom", color="g")

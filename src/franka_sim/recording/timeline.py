@@ -1,0 +1,58 @@
+"""What a recording's client did, on the robot's clock: motions (Move to its end), errors,
+Hand actions. Shared by the plot and anyone reading a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from franka_sim.protocol.enums import RobotMode
+from franka_sim.protocol.errors import ERROR_NAMES
+from franka_sim.recording.reader import Recording
+
+
+@dataclass(frozen=True)
+class Mark:
+    cycle: int
+    label: str
+
+
+def motion_starts(recording: Recording) -> list[Mark]:
+    """Each robot Move request, at the cycle it was handled."""
+    marks = []
+    for entry in recording.of("tcp"):
+        event = entry.json()
+        for request in event["requests"]:
+            if event["service"] == "robot" and request.get("command") == "Move":
+                marks.append(Mark(event["cycle"], str(request.get("motion_generator_mode",
+                                                                  "Move"))))
+    return marks
+
+
+def motion_ends(recording: Recording) -> list[Mark]:
+    """Each Move's final reply (success, a reflex, aborted) at the cycle it left."""
+    marks = []
+    for entry in recording.of("reply"):
+        event = entry.json()
+        for reply in event["replies"]:
+            if (event["service"] == "robot" and reply.get("command") == "Move"
+                    and reply.get("status") != "kMotionStarted"):
+                marks.append(Mark(event["cycle"], str(reply.get("status"))))
+    return marks
+
+
+def error_onsets(states: np.ndarray) -> list[Mark]:
+    """The cycles at which an error bit came on, with its name."""
+    errors = states["errors"].astype(bool)
+    if len(errors) == 0:
+        return []
+    before = np.vstack([np.zeros((1, errors.shape[1]), bool), errors[:-1]])
+    marks = []
+    for row, col in zip(*np.nonzero(errors & ~before)):
+        marks.append(Mark(int(states["message_id"][row]), ERROR_NAMES[col]))
+    return marks
+
+
+def mode_names() -> dict[int, str]:
+    return {int(m): m.name[1:] for m in RobotMode}

@@ -1,0 +1,85 @@
+"""TCP traffic as JSON a person can read: each request and reply decoded by the wire tables.
+
+Runs on the writer thread (and in readers), never on the server's threads.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+
+from construct import Container, ListContainer
+
+from franka_sim.protocol import gripper_messages as gm
+from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol.framing import FrameReader, ProtocolError, decode_request
+
+# The endpoints' names for their service, and the recording's.
+SERVICES = {"FCI": "robot", "gripper": "hand"}
+_TABLES = {
+    "robot": (rm.CommandHeader, rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.RESPONSE_STRUCTS,
+              rm.Command),
+    "hand": (gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
+             gm.GRIPPER_RESPONSE_STRUCTS, gm.GripperCommand),
+}
+
+
+def plain(value):
+    """A construct value as JSON-able data (enums by name, bytes by their length)."""
+    if isinstance(value, Container):
+        return {k: plain(v) for k, v in value.items() if not k.startswith("_")}
+    if isinstance(value, (list, ListContainer, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, (bytes, bytearray)):
+        return f"<{len(value)} bytes>"
+    if isinstance(value, Enum):
+        return value.name
+    if type(value).__name__ == "EnumIntegerString":
+        return str(value)
+    if isinstance(value, (bool, int, float, str)) or value is None:
+        return value
+    return str(value)
+
+
+class RequestDecoder:
+    """Cuts one connection's bytes into decoded requests (as the session does)."""
+
+    def __init__(self, service: str) -> None:
+        header, sizes, self._structs, _, _ = _TABLES[service]
+        self._reader = FrameReader(header, sizes, 64 * 1024)
+        self._broken = False
+
+    def feed(self, data: bytes) -> list[dict]:
+        if self._broken:
+            return []
+        try:
+            frames = self._reader.feed(data)
+        except ProtocolError as exc:
+            self._broken = True
+            return [{"malformed": str(exc)}]
+        out = []
+        for frame in frames:
+            fields = plain(decode_request(frame, self._structs))
+            fields.pop("header", None)
+            out.append({"command": _name(frame.command, self._structs),
+                        "command_id": frame.command_id, **fields})
+        return out
+
+
+def decode_reply(service: str, data: bytes) -> dict:
+    """A reply's command, id and status (and its other fields but large ones)."""
+    header, _, _, responses, commands = _TABLES[service]
+    try:
+        head = header.parse(data[:header.sizeof()])
+        command = commands(int(head.command))
+        fields = plain(responses[command].parse(data))
+    except Exception as exc:  # noqa: BLE001 - a reply we cannot read is shown as such
+        return {"unreadable": str(exc), "size": len(data)}
+    fields.pop("header", None)
+    return {"command": command.name, "command_id": int(head.command_id), **fields}
+
+
+def _name(command: int, structs) -> str:
+    for key in structs:
+        if int(key) == command:
+            return key.name
+    return str(command)

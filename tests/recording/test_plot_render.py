@@ -1,0 +1,115 @@
+"""Plot and render of a recorded pylibfranka session, and what they say to bad input."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from franka_sim.recording.plot import DPI, PANEL_HEIGHT, WIDTH
+from franka_sim.recording.reader import open_recording
+from franka_sim.recording.render import HEIGHT, WIDTH as VIDEO_WIDTH, frame_cycles
+
+
+def franka_sim(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "franka_sim", *args], capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_plot_writes_a_png_of_the_expected_size_with_no_blank_panel(lockstep_run, tmp_path):
+    image_io = pytest.importorskip("matplotlib.image")
+    path, _ = lockstep_run
+    out = tmp_path / "run.png"
+    done = franka_sim("plot", str(path), "-o", str(out), "--joints", "1,4", "--fields", "elbow")
+    assert done.returncode == 0, done.stderr
+    image = image_io.imread(out)
+    panels = 7  # q, dq, tau, wrench, success, timeline, elbow
+    assert image.shape[:2] == (round(PANEL_HEIGHT * panels * DPI), round(WIDTH * DPI))
+    # Each panel's band holds more than its frame: coloured (non-grey) pixels drawn in it.
+    rgb = image[..., :3]
+    coloured = (rgb.max(axis=2) - rgb.min(axis=2)) > 0.2
+    bands = np.array_split(coloured, panels, axis=0)
+    dark = rgb.max(axis=2) < 0.3  # black lines (success rate, robot mode)
+    for k, (band, ink) in enumerate(zip(bands, np.array_split(dark, panels, axis=0))):
+        assert band.sum() + ink.sum() > 2000, f"panel {k} looks blank"
+
+
+def test_plot_window_from_to(lockstep_run, tmp_path):
+    pytest.importorskip("matplotlib")
+    path, _ = lockstep_run
+    done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "0.2",
+                      "--to", "0.4")
+    assert done.returncode == 0, done.stderr
+    done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "1e6")
+    assert done.returncode == 1 and done.stderr.count("\n") == 1
+    assert "no state in the window" in done.stderr
+
+
+def test_render_writes_the_expected_number_of_frames(lockstep_run, tmp_path):
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    path, _ = lockstep_run
+    out = tmp_path / "run.mp4"
+    done = franka_sim("render", str(path), "-o", str(out), "--fps", "10")
+    if "no offscreen OpenGL" in done.stderr:
+        pytest.skip(done.stderr.strip())
+    assert done.returncode == 0, done.stderr
+    ids = open_recording(path).states()["message_id"]
+    expected = len(frame_cycles(int(ids[0]), int(ids[-1]), 10.0))
+    assert done.stdout.strip() == f"{out}: {expected} frames"
+    frames, _ = imageio_ffmpeg.count_frames_and_secs(str(out))
+    assert frames == expected
+    reader = imageio_ffmpeg.read_frames(str(out))
+    meta = next(reader)
+    assert tuple(meta["size"]) == (VIDEO_WIDTH, HEIGHT)
+    first = np.frombuffer(next(reader), np.uint8)
+    assert first.std() > 10  # a scene, not a blank frame
+
+
+@pytest.mark.parametrize("args, message", [
+    (["plot", "{rec}", "-o", "{tmp}/x.png", "--joints", "1,9"], "joints are numbered 1 to 7"),
+    (["plot", "{rec}", "-o", "{tmp}/x.png", "--joints", "one"], "joint numbers 1-7"),
+    (["plot", "{rec}", "-o", "{tmp}/x.png", "--fields", "q,qq"], "RobotState has no field 'qq'"),
+    (["render", "{rec}", "-o", "{tmp}/x.mp4", "--camera", "nope"], "no such camera"),
+])
+def test_unknown_names_say_so_in_one_line(lockstep_run, tmp_path, args, message):
+    path, _ = lockstep_run
+    done = franka_sim(*[a.format(rec=path, tmp=tmp_path) for a in args])
+    assert done.returncode == 1
+    assert message in done.stderr and done.stderr.count("\n") == 1, done.stderr
+
+
+@pytest.mark.parametrize("command", ["replay", "plot", "render"])
+def test_truncated_foreign_and_incompatible_files(lockstep_run, tmp_path, command):
+    path, _ = lockstep_run
+    data = path.read_bytes()
+    (tmp_path / "truncated.mcap").write_bytes(data[: len(data) // 2])
+    (tmp_path / "foreign.mcap").write_bytes(b"PK\x03\x04 not a recording" * 10)
+    from mcap.writer import Writer
+
+    with open(tmp_path / "other.mcap", "wb") as f:  # an MCAP file of another program
+        writer = Writer(f)
+        writer.start()
+        writer.finish()
+    (tmp_path / "future.mcap").write_bytes(data.replace(b"format_version\x01\x00\x00\x001",
+                                                        b"format_version\x01\x00\x00\x009"))
+    extra = {"replay": [], "plot": ["-o", str(tmp_path / "p.png")],
+             "render": ["-o", str(tmp_path / "r.mp4")]}[command]
+    for name, message in [("truncated", "truncated"), ("foreign", "not an MCAP file"),
+                          ("other", "not a franka-sim recording"),
+                          ("future", "recording format v9")]:
+        done = franka_sim(command, str(tmp_path / f"{name}.mcap"), *extra)
+        assert done.returncode == 1, (name, done.stdout, done.stderr)
+        assert message in done.stderr and done.stderr.count("\n") == 1, (name, done.stderr)
+
+
+def test_an_unwritable_record_target_stops_serve_at_start(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-m", "franka_sim", "serve", "--host", "127.0.0.1",
+         "--record", str(tmp_path / "missing" / "run.mcap")],
+        capture_output=True, text=True, timeout=60)
+    assert done.returncode != 0
+    assert done.stderr.strip().splitlines()[-1] == (
+        f"franka-sim: cannot record to {tmp_path / 'missing' / 'run.mcap'}: "
+        "No such file or directory")
