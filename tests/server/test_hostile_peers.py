@@ -8,50 +8,18 @@ shorten the endpoint's bounds on the instance; every test has its own 127.0.0.x.
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import socket
 import struct
-import threading
 import time
-from contextlib import contextmanager
 
 import pytest
+from support.embedded import CONNECT, GRIPPER, ROBOT, serving
 
-from franka_sim import FrankaSim
-from franka_sim.testing import fresh_loopback_address
-
-ROBOT, GRIPPER = 1337, 1338
-CONNECT = {ROBOT: struct.pack("<IIIHH", 0, 0, 16, 10, 40000),
-           GRIPPER: struct.pack("<HIIHH", 0, 0, 14, 3, 40001)}
 CONNECT_REPLY_SIZE = {ROBOT: 15, GRIPPER: 14}
 HUGE = {ROBOT: struct.pack("<III", 3, 1, 0xFFFFFFFF), GRIPPER: struct.pack("<HII", 1, 1, 1 << 31)}
 GENEROUS = 20.0  # s: any bound below is met long before this on a loaded machine
 
-
-@contextmanager
-def serving(**bounds):
-    """An embedded simulator whose two TCP endpoints take `bounds` (message_deadline, ...)."""
-    host, box, ready = fresh_loopback_address(), {}, threading.Event()
-
-    async def main() -> None:
-        sim = FrankaSim(host=host)
-        for endpoint in (sim.robot, sim.gripper_endpoint):
-            for name, value in bounds.items():
-                setattr(endpoint, name, value)
-        async with sim:
-            box.update(sim=sim, loop=asyncio.get_running_loop(), stop=asyncio.Event())
-            ready.set()
-            await box["stop"].wait()
-
-    thread = threading.Thread(target=lambda: asyncio.run(main()), daemon=True)
-    thread.start()
-    assert ready.wait(60), "the simulator did not start"
-    try:
-        yield box["sim"]
-    finally:
-        box["loop"].call_soon_threadsafe(box["stop"].set)
-        thread.join(30)
 
 
 def _endpoint(sim, port):
