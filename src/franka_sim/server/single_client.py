@@ -28,6 +28,7 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Callable
 
 from franka_sim.robot.session import Session, SessionError
+from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
@@ -86,10 +87,13 @@ class ClientConnection(asyncio.Protocol):
                 active.transport.close()
                 active.connection_lost(None)  # its disconnect, now rather than next iteration
         if owner.active is not None:
-            log.warning("refused %s client %s:%s: already used by %s:%s",
-                        owner.what, *self.peer, *owner.active.peer)
+            owner.refused += 1
+            if worth_logging(owner.refused):  # a storm of attempts logs a handful of lines
+                log.warning("refused %s client %s:%s: already used by %s:%s (%d refused so far)",
+                            owner.what, *self.peer, *owner.active.peer, owner.refused)
             transport.close()
             return
+        owner.refused = 0
         owner.active = self
         self.session = owner.make_session()
         if owner.keepalive is not None:
@@ -210,6 +214,7 @@ class SingleClientEndpoint:
         self.message_deadline = message_deadline
         self.max_unsent = max_unsent
         self.active: ClientConnection | None = None
+        self.refused = 0  # newcomers turned away while the active client is connected
         self.server: asyncio.AbstractServer | None = None
 
     async def start(self, host: str, port: int) -> None:
