@@ -77,6 +77,11 @@ class Session:
         self.requests = 0  # frames handled, Connect included
         self._reader = FrameReader(service.header, service.request_sizes, service.max_size)
 
+    @property
+    def buffered(self) -> int:
+        """Bytes of a message begun but not complete."""
+        return self._reader.buffered
+
     def receive(self, data: bytes) -> list[bytes]:
         """Feed received bytes; return the replies to send, in order."""
         if self.closed:

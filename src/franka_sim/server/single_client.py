@@ -8,6 +8,14 @@ old connection's EOF; the old socket is checked for that pending EOF first, so t
 client is not turned away by its own ghost. A client the owner deems gone though its
 connection is open (the robot: one silent mid-motion, its arm held, see `replaceable`) is
 closed to admit the newcomer, as if it had disconnected.
+
+Dead and hostile peers cannot hold the slot (docs/robustness.md). A host that vanishes without
+a FIN is found by TCP keepalive within `keepalive`'s idle + interval × count seconds (10 s): its
+kernel no longer answers the probes, which a live client's kernel always does, however long its
+program stays silent on TCP. A message, once begun, must be complete within `message_deadline`
+(the first, Connect, within that of the accept): libfranka writes each message at once, so only
+a peer that stalls or trickles trips it. A peer that leaves more than `max_unsent` reply bytes
+unread (libfranka reads every reply) is cut off rather than buffered for without end.
 """
 
 from __future__ import annotations
@@ -20,8 +28,27 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Callable
 
 from franka_sim.robot.session import Session, SessionError
+from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
+
+KEEPALIVE = (5, 1, 5)  # idle s, probe interval s, probes: a dead peer is found within 10 s
+MESSAGE_DEADLINE = 10.0  # s from a message's first byte (or the accept) to its last
+MAX_UNSENT = 1 << 20  # bytes of replies a peer may leave unread: ~30 robot models
+
+
+def _keep_alive(transport: asyncio.Transport, idle: int, interval: int, count: int) -> None:
+    """Probe a silent peer; give up on it (and on unacknowledged data) after
+    idle + interval × count seconds."""
+    sock = transport.get_extra_info("socket")
+    if sock is None:
+        return
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPIDLE, idle)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPINTVL, interval)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPCNT, count)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_USER_TIMEOUT,
+                    1000 * (idle + interval * count))
 
 
 def _peer_has_left(transport: asyncio.Transport) -> bool:
@@ -44,6 +71,7 @@ class ClientConnection(asyncio.Protocol):
         self.transport: asyncio.Transport | None = None
         self.session: Session | None = None
         self.peer: tuple[str, int] | None = None
+        self._deadline: asyncio.TimerHandle | None = None  # for the message under way
 
     def connection_made(self, transport) -> None:  # type: ignore[override]
         self.transport = transport
@@ -59,14 +87,20 @@ class ClientConnection(asyncio.Protocol):
                 active.transport.close()
                 active.connection_lost(None)  # its disconnect, now rather than next iteration
         if owner.active is not None:
-            log.warning("refused %s client %s:%s: already used by %s:%s",
-                        owner.what, *self.peer, *owner.active.peer)
+            owner.refused += 1
+            if worth_logging(owner.refused):  # a storm of attempts logs a handful of lines
+                log.warning("refused %s client %s:%s: already used by %s:%s (%d refused so far)",
+                            owner.what, *self.peer, *owner.active.peer, owner.refused)
             transport.close()
             return
+        owner.refused = 0
         owner.active = self
         self.session = owner.make_session()
         if owner.recorder is not None:
             owner.recorder.tcp(owner.what, "open")
+        if owner.keepalive is not None:
+            _keep_alive(transport, *owner.keepalive)
+        self._watch(restart=True)  # Connect is owed from now on
         log.info("%s client %s:%s connected", owner.what, *self.peer)
 
     def data_received(self, data: bytes) -> None:  # type: ignore[override]
@@ -88,6 +122,7 @@ class ClientConnection(asyncio.Protocol):
             return
         if self.session.requests != requests:
             self.owner.on_request()
+        self._watch(restart=self.session.requests != requests)
         if not was_connected and self.session.handshake is not None:
             self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
         closed = self.session.closed
@@ -100,13 +135,48 @@ class ClientConnection(asyncio.Protocol):
         if not self.owner.defer_replies(deliver):
             deliver()
 
+    def _watch(self, restart: bool) -> None:
+        """Time the message under way: from its first byte (`restart`: a message completed,
+        so any bytes left begin the next) or, before Connect, from the accept."""
+        session = self.session
+        owed = session.handshake is None or session.buffered > 0
+        timer = self._deadline
+        if timer is not None and (restart or not owed):
+            timer.cancel()
+            self._deadline = timer = None
+        if owed and timer is None and not session.closed:
+            self._deadline = asyncio.get_running_loop().call_later(
+                self.owner.message_deadline, self._overdue)
+
+    def _overdue(self) -> None:
+        self._deadline = None
+        session, transport = self.session, self.transport
+        if transport is None or transport.is_closing():
+            return
+        if session.handshake is None and session.buffered == 0:
+            problem = "no Connect"
+        else:
+            problem = f"a message still incomplete ({session.buffered} bytes of it)"
+        log.warning("closing %s connection from %s:%s: %s after %g s", self.owner.what,
+                    *self.peer, problem, self.owner.message_deadline)
+        transport.close()
+
     def write(self, data: bytes) -> None:
-        if self.transport is not None and not self.transport.is_closing():
-            self.transport.write(data)
+        transport = self.transport
+        if transport is not None and not transport.is_closing():
+            transport.write(data)
             if self.owner.recorder is not None:
                 self.owner.recorder.reply(self.owner.what, data)
+            unsent = transport.get_write_buffer_size()
+            if unsent > self.owner.max_unsent:
+                log.warning("closing %s connection from %s:%s: %d reply bytes left unread",
+                            self.owner.what, *self.peer, unsent)
+                transport.abort()
 
     def connection_lost(self, exc) -> None:  # type: ignore[override]
+        if self._deadline is not None:
+            self._deadline.cancel()
+            self._deadline = None
         if self.owner.active is self:
             self.owner.active = None
             log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
@@ -129,6 +199,9 @@ class SingleClientEndpoint:
         lock: "AbstractContextManager | None" = None,
         replaceable: Callable[[], bool] = lambda: False,
         on_request: Callable[[], None] = lambda: None,
+        keepalive: tuple[int, int, int] | None = KEEPALIVE,
+        message_deadline: float = MESSAGE_DEADLINE,
+        max_unsent: int = MAX_UNSENT,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
@@ -143,8 +216,22 @@ class SingleClientEndpoint:
         self.replaceable = replaceable
         # on_request(): the active client's requests were handled (lock held): the clock's cue.
         self.on_request = on_request
+        # The bounds on dead and hostile peers (module docstring); a test may shorten them
+        # on the instance before clients connect.
+        self.keepalive = keepalive  # (idle s, interval s, probes); None: the OS default (off)
+        self.message_deadline = message_deadline
+        self.max_unsent = max_unsent
         self.active: ClientConnection | None = None
-        self.recorder = None  # recording.Recorder: the active client's traffic
+        transport = self.transport
+        if transport is not None and not transport.is_closing():
+            transport.write(data)
+            if self.owner.recorder is not None:
+                self.owner.recorder.reply(self.owner.what, data)
+            unsent = transport.get_write_buffer_size()
+            if unsent > self.owner.max_unsent:
+                log.warning("closing %s connection from %s:%s: %d reply bytes left unread",
+                            self.owner.what, *self.peer, unsent)
+                transport.abort()
         self.server: asyncio.AbstractServer | None = None
 
     async def start(self, host: str, port: int) -> None:

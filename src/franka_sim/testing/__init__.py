@@ -1,6 +1,7 @@
 """Helpers for testing and measuring a served robot from the outside: a `franka-sim serve`
-subprocess and a raw v10 client. Shared by the test suite and the benchmarks; nothing in the
-simulator imports them."""
+subprocess and a raw v10 client; and, imported on their own (they load MuJoCo), the fuzz
+generators and targets (`fuzz_inputs`, `fuzz_targets`). Shared by the test suite and the
+benchmarks; nothing in the simulator imports them."""
 
 from franka_sim.testing.raw_client import RawClient
 from franka_sim.testing.server_process import ServerProcess, fresh_loopback_address, running_sim

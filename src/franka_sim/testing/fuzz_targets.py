@@ -1,0 +1,246 @@
+"""What fuzzed input is fed to, and what must hold afterwards (see fuzz_inputs.py).
+
+Each check raises on a broken invariant (AssertionError) or lets an unexpected exception escape:
+either is a crash. The rejections the protocol allows are not: a decoder's `ProtocolError`, a
+session's `SessionError` (the server logs it and closes that connection). The session targets
+wire the real pieces as the server does (server/sim.py), minus the sockets and threads: a
+session over a RequestHandler and a RobotCore stepped by MuJoCo, or over the Hand.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+from construct import Container, EnumInteger
+
+from franka_sim.config import READY_POSE
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.scene import default_scene_path
+from franka_sim.protocol import gripper_messages as gm
+from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol.codec import (
+    decode_command,
+    decode_gripper_state,
+    decode_state,
+    non_finite_command_fields,
+)
+from franka_sim.protocol.enums import ConnectStatus, GripperConnectStatus, RobotMode
+from franka_sim.protocol.exceptions import DatagramSizeError, ProtocolError
+from franka_sim.protocol.framing import FrameReader, decode_request
+from franka_sim.robot.core import RobotCore
+from franka_sim.robot.cycle import RobotCycle
+from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.requests import RequestHandler
+from franka_sim.robot.session import GRIPPER, ROBOT, Service, Session, SessionError
+from franka_sim.testing.fuzz_inputs import (
+    GRIPPER_WIRE,
+    ROBOT_WIRE,
+    Chooser,
+    Wire,
+    conversation,
+    robot_command,
+)
+
+_ROBOT_MODES = {int(m) for m in RobotMode}
+_URDF = default_urdf_text()
+_DESCRIPTION = load_arm_description(_URDF)
+
+
+def check_frame_reader(service: Service, stream: list[bytes]) -> None:
+    """A FrameReader cuts only whole, known, fixed-size frames, each of which decodes; it never
+    holds back more than the largest request; once it rejected a header it stays failed."""
+    reader = FrameReader(service.header, service.request_sizes, service.max_size)
+    largest = max(service.request_sizes.values())
+    failed: ProtocolError | None = None
+    for data in stream:
+        try:
+            frames = reader.feed(data)
+        except ProtocolError as exc:
+            assert failed is None or exc is failed, "a failed reader raised another error"
+            failed = exc
+            continue
+        assert failed is None, "a failed reader accepted more bytes"
+        for frame in frames:
+            assert len(frame.data) == service.request_sizes[frame.command]
+            decode_request(frame, service.request_structs)
+        assert reader.buffered < largest, f"{reader.buffered} bytes held back"
+
+
+def check_datagram(data: bytes) -> None:
+    """The UDP decoders take exactly their size and reject any other with DatagramSizeError."""
+    for decode, size in ((decode_command, 371), (decode_state, 1377), (decode_gripper_state, 23)):
+        try:
+            record = decode(data)
+        except DatagramSizeError:
+            assert len(data) != size
+            continue
+        assert len(data) == size
+        if decode is decode_command:
+            bad = non_finite_command_fields(record)
+            finite = all(np.isfinite(record[n]).all() for n in record.dtype.names)
+            assert bool(bad) != finite, bad
+
+
+def check_reply(wire: Wire, reply: bytes) -> Container:
+    """A reply is one whole response of a known command whose status its enum defines."""
+    structs = rm.RESPONSE_STRUCTS if wire is ROBOT_WIRE else gm.GRIPPER_RESPONSE_STRUCTS
+    header = wire.header.parse(reply)
+    assert header.size == len(reply), (header.size, len(reply))
+    parsed = structs[int(header.command)].parse(reply)
+    assert not isinstance(parsed.status, EnumInteger), f"status {parsed.status}"
+    return parsed
+
+
+class _Target:
+    """A session over a service's real state machine, and the cycles that clock it."""
+
+    wire: Wire
+    service: Service
+
+    def __init__(self, enforce_motion_limits: bool = True) -> None:
+        # Enforced, a command beyond the FR3's limits ends in a reflex, as on the robot. Log-only
+        # (the server's default) applies it: an absurd one (|dq_c| ~ 1e300) makes MuJoCo
+        # unstable, so the physics' stability is an invariant only under enforcement.
+        self.stable_physics = enforce_motion_limits
+        self.core = RobotCore(_DESCRIPTION, np.array(READY_POSE),
+                              enforce_motion_limits=enforce_motion_limits)
+        self.cycle = RobotCycle(self.core, self._backend(), self._hand())
+        self.session: Session | None = None
+        self.replies: list[bytes] = []
+        self.step()
+
+    def _backend(self) -> MujocoBackend:
+        return MujocoBackend(_DESCRIPTION, np.array(READY_POSE))
+
+    def _hand(self) -> Gripper | None:
+        return None
+
+    def open(self) -> None:
+        self.session = self._session()
+        self.replies = []
+
+    def tcp(self, data: bytes) -> None:
+        """Bytes from the client; a closed session gets no more (the server closed it)."""
+        session = self.session
+        if session is None or session.closed:
+            return
+        connected = session.handshake is not None
+        try:
+            replies = session.receive(data)
+        except SessionError:
+            assert session.closed, "a SessionError left the session open"
+            replies = []
+        for reply in replies:
+            parsed = check_reply(self.wire, reply)
+            if int(parsed.header.command) == self.wire.connect:
+                assert parsed.version == self.wire.version
+        self.replies += replies
+        if not connected and session.handshake is not None:
+            self._connected()
+
+    def close(self) -> None:
+        """The client is gone (or the server closed it): what the endpoint's disconnect does."""
+        if self.session is not None:
+            self.session = None
+            self._gone()
+
+    def step(self, n: int = 1) -> None:
+        """Cycles: every state packs, decodes and says something legal."""
+        for _ in range(n):
+            before = self.core.message_id
+            released = self.cycle.release()
+            assert released.state is not None, "the cycle could not pack its state"
+            state = decode_state(released.state)
+            assert int(state["message_id"]) == before + 1
+            assert int(state["robot_mode"]) in _ROBOT_MODES, int(state["robot_mode"])
+            assert np.isfinite(state["q"]).all() and np.isfinite(state["tau_J"]).all()
+            if self.stable_physics:
+                warnings = self.cycle.physics.data.warning
+                assert not any(w.number for w in warnings), "the physics went unstable"
+            replies = self.cycle.complete(released)
+            for reply in replies.robot:
+                check_reply(ROBOT_WIRE, reply)
+            for reply in replies.hand:
+                check_reply(GRIPPER_WIRE, reply)
+            if replies.hand_state is not None:
+                width = float(decode_gripper_state(replies.hand_state)["width"])
+                assert math.isfinite(width), width
+
+    def still_serves(self) -> None:
+        """After anything, the next client is welcome: its Connect succeeds."""
+        session = self._session()
+        (reply,) = session.receive(_connect(self.wire))
+        assert check_reply(self.wire, reply).status == self._success, "Connect refused"
+
+
+class RobotTarget(_Target):
+    """Port 1337: a Session over a RequestHandler over a RobotCore, stepped by MuJoCo."""
+
+    wire, service, _success = ROBOT_WIRE, ROBOT, ConnectStatus.kSuccess.name
+
+    def _session(self) -> Session:
+        return Session(ROBOT, RequestHandler(self.core, _URDF.encode()).handle)
+
+    def _connected(self) -> None:
+        self.core.client_connected()
+
+    def _gone(self) -> None:
+        self.core.client_gone()
+
+    def udp(self, data: bytes, echo_state: bool) -> None:
+        """A RobotCommand datagram; `echo_state`: its message_id answers the open cycle."""
+        if echo_state and len(data) == 371:
+            data = struct.pack("<Q", self.core.message_id) + data[8:]
+        try:
+            command = decode_command(data)
+        except DatagramSizeError:
+            return
+        self.cycle.receive(command)
+
+
+class GripperTarget(_Target):
+    """Port 1338: a Session over the Hand, its fingers stepped by MuJoCo."""
+
+    wire, service, _success = GRIPPER_WIRE, GRIPPER, GripperConnectStatus.kSuccess.name
+
+    def _backend(self) -> MujocoBackend:
+        return MujocoBackend(_DESCRIPTION, np.array(READY_POSE), scene_xml=default_scene_path(),
+                             fingers=True)
+
+    def _hand(self) -> Gripper:
+        self.hand = Gripper()
+        return self.hand
+
+    def _session(self) -> Session:
+        return Session(GRIPPER, self.hand.request)
+
+    def _connected(self) -> None:
+        pass
+
+    def _gone(self) -> None:
+        self.hand.client_gone()
+
+
+def _connect(wire: Wire) -> bytes:
+    version = struct.pack("<HH", wire.version, 4242)
+    header = wire.header.sizeof() + len(version)
+    return struct.pack(wire.command_format, wire.connect) + struct.pack("<II", 1, header) + version
+
+
+
+def fuzz_session(c: Chooser, target: _Target) -> None:
+    """One client's conversation, with cycles (and for the robot, RobotCommands) in between,
+    then its disconnect; the next client must still be served."""
+    target.open()
+    for data in conversation(c, target.wire):
+        target.tcp(data)
+        if isinstance(target, RobotTarget):
+            for _ in range(c.integer(0, 2)):
+                target.udp(robot_command(c), echo_state=c.integer(0, 3) > 0)
+        target.step(c.integer(0, 3))
+    target.close()
+    target.step(c.integer(1, 5))
+    target.still_serves()
