@@ -92,8 +92,8 @@ def test_nothing_is_answered_after_a_bad_header(target, wire, then):
     t.still_serves()
 
 
-@pytest.mark.xfail(strict=True, reason="found by benchmarks/fuzz.py, not yet fixed: the physics "
-                   "goes unstable though the limits are enforced (docs/robustness.md)")
 @pytest.mark.parametrize("seed", [259803, 514803])
 def test_inputs_found_by_the_long_run(seed):
+    """Found by benchmarks/fuzz.py: a SetLoad with a centre of mass ~1e143 m away was accepted
+    and made the physics unstable; such a load is now refused (kInvalidArgumentRejected)."""
     fuzz_session(RandomChooser(seed), RobotTarget(enforce_motion_limits=True))

@@ -82,6 +82,11 @@ class CollisionThresholds:
         return cls(**values)
 
 
+MAX_LOAD_MASS = 20.0  # kg
+MAX_LOAD_COM = 1.0  # m from the flange
+MAX_LOAD_INERTIA = 10.0  # kg m^2, a principal moment about the CoM
+
+
 @dataclass
 class Load:
     """A payload declared with SetLoad: mass, CoM in the flange frame, inertia about the CoM.
@@ -101,10 +106,20 @@ class Load:
         inertia = _finite("I_load", req["I_load"]).reshape(3, 3, order="F")
         if mass < 0:
             raise InvalidArgument("m_load is negative")
+        # Beyond what any FR3 could carry or hold (its payload is 3 kg): refused rather than
+        # simulated (docs/deviations.md; the robot's own bounds are not published).
+        if mass > MAX_LOAD_MASS:
+            raise InvalidArgument(f"m_load {mass} kg is beyond {MAX_LOAD_MASS} kg")
+        if np.abs(com).max() > MAX_LOAD_COM:
+            raise InvalidArgument(f"F_x_Cload {com.tolist()} is beyond {MAX_LOAD_COM} m of the "
+                                  "flange")
         if not np.allclose(inertia, inertia.T, atol=1e-9):
             raise InvalidArgument("I_load is not symmetric")
-        if np.min(np.linalg.eigvalsh(inertia)) < -1e-9:
+        eigenvalues = np.linalg.eigvalsh(inertia)
+        if np.min(eigenvalues) < -1e-9:
             raise InvalidArgument("I_load is not positive semi-definite")
+        if np.max(eigenvalues) > MAX_LOAD_INERTIA:
+            raise InvalidArgument(f"I_load has a principal moment beyond {MAX_LOAD_INERTIA} kg m^2")
         return cls(mass, com, inertia)
 
 

@@ -222,16 +222,8 @@ class SingleClientEndpoint:
         self.message_deadline = message_deadline
         self.max_unsent = max_unsent
         self.active: ClientConnection | None = None
-        transport = self.transport
-        if transport is not None and not transport.is_closing():
-            transport.write(data)
-            if self.owner.recorder is not None:
-                self.owner.recorder.reply(self.owner.what, data)
-            unsent = transport.get_write_buffer_size()
-            if unsent > self.owner.max_unsent:
-                log.warning("closing %s connection from %s:%s: %d reply bytes left unread",
-                            self.owner.what, *self.peer, unsent)
-                transport.abort()
+        self.refused = 0  # newcomers turned away while the active client is connected
+        self.recorder = None  # recording.Recorder: the active client's traffic
         self.server: asyncio.AbstractServer | None = None
 
     async def start(self, host: str, port: int) -> None:
