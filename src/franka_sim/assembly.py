@@ -70,14 +70,13 @@ class WorldParts:
     def _place(self, specs) -> list[ArmPlacement]:
         """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
         the origin; a lone arm keeps the arm's own names ("hand", "flange")."""
-        names = [spec.name for spec in specs]
-        hosts = [spec.host for spec in specs]
-        for spec in specs:
-            if names.count(spec.name) > 1:
-                raise SceneError(f"arm {spec.name}: two arms have that name")
-            if hosts.count(spec.host) > 1:
-                raise SceneError(f"arm {spec.name}: {spec.host} serves another arm too "
-                                 "(one address per arm)")
+        for i, spec in enumerate(specs):
+            for other in specs[:i]:
+                if other.name == spec.name:
+                    raise SceneError(f"arm {spec.name}: two arms have that name")
+                if other.host == spec.host:
+                    raise SceneError(f"arm {spec.name}: {spec.host} serves arm {other.name} "
+                                     "already (one address per arm)")
         mounts = scene_mounts(self.scene)
         fingers = self.config.gripper
         return [ArmPlacement(self.description, spec.name if len(specs) > 1 else "",

@@ -1,0 +1,104 @@
+"""Several arms in one world, each driven by its own unmodified pylibfranka program (one process
+per arm, as a user runs two arms): they move at once, touch each other, and one client dying
+leaves the other's motion untouched. Lockstep, so the outcomes do not depend on this machine."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from franka_sim.control import Control
+from franka_sim.testing import ServerProcess, fresh_loopback_address
+
+PROGRAM = Path(__file__).resolve().parents[1] / "support" / "arm_program.py"
+
+
+@contextmanager
+def two_arms(*args: str, left_at: str = "", right_at: str = ""):
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(left, "--arm", f"left={left}{left_at}", "--arm",
+                           f"right={right}{right_at}", "--scene", "dual_arm_table",
+                           "--clock", "lockstep", *args).wait_ready()
+    try:
+        yield server, left, right
+    finally:
+        server.stop()
+
+
+def start(host: str, delta, seconds: float) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, str(PROGRAM), host, json.dumps(list(delta)),
+                             str(seconds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+
+
+def result(program: subprocess.Popen) -> dict:
+    out, err = program.communicate(timeout=120)
+    assert program.returncode == 0, out + err
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def joint1(angle: float) -> list[float]:
+    return [angle, 0, 0, 0, 0, 0, 0]
+
+
+def test_two_clients_move_their_arms_at_once_and_each_reaches_its_target():
+    with two_arms() as (server, left, right):
+        right_before = Control(right).state()
+        alone = result(start(left, joint1(0.3), 1.0))
+        # The left arm moved alone: the right one did not move a bit.
+        assert Control(right).state()["q"] == right_before["q"]
+        assert alone["error"] == "" and alone["min_rate"] == 1.0
+        programs = [start(left, joint1(-0.3), 1.5), start(right, joint1(-0.4), 1.0)]
+        outcomes = [result(p) for p in programs]
+    for outcome in outcomes:
+        assert outcome["error"] == ""
+        assert outcome["min_rate"] == 1.0  # lockstep: the world waits for both answers
+        np.testing.assert_allclose(outcome["q"], outcome["target"], atol=2e-3)
+    assert outcomes[0]["q"][0] == pytest.approx(0.0, abs=2e-3)  # +0.3 then -0.3
+
+
+def test_each_arm_reports_in_its_own_base_frame():
+    with two_arms() as (server, left, right):
+        poses = [np.array(Control(host).state()["O_T_EE"]) for host in (left, right)]
+    # Same joint angles, bases 0.7 m apart: the same pose, each in its own base frame.
+    np.testing.assert_allclose(poses[0], poses[1], atol=1e-12)
+
+
+def test_arms_driven_into_each_other_both_feel_it_and_the_reflex_stops_them():
+    # Bases 0.6 m apart; turning joint 1 by 0.9 rad towards each other brings the Hands
+    # together at about 0.75 rad.
+    with two_arms(left_at="@0,0.3,0", right_at="@0,-0.3,0") as (server, left, right):
+        programs = [start(left, joint1(-0.9), 2.0), start(right, joint1(0.9), 2.0)]
+        outcomes = [result(p) for p in programs]
+        states = [Control(host).state() for host in (left, right)]
+    for outcome, state in zip(outcomes, states):
+        # Symmetric, so both go over their thresholds: each stops with its own reflex, judged
+        # on its own external force, short of the target the other arm was in the way of.
+        assert "aborted by reflex" in outcome["error"], outcome
+        assert "cartesian_reflex" in outcome["errors"] or "joint_reflex" in outcome["errors"]
+        assert 0.6 < abs(outcome["q"][0]) < 0.85
+        assert state["robot_mode"] == "Reflex"
+
+
+def test_a_client_killed_mid_motion_leaves_the_other_arms_motion_untouched():
+    with two_arms() as (server, left, right):
+        doomed = start(left, joint1(0.5), 5.0)
+        assert doomed.stdout.readline().strip() == "started"
+        survivor = start(right, joint1(-0.5), 2.0)
+        assert survivor.stdout.readline().strip() == "started"
+        doomed.send_signal(signal.SIGKILL)
+        doomed.wait(10)
+        outcome = result(survivor)
+        left_state = Control(left).state()
+        assert not left_state["robot_mode"] == "Move"  # the lost client's motion was stopped
+        again = result(start(left, joint1(0.1), 0.5))  # and the next client is served at once
+    assert outcome["error"] == "" and outcome["min_rate"] == 1.0
+    np.testing.assert_allclose(outcome["q"], outcome["target"], atol=2e-3)
+    assert again["error"] == ""

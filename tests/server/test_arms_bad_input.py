@@ -1,0 +1,71 @@
+"""A world of several arms that cannot be served says so on one line, naming the arm and the
+problem, exits non-zero, and serves nothing half-way."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+
+import pytest
+
+from franka_sim.testing import fresh_loopback_address
+
+
+def serve(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "franka_sim", "serve", *args],
+                          capture_output=True, text=True, timeout=60)
+
+
+def said(done: subprocess.CompletedProcess) -> str:
+    """What the failed start said, as one line (a usage error comes in typer's box)."""
+    assert done.returncode != 0
+    assert "Traceback" not in done.stderr
+    return " ".join(done.stderr.replace("│", " ").split())
+
+
+def test_two_arms_on_one_address():
+    host = fresh_loopback_address()
+    err = said(serve("--arm", f"left={host}", "--arm", f"right={host}"))
+    assert f"arm right: {host} serves arm left already" in err
+
+
+def test_an_address_that_cannot_be_bound_names_the_arm_and_serves_nothing():
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    with socket.socket() as taken:
+        taken.bind((right, 1338))  # the right arm's Hand port
+        taken.listen()
+        done = serve("--arm", f"left={left}", "--arm", f"right={right}", "--scene",
+                     "dual_arm_table")
+        err = said(done)
+        assert f"arm right: {right}:1338 (gripper) is already in use" in err
+    with socket.socket() as probe:  # the left arm, opened first, was closed again
+        probe.bind((left, 1337))
+
+
+def test_an_address_not_on_this_machine():
+    err = said(serve("--arm", "left=192.0.2.7", "--arm", f"right={fresh_loopback_address()}",
+                     "--scene", "dual_arm_table"))
+    assert "arm left: 192.0.2.7:1337 cannot be served" in err
+
+
+def test_an_unknown_scene_name():
+    err = said(serve("--scene", "no_such_scene"))
+    assert "unknown scene 'no_such_scene'" in err and "dual_arm_table" in err
+
+
+@pytest.mark.parametrize("spec, problem", [
+    ("left", "expected NAME=ADDRESS"),
+    ("left=localhost", "is not an IP address"),
+    ("left=127.0.0.5@1,2", "3 or 4 finite numbers"),
+    ("left=127.0.0.5@1,x,2", "in numbers"),
+    ("a/b=127.0.0.5", "no '/'"),
+])
+def test_a_malformed_arm(spec, problem):
+    assert problem in said(serve("--arm", spec))
+
+
+def test_arms_placed_into_each_other():
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    err = said(serve("--arm", f"left={left}@0,0.05,0", "--arm", f"right={right}@0,-0.05,0"))
+    assert "arm left: placed into arm right" in err
