@@ -21,11 +21,11 @@ PROGRAM = Path(__file__).resolve().parents[1] / "support" / "arm_program.py"
 
 
 @contextmanager
-def two_arms(*args: str, left_at: str = "", right_at: str = ""):
+def two_arms(*args: str, left_at: str = "", right_at: str = "", clock: str = "lockstep"):
     left, right = fresh_loopback_address(), fresh_loopback_address()
     server = ServerProcess(left, "--arm", f"left={left}{left_at}", "--arm",
                            f"right={right}{right_at}", "--scene", "dual_arm_table",
-                           "--clock", "lockstep", *args).wait_ready()
+                           "--clock", clock, *args).wait_ready()
     try:
         yield server, left, right
     finally:

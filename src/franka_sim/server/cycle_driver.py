@@ -157,9 +157,14 @@ class CycleDriver:
 
     def keep_running(self) -> None:
         """Cycle thread: the world was changed from outside (the control API), so the clock
-        runs on, or again, for PAUSE_AFTER cycles, and the change plays out with no client."""
+        runs on, or again, for PAUSE_AFTER cycles, and the change plays out with no client.
+        In lockstep it is an event as a client's request is: an idle world frozen for the
+        client is stepped again, and a push or a placed body plays out at once."""
         self._unwatched = 0
-        if self.paused:
+        if self.lockstep:
+            self._requests += 1
+            self.thread.wake()
+        elif self.paused:
             self.thread.wake()
 
     def withdraw_prepared(self) -> int | None:

@@ -1,0 +1,48 @@
+"""Each arm of a world of several serves its own control API: what it reads and resets is that
+arm; the bodies, and pushes on them, are the world's."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from franka_sim.config import READY_POSE
+from franka_sim.control import Control
+from clients.test_several_arms import PROGRAM, two_arms
+
+
+def test_reset_acts_on_its_arm_only_and_bodies_are_shared():
+    with two_arms() as (server, left, right):
+        done = subprocess.run([sys.executable, str(PROGRAM), right, json.dumps([0.3] + [0] * 6),
+                               "0.5"], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        moved = Control(right).state()["q"]
+        assert moved[0] > 0.29
+        Control(left).set_pose("scene/cube", [0.3, 0.0, 0.025])  # moved on the table
+        Control(left).reset()  # the left arm only: the cube and the right arm stay
+        assert Control(right).state()["q"] == moved
+        np.testing.assert_allclose(Control(left).state()["q"], READY_POSE, atol=1e-12)
+        np.testing.assert_allclose(Control(right).pose("scene/cube")["position"],
+                                   [0.3, 0.0, 0.025], atol=1e-3)
+        Control(right).reset()
+        np.testing.assert_allclose(Control(right).state()["q"], READY_POSE, atol=1e-12)
+        names = {b["name"] for b in Control(right).bodies()}
+        assert {"left/hand", "right/hand", "scene/cube", "scene/box"} <= names
+        assert names == {b["name"] for b in Control(left).bodies()}
+        assert Control(left).health()["arm"] == "left"
+        assert Control(right).health()["arm"] == "right"
+
+
+def test_a_push_on_one_arm_is_felt_by_that_arm_only():
+    # Realtime, to look while the push lasts (lockstep plays it out and settles at once).
+    with two_arms(clock="realtime") as (server, left, right):
+        Control(left).push("right/link7", force=[0, 0, -30], duration=1.0)
+        time.sleep(0.3)
+        right_q = np.array(Control(right).state()["q"])
+        left_q = np.array(Control(left).state()["q"])
+    assert np.abs(right_q - READY_POSE).max() > 1e-4  # the right arm gave way
+    np.testing.assert_array_equal(left_q, READY_POSE)
