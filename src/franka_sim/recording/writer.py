@@ -85,7 +85,12 @@ class RecordingWriter:
 
     def _flush(self) -> None:
         if self._unflushed:
-            self._mcap._Writer__finalize_chunk()  # close the open chunk: it reaches the file
+            # Close the open chunk so that it reaches the file. mcap's Writer closes chunks by
+            # size only and has no public call for it; without this one (another mcap), a chunk
+            # reaches the file once full, and a crash may lose more than the last second.
+            finalize = getattr(self._mcap, "_Writer__finalize_chunk", None)
+            if finalize is not None:
+                finalize()
             self._unflushed = False
         self._file.flush()
         dropped = self._owner.dropped
