@@ -71,3 +71,24 @@ def test_handover_example_puts_the_cube_in_the_right_hand():
 
         assert left.state()["gripper_width"] == pytest.approx(0.08, abs=0.002)  # let go
         assert np.linalg.norm(cube - _tcp(left, "left")) > 0.1  # and gone
+
+
+@pytest.mark.skipif(importlib.util.find_spec("franky") is None, reason="franky-control is not installed")
+def test_franky_example_moves_each_object_out_and_each_arm_above_it():
+    with two_arms() as (left, right):
+        out = _run("bimanual_franky", left.host, right.host)
+        assert "left: set the cube down at x = 0.55 m" in out
+        assert "right: set the box down at x = 0.55 m" in out
+
+        for control, arm, body, y in ((left, "left", "scene/cube", 0.15),
+                                      (right, "right", "scene/box", -0.15)):
+            position = _position(control, body)
+            # Where the program set it: the cube or the box on its table spot, 10 cm further out;
+            # 2 cm is what a held object may slide along the closing fingers (the y axis).
+            assert position[:2] == pytest.approx([0.55, y], abs=0.02), body
+            tcp = _tcp(control, arm)
+            assert tcp[:2] == pytest.approx([0.55, y], abs=0.002), arm  # right above it, mirrored
+            assert tcp[2] > position[2] + 0.1  # and clear of it
+            state = control.state()
+            assert state["gripper_width"] == pytest.approx(0.08, abs=0.002)  # let go
+            assert state["robot_mode"] == "Idle" and state["errors"] == []
