@@ -73,7 +73,8 @@ def test_handover_example_puts_the_cube_in_the_right_hand():
         assert np.linalg.norm(cube - _tcp(left, "left")) > 0.1  # and gone
 
 
-@pytest.mark.skipif(importlib.util.find_spec("franky") is None, reason="franky-control is not installed")
+@pytest.mark.skipif(importlib.util.find_spec("franky") is None,
+                    reason="franky-control is not installed")
 def test_franky_example_moves_each_object_out_and_each_arm_above_it():
     with two_arms() as (left, right):
         out = _run("bimanual_franky", left.host, right.host)
