@@ -65,7 +65,8 @@ class RecordingWriter:
 
     def stop(self) -> None:
         self._stop.set()
-        self._thread.join()
+        if self._thread.ident is not None:  # (a recording discarded before it started)
+            self._thread.join()
         self._drain()
         self._mcap.finish()
         self._file.close()
