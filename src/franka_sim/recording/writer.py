@@ -139,6 +139,10 @@ class RecordingWriter:
             self._json("control", wall, {
                 "cycle": n, "completed": completed, "operation": operation,
                 "arguments": arguments, "status": status, "result": result}, n)
+        elif kind == ev.LOST:
+            _, n, filled, wall = event
+            self._json("lost_cycle", wall, {
+                "cycle": n, "extrapolated": filled == ev.EXTRAPOLATED, "filled": filled}, n)
         elif kind == ev.REJECTED:
             _, reason, source, data, wall = event
             self._json("command_rejected", wall, {

@@ -13,7 +13,8 @@ def _move(robot, dq):
     q0 = np.array(control.readOnce()[0].q_d)
     for k in range(1, 301):
         control.readOnce()
-        command = pylibfranka.JointPositions((q0 + dq * 0.5 * (1 - np.cos(np.pi * k / 300))).tolist())
+        q = q0 + dq * 0.5 * (1 - np.cos(np.pi * k / 300))
+        command = pylibfranka.JointPositions(q.tolist())
         command.motion_finished = k == 300
         control.writeOnce(command)
     del control
