@@ -12,11 +12,19 @@ a simulator.
 Each pytest worker (xdist-safe) runs one `franka-sim serve` per configuration on loopback
 addresses of its own, started on first use and reset through the control API before every
 test; a failing test's report carries the server's log lines from that test.
+
+Each test's run is recorded (docs/recording.md) from that reset on, into
+`franka-sim-recordings/<test id>.mcap` under the rootdir; `--franka-sim-record` keeps the
+recordings of failed tests (the default), of all, or records none. A kept recording's path is
+in the test's report (a section of a failure, the `franka_sim_recording` user property) and in
+the terminal summary; `franka-sim replay PATH` re-runs it.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 import time
 from pathlib import Path
 
@@ -27,6 +35,9 @@ _MARKER_FIELDS = {"clock": str, "scene": (str, os.PathLike), "enforce_motion_lim
                   "enforce_comm_constraints": bool, "gripper": bool}
 _CLOCKS = ("lockstep", "realtime")
 _HANDLE = pytest.StashKey["SimHandle"]()
+_RECORD_MODES = ("failed", "all", "none")
+_RECORDING = pytest.StashKey["_Recording"]()
+PROPERTY = "franka_sim_recording"  # the user property naming a kept recording
 
 
 class SimHandle:
@@ -39,6 +50,7 @@ class SimHandle:
         self.settings = settings  # franka_sim.testing.server_pool.SimSettings
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
         self._log_start = len(server.lines)
+        self.recording: Path | None = None  # this test's recording, while it is made
 
     @property
     def log(self) -> list[str]:
@@ -58,6 +70,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "--franka-sim-scene", metavar="PATH", default=None,
         help="MJCF scene of the franka_sim fixture's simulators (default: the packaged table "
         "and cube); relative to the directory pytest is run from")
+    group.addoption(
+        "--franka-sim-record", choices=_RECORD_MODES, default="failed",
+        help="record each test's run (MCAP, `franka-sim replay` re-runs it) and keep the "
+        "recordings of failed tests (default), of all tests, or record none")
+    group.addoption(
+        "--franka-sim-record-dir", metavar="DIR", default=None,
+        help="where the recordings go (default: franka-sim-recordings/ under the rootdir); "
+        "relative to the directory pytest is run from")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -66,6 +86,7 @@ def pytest_configure(config: pytest.Config) -> None:
         f"{MARKER}(enforce_motion_limits=False, enforce_comm_constraints=False, gripper=True, "
         "scene=None, clock=None): the franka_sim fixture of this test is a simulator of this "
         "configuration (started on demand, shared by the tests that ask for the same)")
+    config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
 
 
 @pytest.fixture(scope="session")
@@ -79,12 +100,15 @@ def franka_sim_servers():
 
 
 @pytest.fixture
-def franka_sim(request: pytest.FixtureRequest, franka_sim_servers) -> SimHandle:
+def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
     """A simulated FR3 + Franka Hand in the start world: arm at rest in the start pose, no
-    errors, objects in place, Hand open, no client connected."""
+    errors, objects in place, Hand open, no client connected. Recorded from there on unless
+    `--franka-sim-record none`."""
     settings = _settings(request)
+    path = _recording_path(request.node)
     try:
-        server, control = franka_sim_servers.prepared(settings)
+        server, control = franka_sim_servers.prepared(
+            settings, None if path is None else str(path))
     except RuntimeError as exc:
         failure = str(exc)
     else:
@@ -93,7 +117,17 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers) -> SimHandle:
         pytest.fail(failure, pytrace=False)
     handle = SimHandle(server, control, settings)
     request.node.stash[_HANDLE] = handle
-    return handle
+    if path is not None:
+        handle.recording = path
+        request.node.stash[_RECORDING] = _Recording(path)
+    yield handle
+    if path is not None:
+        from franka_sim.control import ControlError
+
+        try:
+            control.finish_recording()
+        except ControlError as exc:  # the server died: what it wrote is kept if the test failed
+            request.node.stash[_RECORDING].trouble = f"not finished: {exc}"
 
 
 def _settings(request: pytest.FixtureRequest):
@@ -131,9 +165,38 @@ def _absolute(path, base: Path) -> str | None:
     return None if path is None else str((Path(base) / Path(path)).resolve())
 
 
+class _Recording:
+    """A test's recording: where, and whether a phase of the test failed."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.failed, self.trouble = path, False, ""
+
+
+def _recording_path(item: pytest.Item) -> Path | None:
+    """Where this test is recorded (None: `--franka-sim-record none`)."""
+    config = item.config
+    if config.getoption("--franka-sim-record") == "none":
+        return None
+    directory = config.getoption("--franka-sim-record-dir")
+    directory = (Path(config.invocation_params.dir, directory) if directory is not None
+                 else Path(config.rootpath, "franka-sim-recordings"))
+    directory.mkdir(parents=True, exist_ok=True)
+    return directory.resolve() / recording_name(item.nodeid)
+
+
+def recording_name(nodeid: str) -> str:
+    """A file name for a test id: path separators and `::` as `__`, anything else but
+    letters, digits and `._=-` as `_`; a long id cut short, with a digest of the whole."""
+    name = re.sub(r"[^A-Za-z0-9._=-]", "_", nodeid.replace("::", "__").replace("/", "__"))
+    if len(name) > 150:
+        name = f"{name[:130]}-{hashlib.sha256(nodeid.encode()).hexdigest()[:16]}"
+    return f"{name}.mcap"
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
-    """A failing test's report shows what the robot logged during it."""
+    """A failing test's report shows what the robot logged during it and where its recording
+    is; once the test is torn down its recording is kept or removed."""
     outcome = yield
     report = outcome.get_result()
     handle = item.stash.get(_HANDLE, None)
@@ -141,6 +204,48 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
         lines = _settled_log(handle)
         report.sections.append((f"franka-sim log ({handle.host})",
                                 "\n".join(lines) if lines else "(no lines)"))
+    recording = item.stash.get(_RECORDING, None)
+    if recording is None:
+        return
+    if report.failed:
+        recording.failed = True
+        if report.when == "call":
+            report.sections.append(("franka-sim recording",
+                                    f"{recording.path}\n(franka-sim replay {recording.path})"))
+    if report.when == "teardown":
+        keep = recording.failed or item.config.getoption("--franka-sim-record") == "all"
+        if keep and recording.path.exists():
+            report.user_properties.append((PROPERTY, str(recording.path)))
+            if recording.trouble:
+                report.sections.append(("franka-sim recording", recording.trouble))
+        else:
+            recording.path.unlink(missing_ok=True)
+
+
+class _KeptRecordings:
+    """The recordings kept in this session (from xdist workers too), for the summary."""
+
+    SUMMARY_LINES = 50
+
+    def __init__(self) -> None:
+        self.kept: list[tuple[str, str]] = []
+
+    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
+        if report.when == "teardown":
+            self.kept += [(report.nodeid, value) for name, value in report.user_properties
+                          if name == PROPERTY]
+
+    def pytest_terminal_summary(self, terminalreporter) -> None:
+        if not self.kept:
+            return
+        terminalreporter.section("franka-sim recordings")
+        for nodeid, path in self.kept[:self.SUMMARY_LINES]:
+            terminalreporter.line(f"{nodeid}: {path}")
+        if len(self.kept) > self.SUMMARY_LINES:
+            terminalreporter.line(f"... and {len(self.kept) - self.SUMMARY_LINES} more in "
+                                  f"{Path(self.kept[-1][1]).parent}")
+        terminalreporter.line("(`franka-sim replay PATH` re-runs one, `franka-sim plot PATH "
+                              "-o run.png` draws it)")
 
 
 def _settled_log(handle: SimHandle, quiet: float = 0.05, limit: float = 0.5) -> list[str]:

@@ -1,2 +1,3 @@
-# project/ is a user's test project that test_plugin.py runs in a pytest of its own.
-collect_ignore = ["project"]
+# project/ and recording_project/ are users' test projects that test_plugin.py and
+# test_recording.py run in a pytest of their own.
+collect_ignore = ["project", "recording_project"]

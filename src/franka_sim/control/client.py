@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import http.client
 import json
+import os
 from collections.abc import Iterable
 from urllib.parse import quote
 
@@ -83,6 +84,17 @@ class Control:
         if torque is not None:
             request["torque"] = _numbers(torque)
         return self._call("POST", "/push", request)
+
+    def start_recording(self, path) -> dict:
+        """Reset the world (as `reset()`) and record everything from there into `path`, an
+        MCAP file on the server's machine (relative: to the server's working directory).
+        Returns {"path", "cycle"}. Conflict while a recording runs or a client is connected."""
+        return self._call("POST", "/recording", {"path": os.fspath(path)})
+
+    def finish_recording(self) -> dict:
+        """End the recording `start_recording` began; once this returns the file is complete.
+        Returns {"path", "cycle", "dropped"} (events the recorder could not keep up with)."""
+        return self._call("DELETE", "/recording")
 
     # -- HTTP --------------------------------------------------------------------------------------
     def _call(self, method: str, path: str, body: dict | None = None):

@@ -84,6 +84,8 @@ def channels(arm: str = ARM) -> dict[str, Channel]:
                                ros1_definition(GRIPPER_STATE_DTYPE)),
         "command_rejected": _json(f"{p}/command_rejected", "franka_sim/RejectedDatagram", _object(
             reason=_STR, source=_STR, size=_INT, data=_STR)),
+        "lost_cycle": _json(f"{p}/lost_cycle", "franka_sim/LostCycle", _object(
+            cycle=_INT, extrapolated=_BOOL, filled=_STR)),
         "tcp": _json(f"{p}/tcp", "franka_sim/TcpEvent", _object(
             cycle=_INT, completed=_BOOL, service=_STR, event=_STR, data=_STR,
             requests={"type": "array"}, replies={"type": "array"})),

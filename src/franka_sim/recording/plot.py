@@ -1,7 +1,8 @@
 """`franka-sim plot`: what happened in a recording, as one PNG of stacked panels on the robot's
 clock (seconds = cycles / 1000): q against q_d, dq, tau_J against tau_J_d, the external wrench,
-the success rate, and a timeline of the robot mode with motions and errors; every panel marks
-where motions started (solid) and ended (dashed). matplotlib is an optional extra."""
+the success rate, and a timeline of the robot mode with motions, errors and lost cycles; every
+panel marks where motions started (solid) and ended (dashed). matplotlib is an optional
+extra."""
 
 from __future__ import annotations
 
@@ -12,7 +13,13 @@ import numpy as np
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.recording.reader import Recording
-from franka_sim.recording.timeline import error_onsets, mode_names, motion_ends, motion_starts
+from franka_sim.recording.timeline import (
+    error_onsets,
+    lost_cycles,
+    mode_names,
+    motion_ends,
+    motion_starts,
+)
 
 WIDTH, PANEL_HEIGHT, DPI = 12.0, 2.2, 100  # inches, inches per panel, dots per inch
 
@@ -140,3 +147,11 @@ def _timeline(ax, recording: Recording, states, t, window) -> None:
         if window[0] <= x <= window[1]:
             ax.annotate(mark.label, (x, 0.05), xycoords=("data", "axes fraction"),
                         rotation=90, fontsize=6, va="bottom", color="g")
+    lost = [m for m in lost_cycles(recording) if window[0] <= m.cycle * CYCLE_PERIOD <= window[1]]
+    for extrapolated, color, label in ((True, "tab:orange", "lost: extrapolated"),
+                                       (False, "tab:red", "lost: held, braked, ...")):
+        xs = [m.cycle * CYCLE_PERIOD for m in lost if (m.label == "extrapolated") == extrapolated]
+        if xs:
+            ax.plot(xs, [-0.5] * len(xs), "|", color=color, markersize=8, label=label)
+    if lost:
+        ax.legend(loc="upper right", fontsize=6)

@@ -11,6 +11,11 @@ changes the robot records *where* in the cycle sequence it landed: the id of the
 cycle and whether that cycle had completed (a realtime server releases an idle cycle ahead of
 its deadline, so an event can fall between a cycle's release and its completion). That is
 what replay needs to apply it at the same point.
+
+A command's fate is recorded with it (on time or late) or with the datagram the endpoint
+rejected (and why); a motion cycle that closed without an on-time command (lost) is recorded
+by `released`, with how the robot filled it (extrapolated, held, braked, ...): read from the
+core's command window and motion once per cycle, and only while recording.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from pathlib import Path
 from franka_sim.recording.writer import RecordingWriter
 
 # Event kinds (the tuple's first item).
-SENT, COMMAND, REJECTED, TCP, REPLY, CONTROL, POSES, LOG, GRIPPER_STATE = range(9)
+SENT, COMMAND, REJECTED, TCP, REPLY, CONTROL, POSES, LOG, GRIPPER_STATE, LOST = range(10)
 
 QUEUE_LIMIT = 200_000  # events held at most (~4 s of a 1 kHz motion's traffic and more)
 POSE_EVERY = 10  # cycles between two records of the world's free bodies (100 Hz)
@@ -41,6 +46,9 @@ class Recorder:
         self._writer = RecordingWriter(self.path, metadata, self._queue, self)
         self._cycle = None
         self._qpos = None
+        self._window = None  # the core's command window, as the last cycle left it:
+        self._lost = 0  # its lost cycles then,
+        self._applied = (None, None)  # and (the motion, its last command applied)
         self._log_tap: logging.Handler | None = None
 
     # -- lifecycle -------------------------------------------------------------------------------
@@ -86,7 +94,17 @@ class Recorder:
         self.put((SENT, data, time.time_ns()))
 
     def released(self, message_id: int) -> None:
-        """A cycle was released (cycle thread): the free bodies, every POSE_EVERY cycles."""
+        """A cycle was released (cycle thread): the cycle before it, if it was lost; the free
+        bodies, every POSE_EVERY cycles."""
+        core = self._cycle.core
+        window, motion = core.window, core.motion
+        if window is not self._window:  # a Move or a reset: a window of its own, from 0
+            self._window, self._lost = window, 0
+        if window.lost_total != self._lost:
+            self._lost = window.lost_total
+            filled = _filled(motion, self._applied)
+            self.put((LOST, message_id - 1, filled, time.time_ns()))
+        self._applied = (motion, None if motion is None else motion.last_command)
         if message_id % POSE_EVERY == 0 and self._qpos is not None:
             self.put((POSES, message_id, self._qpos.copy(), time.time_ns()))
 
@@ -116,6 +134,29 @@ class Recorder:
                 result) -> None:
         """A control API operation ran (cycle thread) at `at` (position() before it ran)."""
         self.put((CONTROL, operation, arguments, status, result, at[0], at[1], time.time_ns()))
+
+
+EXTRAPOLATED = "extrapolated"
+
+
+def _filled(motion, applied: tuple) -> str:
+    """What the robot made of a lost cycle, as its motion shows after closing the window:
+    `extrapolated` (the reference went on at constant acceleration, torques held); `held` (no
+    command yet: the motion holds its start); `braked` (past the cycles the robot
+    extrapolates); `generated` (an async motion's generator went on); `newer command` (one
+    for a cycle not yet published was applied); `motion ended` (the loss ended it)."""
+    if motion is None:
+        return "motion ended"
+    before = applied[1] if applied[0] is motion else None
+    if motion.last_command is not before:
+        return "newer command"
+    if motion.braking:
+        return "braked"
+    if motion.spec.use_async:
+        return "generated"
+    if motion.last_command is None:
+        return "held"
+    return EXTRAPOLATED
 
 
 class _LogTap(logging.Handler):

@@ -8,6 +8,12 @@ or after that cycle's completion. The cycles between are released and completed 
 does (RobotCycle); each state the server sent is compared with the replayed one. Cycles whose
 states were not sent (no client yet, lockstep's settling) are released all the same; lockstep's
 idle repeats are released as steps, which at rest give the same bits.
+
+A recording started on a running server (the control API's `/recording`, recording/live.py)
+begins with the reset it started from, at cycle n: the fresh simulator's clock is moved to n
+and that reset is replayed there. A reset world is a fresh one at a later message_id (the
+reset puts back every state the robot, the Hand and the physics keep), so from then on the run
+is replayed as any other.
 """
 
 from __future__ import annotations
@@ -20,7 +26,8 @@ import numpy as np
 from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
 from franka_sim.protocol.codec import STATE_DTYPE
-from franka_sim.recording.metadata import replay_config
+from franka_sim.recording.live import START_FRESH, START_RESET
+from franka_sim.recording.metadata import Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
 from franka_sim.robot.session import SessionError
 from franka_sim.server.control_ops import ControlOps
@@ -50,6 +57,9 @@ def differing_fields(recorded: bytes, replayed: bytes | None) -> list[str]:
     a, b = np.frombuffer(recorded, STATE_DTYPE)[0], np.frombuffer(replayed, STATE_DTYPE)[0]
     return [name for name in STATE_DTYPE.names
             if a[name].tobytes() != b[name].tobytes()]
+
+
+_REPLAYED = ("robot_state", "command", "tcp", "control")  # the events replay applies
 
 
 class _Diverged(Exception):
@@ -91,7 +101,21 @@ class Replayer:
                 self.released = None
 
     # -- the events ----------------------------------------------------------------------------------
+    def start_where_recorded(self) -> None:
+        """Move the clock to the reset a recording started on a running server begins with."""
+        if self.recording.metadata.get("start", START_FRESH) != START_RESET:
+            return
+        first = next((e for e in self.recording.entries if e.key in _REPLAYED), None)
+        call = first.json() if first is not None and first.key == "control" else {}
+        if call.get("operation") != "reset":
+            raise Incompatible("a recording started on a running server begins with its "
+                               "reset, and this one does not")
+        # Where the server was: cycle n released, and completed or (idle, released ahead) not.
+        start = call["cycle"] - (0 if call["completed"] else 1)
+        self.core.message_id = self.cycle.completed_id = start
+
     def run(self, until: int | None = None) -> Outcome:
+        self.start_where_recorded()
         outcome = Outcome()
         try:
             for entry in self.recording.entries:

@@ -1,5 +1,5 @@
 """What a recording's client did, on the robot's clock: motions (Move to its end), errors,
-Hand actions. Shared by the plot and anyone reading a run."""
+lost cycles, Hand actions. Shared by the plot and anyone reading a run."""
 
 from __future__ import annotations
 
@@ -40,6 +40,13 @@ def motion_ends(recording: Recording) -> list[Mark]:
                     and reply.get("status") != "kMotionStarted"):
                 marks.append(Mark(event["cycle"], str(reply.get("status"))))
     return marks
+
+
+def lost_cycles(recording: Recording) -> list[Mark]:
+    """Each motion cycle that closed without an on-time command, labelled with how the robot
+    filled it (`extrapolated`, `held`, `braked`, ...: recording/recorder.py)."""
+    return [Mark(event["cycle"], event["filled"])
+            for event in (entry.json() for entry in recording.of("lost_cycle"))]
 
 
 def error_onsets(states: np.ndarray) -> list[Mark]:

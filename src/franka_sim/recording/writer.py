@@ -65,7 +65,8 @@ class RecordingWriter:
 
     def stop(self) -> None:
         self._stop.set()
-        self._thread.join()
+        if self._thread.ident is not None:  # (a recording discarded before it started)
+            self._thread.join()
         self._drain()
         self._mcap.finish()
         self._file.close()
@@ -143,6 +144,10 @@ class RecordingWriter:
             self._json("control", wall, {
                 "cycle": n, "completed": completed, "operation": operation,
                 "arguments": arguments, "status": status, "result": result}, n)
+        elif kind == ev.LOST:
+            _, n, filled, wall = event
+            self._json("lost_cycle", wall, {
+                "cycle": n, "extrapolated": filled == ev.EXTRAPOLATED, "filled": filled}, n)
         elif kind == ev.REJECTED:
             _, reason, source, data, wall = event
             self._json("command_rejected", wall, {

@@ -72,6 +72,8 @@ class ControlApi:
         app.router.add_get("/bodies/{name:.+}", self._pose)
         app.router.add_put("/bodies/{name:.+}", self._set_pose)
         app.router.add_post("/push", self._push)
+        app.router.add_post("/recording", self._start_recording)
+        app.router.add_delete("/recording", self._finish_recording)
         self.app = app
 
     async def start(self, host: str, port: int) -> None:
@@ -145,3 +147,10 @@ class ControlApi:
         fields = parse_object(await request.read(), {"body": True, "force": True,
                                                      "torque": False, "duration": False})
         return _answer(await self.ops.push(**fields))
+
+    async def _start_recording(self, request: web.Request) -> web.Response:
+        fields = parse_object(await request.read(), {"path": True})
+        return _answer(await self.ops.start_recording(**fields))
+
+    async def _finish_recording(self, request: web.Request) -> web.Response:
+        return _answer(await self.ops.finish_recording())

@@ -1,4 +1,4 @@
-"""What the control API does: read the ground truth, reset, move and push bodies.
+"""What the control API does: read the ground truth, reset, move and push bodies, record.
 
 Shared by the HTTP adapter (server/control_api.py) and an embedded `FrankaSim`. Each operation
 checks its arguments first and refuses (franka_sim.control.errors) before anything changes;
@@ -9,6 +9,7 @@ touch the robot core or the Hand hold the simulator's lock, as a TCP request doe
 
 from __future__ import annotations
 
+import asyncio
 import math
 import threading
 from numbers import Real
@@ -88,6 +89,9 @@ class ControlOps:
         self.client_connected = client_connected
         self.arm, self.arm_index = arm, arm_index  # the worker's physics: one backend per arm
         self.recorder = None  # recording.Recorder: the operations that change the world
+        # recording.live.LiveRecordings: recordings started and finished through this API
+        # (None: a world of several arms, which is not recorded).
+        self.recordings = None
 
     async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
         """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
@@ -155,6 +159,16 @@ class ControlOps:
         apart), and in a world of one arm the bodies as they started: all in one job, or
         nothing (Conflict while busy). Another arm and the bodies of a world of several are
         left as they are (another client may be at work)."""
+        q, gripper_width = self._reset_arguments(q, gripper_width)
+
+        def reset(physics) -> dict:
+            with self.lock:
+                self._refuse_busy()
+                return self._reset_now(physics, q, gripper_width)
+        return await self._job(reset, ("reset", {
+            "q": q.tolist(), "gripper_width": gripper_width}))
+
+    def _reset_arguments(self, q, gripper_width) -> tuple[np.ndarray, float | None]:
         q = self.q0 if q is None else numbers("q", q, 7)
         desc = self.description
         if np.any(q < desc.lower) or np.any(q > desc.upper):
@@ -167,26 +181,80 @@ class ControlOps:
             if not 0.0 <= gripper_width <= NOMINAL_MAX_WIDTH:
                 raise BadRequest(f"gripper_width {gripper_width} m is outside "
                                  f"[0, {NOMINAL_MAX_WIDTH}] m")
+        return q, gripper_width
 
-        def reset(physics) -> dict:
+    def _refuse_busy(self) -> None:
+        """Conflict while a reset would cut something short (cycle thread, lock held)."""
+        core, gripper = self.core, self.gripper
+        if core.motion is not None or core.robot_mode in BUSY_MODES:
+            raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
+                           "an error recovery is under way (let it finish first)")
+        if gripper is not None and gripper.busy:
+            raise Conflict("a gripper action is under way (let it finish first)")
+
+    def _reset_now(self, physics, q: np.ndarray, gripper_width: float | None) -> dict:
+        """The reset itself (cycle thread, lock held, `_refuse_busy` passed)."""
+        core, gripper = self.core, self.gripper
+        last_sent = self.driver.withdraw_prepared()
+        physics.reset(q, gripper_width)
+        measured = physics.measure()
+        core.reset(q, measured, last_sent)
+        if gripper is not None:
+            gripper.reset(measured.fingers.width)
+        self.driver.keep_running()
+        return {"q": q.tolist(), "cycle": core.message_id,
+                "gripper_width": None if gripper is None else gripper.width}
+
+    # -- recording ---------------------------------------------------------------------------------
+    async def start_recording(self, path) -> dict:
+        """Reset the world (as `reset()`) and record from there into `path` until
+        `finish_recording`, in one job: a recording started on a running server then begins
+        from the start world, which replay rebuilds in a fresh simulator (docs/recording.md).
+        Conflict while a recording runs, a client is connected or a reset would be refused."""
+        recordings = self.recordings
+        if recordings is None:
+            raise Conflict("this simulator cannot record through the control API (a world of "
+                           "several arms is not recorded)")
+        if not isinstance(path, str) or not path:
+            raise BadRequest(f"path must be the recording's file path, not {path!r}")
+        if self.recorder is not None:  # checked before the file is opened: it may be this one
+            raise Conflict(f"already recording to {self.recorder.path}")
+        q, _ = self._reset_arguments(None, None)
+        try:
+            recorder = recordings.open(path)  # here, not in the cycle thread: file I/O
+        except OSError as exc:
+            raise BadRequest(f"cannot record to {path}: {exc.strerror or exc}") from None
+
+        def start(physics) -> dict:
             with self.lock:
-                core, gripper = self.core, self.gripper
-                if core.motion is not None or core.robot_mode in BUSY_MODES:
-                    raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
-                                   "an error recovery is under way (let it finish first)")
-                if gripper is not None and gripper.busy:
-                    raise Conflict("a gripper action is under way (let it finish first)")
-                last_sent = self.driver.withdraw_prepared()
-                physics.reset(q, gripper_width)
-                measured = physics.measure()
-                core.reset(q, measured, last_sent)
-                if gripper is not None:
-                    gripper.reset(measured.fingers.width)
-                self.driver.keep_running()
-                return {"q": q.tolist(), "cycle": core.message_id,
-                        "gripper_width": None if gripper is None else gripper.width}
-        return await self._job(reset, ("reset", {
-            "q": q.tolist(), "gripper_width": gripper_width}))
+                if self.recorder is not None:
+                    raise Conflict(f"already recording to {self.recorder.path}")
+                self._refuse_busy()
+                recordings.attach(recorder, physics)  # Conflict: a client is connected
+                at = recorder.position()
+                result = self._reset_now(physics, q, None)
+                recorder.control("reset", {"q": q.tolist(), "gripper_width": None}, at, 200,
+                                 result)
+                return {"path": str(recorder.path), "cycle": result["cycle"]}
+        try:
+            return await self._job(start)
+        except BaseException:
+            recordings.discard(recorder)
+            raise
+
+    async def finish_recording(self) -> dict:
+        """End the recording `start_recording` began and close its file (a complete MCAP once
+        this answers). Conflict when none runs."""
+        recordings = self.recordings
+        if recordings is None:
+            raise Conflict("no recording started through the control API is under way")
+
+        def finish(physics) -> tuple:
+            with self.lock:
+                return recordings.detach(), self.core.message_id
+        recorder, cycle = await self._job(finish)
+        await asyncio.to_thread(recorder.stop)  # the writer's last drain and the summary
+        return {"path": str(recorder.path), "cycle": cycle, "dropped": recorder.dropped}
 
     async def set_pose(self, name: str, position, quaternion=None) -> dict:
         name = body_name(name)

@@ -63,6 +63,11 @@ class FrankaSim:
             from franka_sim.recording.taps import install_recorder
 
             self.recorder = install_recorder(self)
+        self.recordings = None  # the control API's (recording/live.py): a world of one arm
+        if one:
+            from franka_sim.recording.live import LiveRecordings
+
+            self.recordings = self.control.recordings = LiveRecordings(self)
         self._started = False
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -105,6 +110,8 @@ class FrankaSim:
         await self.worker.stop()
         if self.recorder is not None:
             self.recorder.stop()
+        if self.recordings is not None:
+            self.recordings.close()
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()

@@ -69,8 +69,10 @@ class ServerPool:
         self._failed: dict[SimSettings, str] = {}
         self._started = 0
 
-    def prepared(self, settings: SimSettings) -> tuple[ServerProcess, object]:
-        """(server, its `Control`) of these settings, in the start world and with no client."""
+    def prepared(self, settings: SimSettings,
+                 recording: str | None = None) -> tuple[ServerProcess, object]:
+        """(server, its `Control`) of these settings, in the start world and with no client;
+        recording from there into `recording` (a path) if given."""
         if settings in self._failed:
             raise RuntimeError(self._failed[settings])
         entry = self._servers.get(settings)
@@ -84,6 +86,15 @@ class ServerPool:
                 self._failed[settings] = str(exc)  # one failed start per settings, not per test
                 raise
             self._servers[settings] = entry
+        if recording is not None and not _start_recording(entry[1], recording):
+            # A client of an earlier test still holds the Hand (or the recording could not
+            # start for another reason): a server of its own, where none can be connected.
+            entry[0].stop()
+            entry = self._servers[settings] = self._start(settings)
+            try:
+                entry[1].start_recording(recording)
+            except Exception as exc:  # noqa: BLE001 - said as the test's setup failure
+                raise RuntimeError(f"franka-sim: cannot record to {recording}: {exc}") from None
         return entry
 
     def _start(self, settings: SimSettings) -> tuple[ServerProcess, object]:
@@ -151,3 +162,25 @@ def _reset(server: ServerProcess, control) -> bool:
         return False
     return True
 
+
+
+def _start_recording(control, path: str) -> bool:
+    """Start recording into `path` (the server resets first); False when it would not: a
+    client still connected after a collection and a moment's wait, or no answer."""
+    from franka_sim.control import Conflict, ControlError
+
+    end = time.monotonic() + _CLIENT_GONE_TIMEOUT
+    collected = False
+    while True:
+        try:
+            control.start_recording(path)
+            return True
+        except Conflict:
+            if time.monotonic() > end:
+                return False
+            if not collected:
+                gc.collect()  # a finished test's Hand client held only by a reference cycle
+                collected = True
+            time.sleep(0.01)
+        except ControlError:
+            return False

@@ -1,0 +1,88 @@
+"""The plugin's recordings as a user meets them: a project of their own
+(tests/plugin/recording_project) run by pytest in a subprocess with each --franka-sim-record
+choice; what is kept replays identical in a fresh simulator."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from importlib.metadata import entry_points
+from pathlib import Path
+
+import pytest
+
+from franka_sim.pytest_plugin import PROPERTY, recording_name
+
+PROJECT = Path(__file__).with_name("recording_project")
+PASSING = "test_recorded.py::test_changes_the_world_and_passes"
+FAILING = "test_recorded.py::test_moves_then_fails"
+
+
+def _run_project(tmp_path: Path, *args: str) -> tuple[Path, str]:
+    """pytest on a copy of the project: (its directory, the output)."""
+    project = tmp_path / "project"
+    shutil.copytree(PROJECT, project)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q",
+         "--junitxml=report.xml", *args],
+        cwd=project, env=env, capture_output=True, text=True, timeout=600)
+    output = done.stdout + done.stderr
+    assert done.returncode == 1, output
+    assert "1 failed, 1 passed" in output.strip().splitlines()[-1], output
+    return project, output
+
+
+def _replay(path: Path) -> str:
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout.strip()
+
+
+def _properties(project: Path) -> dict[str, str]:
+    cases = ET.parse(project / "report.xml").getroot().iter("testcase")
+    return {case.get("name"): prop.get("value") for case in cases
+            for prop in case.iter("property") if prop.get("name") == PROPERTY}
+
+
+def test_by_default_a_failed_test_leaves_a_recording_that_replays_identical(tmp_path):
+    project, output = _run_project(tmp_path)
+    directory = project / "franka-sim-recordings"
+    path = directory / recording_name(FAILING)
+    assert sorted(directory.iterdir()) == [path]
+    assert "franka-sim recordings" in output and f"{FAILING}: {path}" in output
+    failure = output.split("franka-sim recording ---", 1)[1]  # the failure's own section
+    assert str(path) in failure.split("\n", 2)[1]
+    assert _properties(project) == {"test_moves_then_fails": str(path)}
+    assert _replay(path).startswith("identical (")
+
+
+def test_all_keeps_every_test_s_recording_and_none_records_none(tmp_path):
+    project, output = _run_project(tmp_path / "all", "--franka-sim-record", "all",
+                                   "--franka-sim-record-dir", "runs")
+    kept = sorted((project / "runs").iterdir())
+    assert kept == sorted(project / "runs" / recording_name(n) for n in (PASSING, FAILING))
+    assert not (project / "franka-sim-recordings").exists()
+    for path in kept:
+        assert f": {path}" in output
+        assert _replay(path).startswith("identical (")
+
+    project, output = _run_project(tmp_path / "none", "--franka-sim-record", "none")
+    assert not (project / "franka-sim-recordings").exists()
+    assert "franka-sim recordings" not in output and _properties(project) == {}
+
+
+@pytest.mark.parametrize("nodeid, name", [
+    ("tests/test_a.py::test_b", "tests__test_a.py__test_b.mcap"),
+    ("t.py::C::test[1-x y/z]", "t.py__C__test_1-x_y__z_.mcap"),
+])
+def test_a_recording_is_named_after_its_test(nodeid, name):
+    assert recording_name(nodeid) == name
+    long = recording_name("t.py::test[" + "x" * 300 + "]")
+    assert len(long) < 160 and long != recording_name("t.py::test[" + "x" * 299 + "]")
