@@ -27,7 +27,7 @@ def _reflex(robot) -> None:
 
 
 def record_session(path, clock: str) -> list:
-    """A pylibfranka session (a motion, a reflex, its recovery, the Hand, a control call) on a
+    """A pylibfranka session (a motion, a reflex, its recovery, the Hand, control calls) on a
     recording server; the states the client read, as (message_id, q, dq, tau_J, robot_mode)."""
     seen = []
 
@@ -46,6 +46,8 @@ def record_session(path, clock: str) -> list:
         robot.automatic_error_recovery()
         keep(robot.read_once())
         Control(sim.host).set_pose("cube", [0.45, 0.1, 0.45])
+        Control(sim.host).push("link7", force=[0, 0, -20], duration=0.2)  # the client idle
+        keep(robot.read_once())
         gripper = pylibfranka.Gripper(sim.host)
         assert gripper.move(0.04, 0.1)
         del gripper

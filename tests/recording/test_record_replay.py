@@ -32,7 +32,7 @@ def test_the_file_opens_with_mcaps_reader_and_holds_every_channel(run, request):
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
     assert counts["/fr3/robot_state"] > 1000 and counts["/fr3/command"] > 500
     assert counts["/fr3/tcp"] >= 8 and counts["/fr3/reply"] >= 6
-    assert counts["/fr3/gripper_state"] > 0 and counts["/fr3/control"] == 1
+    assert counts["/fr3/gripper_state"] > 0 and counts["/fr3/control"] == 2  # place, push
     assert counts["/world/bodies"] > 100 and counts["/log"] > 0
     assert metadata["franka-sim"]["format_version"] == "1"
     assert len(metadata["franka-sim"]["urdf_sha256"]) == 64
