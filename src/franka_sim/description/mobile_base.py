@@ -22,7 +22,7 @@ WHEEL_RADIUS = 0.08
 # The chassis (a box on the floor clearance) and the column the arms' mount stands on, m.
 CHASSIS_HALF_SIZE = (0.35, 0.25, 0.12)
 CHASSIS_CLEARANCE = 0.04
-COLUMN_HALF_SIZE = (0.1, 0.28)  # x, y; its height reaches up to the arms' mount
+COLUMN_HALF_SIZE = (0.1, 0.42)  # x, y; its height reaches up to the arms' mount
 
 # What the base follows of a commanded body twist (our figures, documented in
 # docs/deviations.md): planar speed, yaw rate, and how fast either may change.

@@ -67,7 +67,13 @@ class Arm:
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
         self._bias = data.qfrc_bias[self.vs]
         base = placement.base_frame()
-        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
+        # On the mobile base the root moves: the readings take its pose as it is now (views
+        # into MjData); the queries' scratch data keeps the base where it started.
+        now = base
+        if placement.rides:
+            root = model.body(prefix + self.desc.root).id
+            now = (data.xmat[root].reshape(3, 3), data.xpos[root])
+        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, now)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
         self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
         self.fingers = Fingers(model, data, gravity, prefix, self._hand) \
