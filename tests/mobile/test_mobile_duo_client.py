@@ -17,6 +17,7 @@ import pytest
 
 from support.clients import connect
 from franka_sim.control import Control
+from franka_sim.control.errors import NotFound
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 HERE = Path(__file__).resolve().parent
@@ -116,3 +117,23 @@ def test_an_arm_moves_on_its_own_while_the_base_turns_under_it(duo):
     right_after = Control(right).state()
     assert right_after["q"] == right_before["q"]
     np.testing.assert_allclose(right_after["O_T_EE"], right_before["O_T_EE"], atol=1e-14)
+
+
+def test_the_base_control_api_tells_its_pose_and_nothing_else(duo):
+    control = Control(duo[0])
+    assert control.health()["mobile_base"] is True
+    state = control.state()
+    assert set(state["pose"]) == {"x", "y", "yaw"} and len(state["q"]) == 4
+    with pytest.raises(NotFound):
+        control.reset()
+
+
+def test_a_mobile_base_needs_its_own_address_and_arms_to_carry():
+    address = fresh_loopback_address()
+    for args in (["--mobile-base", "not-an-address", "--arm", f"a={address}"],
+                 ["--mobile-base", address],
+                 ["--mobile-base", address, "--arm", f"a={address}"]):
+        run = subprocess.run([sys.executable, "-m", "franka_sim", "serve", *args],
+                             capture_output=True, text=True, timeout=60)
+        assert run.returncode != 0
+        assert "mobile" in run.stderr.lower(), run.stderr

@@ -15,6 +15,7 @@ from franka_sim.robot.cycle import Replies
 from franka_sim.robot.mobile_base import BaseCore
 from franka_sim.robot.session import Session, robot_session
 from franka_sim.server.arm_server import AddressInUse, ArmServer
+from franka_sim.server.control_ops import mode_name
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.robot_endpoint import RobotEndpoint
 from franka_sim.server.udp_endpoint import UdpEndpoint
@@ -35,7 +36,7 @@ class BaseOps:
         core = self.core
         return {"ready": True, "mobile_base": True, "clock": self.clock,
                 "cycle": core.message_id, "client_connected": self.client_connected(),
-                "robot_mode": core.robot_mode.name[1:].lower()}
+                "robot_mode": mode_name(core.robot_mode)}
 
     async def state(self) -> dict:
         with self.lock:
@@ -43,7 +44,7 @@ class BaseOps:
             return {"q": list(drive.q), "dq": list(drive.dq),
                     "pose": {"x": drive.x, "y": drive.y, "yaw": drive.yaw},
                     "twist": {"vx": drive.vx, "vy": drive.vy, "wz": drive.wz},
-                    "robot_mode": core.robot_mode.name[1:].lower(), "cycle": core.message_id}
+                    "robot_mode": mode_name(core.robot_mode), "cycle": core.message_id}
 
     async def _none(self, *args, **kwargs):
         raise NotFound("the mobile base's control API serves /health and /state only")
