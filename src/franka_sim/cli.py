@@ -66,7 +66,7 @@ def serve(
     ),
     scene: str | None = typer.Option(
         None, envvar="FRANKA_SIM_SCENE",
-        help="A packaged scene's name (default, dual_arm_table) or an MJCF file whose bodies "
+        help="A packaged scene's name (default, dual_arm_table, mobile_duo) or an MJCF file whose bodies "
         "(a table, objects) are placed around the arms, named scene/<name>; its sites "
         "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
     ),

@@ -117,7 +117,7 @@ MOUNT_PREFIX = "arm/"  # a scene's site "arm/NAME" is where arm NAME's base stan
 
 
 def packaged_scenes() -> dict[str, Path]:
-    """The scenes the package ships, by name ("default", "dual_arm_table")."""
+    """The scenes the package ships, by name ("default", "dual_arm_table", "mobile_duo")."""
     folder = importlib.resources.files("franka_sim").joinpath("scenes")
     return {Path(str(entry)).stem: Path(str(entry)) for entry in folder.iterdir()
             if entry.name.endswith(".xml")}
