@@ -12,14 +12,18 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.config import ArmSpec, Config
+from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
+from franka_sim.physics.mobile_base import BaseBody
 from franka_sim.physics.mujoco_backend import ArmBackend
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
                                       resolve_scene, scene_mounts)
 from franka_sim.physics.world import World
+from franka_sim.robot.base_cycle import BaseCycle
 from franka_sim.robot.core import RobotCore
 from franka_sim.robot.cycle import RobotCycle
 from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.mobile_base import BaseCore
 from franka_sim.robot.requests import RequestHandler
 from franka_sim.robot.session import Session, gripper_session, robot_session
 from franka_sim.robot.world_cycle import WorldCycle
@@ -66,6 +70,8 @@ class WorldParts:
         self.placements = self._place(specs)
         self._check()
         self.arms = [ArmParts(config, spec, self.description, self.urdf_text) for spec in specs]
+        # The mobile base (--mobile-base): a robot of its own after the arms, which ride on it.
+        self.base = None if config.mobile_base is None else BaseCore(base_urdf_text().encode())
 
     def _place(self, specs) -> list[ArmPlacement]:
         """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
@@ -77,11 +83,14 @@ class WorldParts:
                 if other.host == spec.host:
                     raise SceneError(f"arm {spec.name}: {spec.host} serves arm {other.name} "
                                      "already (one address per arm)")
+            if spec.host == self.config.mobile_base:
+                raise SceneError(f"arm {spec.name}: {spec.host} serves the mobile base "
+                                 "(one address per robot)")
         mounts = scene_mounts(self.scene)
-        fingers = self.config.gripper
+        fingers, rides = self.config.gripper, self.config.mobile_base is not None
         return [ArmPlacement(self.description, spec.name if len(specs) > 1 else "",
                              base=spec.base if spec.base is not None else mounts.get(spec.name),
-                             fingers=fingers)
+                             fingers=fingers, rides=rides)
                 for spec in specs]
 
     def _check(self) -> None:
@@ -95,16 +104,23 @@ class WorldParts:
         q0 = np.array(self.config.q0, dtype=float)
         return {p.name: q0 for p in self.placements}
 
-    def make_physics(self) -> list[ArmBackend]:
-        """The world (in the thread that will own it), as each arm's view of it, by index."""
+    def make_physics(self) -> list:
+        """The world (in the thread that will own it), as each arm's view of it, by index,
+        then the mobile base's body if there is one."""
         world = World(self.placements, self._q0s(), scene_xml=self.scene)
-        return [ArmBackend(world, p.name) for p in self.placements]
+        physics = [ArmBackend(world, p.name) for p in self.placements]
+        if self.base is not None:
+            physics.append(BaseBody(world.model, world.data))
+        return physics
 
-    def make_cycle(self, physics: list[ArmBackend], hand_state_wanted) -> RobotCycle | WorldCycle:
-        """One arm: its RobotCycle. Several: a WorldCycle around the world's one step.
-        `hand_state_wanted[i]`: whether arm i's Hand client takes GripperStates."""
+    def make_cycle(self, physics: list, hand_state_wanted) -> RobotCycle | WorldCycle:
+        """One arm: its RobotCycle. Several (or a mobile base): a WorldCycle around the
+        world's one step. `hand_state_wanted[i]`: whether arm i's Hand client takes
+        GripperStates."""
         cycles = [arm.make_cycle(physics[i], hand_state_wanted[i])
                   for i, arm in enumerate(self.arms)]
+        if self.base is not None:
+            cycles.append(BaseCycle(self.base, physics[len(self.arms)]))
         if len(cycles) == 1:
             return cycles[0]
         return WorldCycle(cycles, physics[0].world.step)

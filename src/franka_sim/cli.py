@@ -66,7 +66,7 @@ def serve(
     ),
     scene: str | None = typer.Option(
         None, envvar="FRANKA_SIM_SCENE",
-        help="A packaged scene's name (default, dual_arm_table) or an MJCF file whose bodies "
+        help="A packaged scene's name (default, dual_arm_table, mobile_duo) or an MJCF file whose bodies "
         "(a table, objects) are placed around the arms, named scene/<name>; its sites "
         "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
     ),
@@ -76,6 +76,12 @@ def serve(
         "base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
         "site, else the origin). Repeat for several arms in one world. Default: one arm "
         "named fr3 on --host.",
+    ),
+    mobile_base: str | None = typer.Option(
+        None, "--mobile-base", envvar="FRANKA_SIM_MOBILE_BASE", metavar="ADDRESS",
+        help="Stand every arm on a mobile base served as a robot of its own on ADDRESS (FCI "
+        "and control API; a 'tmr' URDF, driven by Cartesian-velocity motions: "
+        "docs/deviations.md). E.g. --scene mobile_duo --arm left=A --arm right=B.",
     ),
     no_gripper: bool = typer.Option(
         False, "--no-gripper", envvar="FRANKA_SIM_NO_GRIPPER",
@@ -127,6 +133,20 @@ def serve(
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--arm") from None
+    if mobile_base is not None:
+        import ipaddress
+
+        try:
+            ipaddress.ip_address(mobile_base)
+        except ValueError:
+            raise typer.BadParameter(f"{mobile_base!r} is not an IP address",
+                                     param_hint="--mobile-base") from None
+        if not arms:
+            raise typer.BadParameter("a mobile base carries the arms named with --arm",
+                                     param_hint="--mobile-base")
+        if record is not None:
+            raise typer.BadParameter("a world with a mobile base cannot be recorded yet",
+                                     param_hint="--record")
     if record is not None and len(arms) > 1:
         raise typer.BadParameter("records a world of one arm; several arms cannot be recorded "
                                  "yet", param_hint="--record")
@@ -151,7 +171,7 @@ def serve(
         enforce_motion_limits=enforce_motion_limits,
         joint_discontinuity_scale=joint_discontinuity_scale,
         scene=scene_path, gripper=not no_gripper, control_port=control_port,
-        control_token=control_token, arms=arms, record=record,
+        control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
 

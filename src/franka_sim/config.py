@@ -52,6 +52,9 @@ class Config:
     record: Path | None = None  # write everything the run exchanged to this MCAP file
     # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
     arms: tuple[ArmSpec, ...] = ()
+    # The mobile base every arm stands on, served on this address as a robot of its own;
+    # None: the arms stand on the world.
+    mobile_base: str | None = None
 
     def arm_specs(self) -> tuple[ArmSpec, ...]:
         return self.arms or (ArmSpec(DEFAULT_ARM, self.host),)

@@ -66,13 +66,17 @@ class Arm:
         self._dq_prev = np.zeros(7)
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
         self._bias = data.qfrc_bias[self.vs]
-        base = placement.base_frame()
+        base = queried = placement.base_frame()
+        if placement.rides:  # on the mobile base the root moves: its pose as it is now, in
+            root = model.body(prefix + self.desc.root).id  # the data (views) and the scratch
+            base = (data.xmat[root].reshape(3, 3), data.xpos[root])
+            queried = (scratch.xmat[root].reshape(3, 3), scratch.xpos[root])
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
         self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
         self.fingers = Fingers(model, data, gravity, prefix, self._hand) \
             if placement.fingers else None
-        self.queries = Queries(model, data, scratch, self.qs, self.vs, flange, base)
+        self.queries = Queries(model, data, scratch, self.qs, self.vs, flange, queried)
         self.cmd: JointCommand | None = None  # what the drives do, until replaced
         self._finger_cmd: FingerCommand | None = None  # a new finger command (None: keep)
         self._last_cmd: JointCommand | None = None  # the command of the last step taken

@@ -152,16 +152,18 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
 
 def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             base: tuple[float, float, float, float] | None = None, armature=ROTOR_INERTIA_FR3,
-            fingers: bool = False, extra_bits: tuple[int, int] = (0, 0)) -> None:
+            fingers: bool = False, extra_bits: tuple[int, int] = (0, 0),
+            parent: mujoco.MjsBody | None = None) -> None:
     """The arm + Hand into `spec`, its names prefixed, its base at `base` = (x, y, z, yaw) in
     the world frame (None: the world origin; the arm's root frame is then the world's, else a
     static body named after the root link).
 
     Without `fingers` the Hand is one rigid body; with them it is a palm and two driven finger
     joints (physics/fingers.py) whose composite is still exactly the reported Hand.
-    `extra_bits` (contype, conaffinity) are OR'ed into every geom's (see arm_bits).
+    `extra_bits` (contype, conaffinity) are OR'ed into every geom's (see arm_bits). `parent`:
+    the body the arm stands on (the mobile base), `base` then in its frame; None: the world.
     """
-    root = spec.worldbody
+    root = spec.worldbody if parent is None else parent
     if base is not None:
         x, y, z, yaw = base
         root = root.add_body(name=prefix + desc.root, pos=[x, y, z],

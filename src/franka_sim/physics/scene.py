@@ -17,6 +17,7 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
+from franka_sim.physics.mobile_base import add_mobile_base
 from franka_sim.protocol.timing import CYCLE_PERIOD
 
 GRAVITY = (0.0, 0.0, -9.81)
@@ -31,7 +32,8 @@ class ArmPlacement:
     arm's own names, for a world of one arm. `base` is (x, y, z, yaw) of the arm's root frame
     in the world frame (m, rad); None: the world origin. A base turns about the vertical only,
     so gravity stays along the base's −z, as the robot's model assumes; what the arm reports
-    (O_T_F, J_F) is in its base frame, as a robot reports it.
+    (O_T_F, J_F) is in its base frame, as a robot reports it. An arm that `rides` stands on
+    the mobile base (physics/mobile_base.py), `base` giving its mount where the base starts.
     """
 
     desc: ArmDescription
@@ -39,6 +41,7 @@ class ArmPlacement:
     base: tuple[float, float, float, float] | None = None
     fingers: bool = False
     armature: tuple[float, ...] = ROTOR_INERTIA_FR3
+    rides: bool = False
 
     @property
     def prefix(self) -> str:
@@ -78,9 +81,16 @@ def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
     # Resting scene objects sleep (exactly still until something touches them) rather than
     # trembling at 1e-9 m/s in their contacts: an idle scene is then truly at rest.
     spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    riders = [arm for arm in arms if arm.rides]
+    carrier = None
+    if riders:
+        carrier = add_mobile_base(spec, min((arm.base or (0, 0, 0, 0))[2] for arm in riders))
     for i, arm in enumerate(arms):
-        add_arm(spec, arm.desc, prefix=arm.prefix, base=arm.base, armature=arm.armature,
-                fingers=arm.fingers, extra_bits=arm_bits(i, len(arms)))
+        parent, base = None, arm.base
+        if arm.rides:  # a root body of its own on the base, even at the base's origin
+            parent, base = carrier, base or (0.0, 0.0, 0.0, 0.0)
+        add_arm(spec, arm.desc, prefix=arm.prefix, base=base, armature=arm.armature,
+                fingers=arm.fingers, extra_bits=arm_bits(i, len(arms)), parent=parent)
     if scene_xml is not None:
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)
@@ -107,7 +117,7 @@ MOUNT_PREFIX = "arm/"  # a scene's site "arm/NAME" is where arm NAME's base stan
 
 
 def packaged_scenes() -> dict[str, Path]:
-    """The scenes the package ships, by name ("default", "dual_arm_table")."""
+    """The scenes the package ships, by name ("default", "dual_arm_table", "mobile_duo")."""
     folder = importlib.resources.files("franka_sim").joinpath("scenes")
     return {Path(str(entry)).stem: Path(str(entry)) for entry in folder.iterdir()
             if entry.name.endswith(".xml")}

@@ -59,6 +59,9 @@ class World:
         self._pushing = self._pushes.steps_left  # non-empty while a push is on
         self._qpos, self._scratch_qpos, self._scratch_qvel = (
             data.qpos, self.scratch.qpos, self.scratch.qvel)
+        # A mocap body (the mobile base) where the data has it, for g(q) to match the bias.
+        self._mocap = (data.mocap_pos, data.mocap_quat, self.scratch.mocap_pos,
+                       self.scratch.mocap_quat) if model.nmocap else None
         # Rest detection: the data as a step found and left it (see the module docstring).
         size = mujoco.mj_stateSize(model, _REST_STATE)
         self._before, self._after, self._now = np.empty(size), np.empty(size), np.empty(size)
@@ -168,6 +171,10 @@ class World:
         m, s = self.model, self.scratch
         self._scratch_qpos[:] = self._qpos
         self._scratch_qvel.fill(0.0)
+        if self._mocap is not None:
+            pos, quat, scratch_pos, scratch_quat = self._mocap
+            scratch_pos[:] = pos
+            scratch_quat[:] = quat
         mujoco.mj_kinematics(m, s)
         mujoco.mj_comPos(m, s)
         mujoco.mj_comVel(m, s)

@@ -17,6 +17,7 @@ from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.physics.mujoco_backend import ArmBackend
 from franka_sim.server.arm_server import AddressInUse, ArmServer
+from franka_sim.server.base_server import BaseServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 
@@ -39,19 +40,28 @@ class FrankaSim:
         # TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
         self.worker = CycleThread(parts.make_physics)
-        one = len(parts.arms) == 1
+        one = len(parts.arms) == 1 and parts.base is None
         self.driver = CycleDriver(
             self._make_cycle, self.worker, self.lock, self._send_states,
             lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
             has_client=self._has_client, poll_commands=self._poll,
             command_socket=(lambda: self.arms[0].udp.sock) if one else
-            (lambda: tuple(arm.udp.sock for arm in self.arms)),
+            (lambda: tuple(robot.udp.sock for robot in self.robots)),
         )
         self.arms = [
             ArmServer(arm_parts, i, driver=self.driver, worker=self.worker, lock=self.lock,
                       on_command=self.driver.receive if one else
                       (lambda command, i=i: self.driver.receive((i, command))))
             for i, arm_parts in enumerate(parts.arms)]
+        # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
+        self.robots = list(self.arms)
+        self.base = None
+        if parts.base is not None:
+            index = len(self.arms)
+            self.base = BaseServer(parts.base, config.mobile_base, config, driver=self.driver,
+                                   lock=self.lock, on_command=lambda command:
+                                   self.driver.receive((index, command)))
+            self.robots.append(self.base)
         if one:  # the one arm's own endpoints, without a per-cycle loop over a list
             self.driver.send_state = self.arms[0].udp.send_state
             self.driver.deliver = self.arms[0].deliver
@@ -59,7 +69,8 @@ class FrankaSim:
         self.recorder = None
         if config.record is not None:  # OSError: the target cannot be written
             if not one:
-                raise ValueError("--record records a world of one arm (several: not supported)")
+                raise ValueError("--record records a world of one arm (several, or a mobile "
+                                 "base: not supported)")
             from franka_sim.recording.taps import install_recorder
 
             self.recorder = install_recorder(self)
@@ -76,9 +87,9 @@ class FrankaSim:
         await self.worker.start()
         started = []
         try:
-            for arm in self.arms:
-                await arm.start()
-                started.append(arm)
+            for robot in self.robots:
+                await robot.start()
+                started.append(robot)
             await self.driver.start()
         except BaseException:
             for arm in reversed(started):
@@ -91,8 +102,9 @@ class FrankaSim:
         if self.recorder is not None:
             self.recorder.start()  # (what the taps queued so far is written first)
         config = self.config
-        for arm in self.arms:
-            log.info("simulated FR3 %s; clock %s; scene %s)", arm.describe(),
+        for robot in self.robots:
+            log.info("simulated %s %s; clock %s; scene %s)",
+                     "FR3" if robot in self.arms else "base", robot.describe(),
                      config.clock.value, self.scene)
         return self
 
@@ -100,13 +112,13 @@ class FrankaSim:
         if not self._started:
             return
         self._started = False
-        for arm in self.arms:
-            await arm.stop_control_api()
-        for arm in self.arms:
-            await arm.stop_endpoints()
+        for robot in self.robots:
+            await robot.stop_control_api()
+        for robot in self.robots:
+            await robot.stop_endpoints()
         await self.driver.stop()
-        for arm in self.arms:
-            arm.udp.close()
+        for robot in self.robots:
+            robot.udp.close()
         await self.worker.stop()
         if self.recorder is not None:
             self.recorder.stop()
@@ -188,19 +200,19 @@ class FrankaSim:
 
     def _send_states(self, states: tuple) -> None:
         """Each arm's state of a world cycle to its client (None: packing failed)."""
-        for arm, state in zip(self.arms, states):
+        for robot, state in zip(self.robots, states):
             if state is not None:
-                arm.udp.send_state(state)
+                robot.udp.send_state(state)
 
     def _deliver(self, replies) -> None:
         """Each arm's replies of a world cycle, on the loop, once the states have left."""
-        for arm, arm_replies in zip(self.arms, replies.arms):
-            if arm_replies:
-                arm.deliver(arm_replies)
+        for robot, robot_replies in zip(self.robots, replies.arms):
+            if robot_replies:
+                robot.deliver(robot_replies)
 
     def _poll(self, *limit) -> None:
-        for arm in self.arms:
-            arm.udp.poll(*limit)
+        for robot in self.robots:
+            robot.udp.poll(*limit)
 
     def _has_client(self) -> bool:
-        return any(arm.has_client() for arm in self.arms)
+        return any(robot.has_client() for robot in self.robots)
