@@ -8,7 +8,6 @@ driver that paces the world's cycles) is FrankaSim's (server/sim.py), which wire
 
 from __future__ import annotations
 
-import errno
 import logging
 import threading
 
@@ -20,16 +19,13 @@ from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.gripper_endpoint import GripperEndpoint
 from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.robot_server import RobotServer
 from franka_sim.server.udp_endpoint import UdpEndpoint
 
 log = logging.getLogger(__name__)
 
 
-class AddressInUse(OSError):
-    """A port on an arm's address is taken (another simulator, or a robot bridge)."""
-
-
-class ArmServer:
+class ArmServer(RobotServer):
     """Arm `index` of the world (its parts: assembly.ArmParts, named and addressed by their
     spec). `driver` is the world's (its clock serves every arm); `on_command(command)` hands it
     this arm's commands."""
@@ -53,64 +49,11 @@ class ArmServer:
             client_connected=lambda: self.robot.active is not None, arm=self.spec.name,
             arm_index=index)
         self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+        self.label = f"arm {self.spec.name}"
 
     @property
     def host(self) -> str:
         return self.spec.host
-
-    # -- lifecycle -------------------------------------------------------------------------------
-    async def start(self) -> None:
-        """Open every endpoint on the arm's address, or none (AddressInUse / OSError naming
-        the arm and the port)."""
-        config, host = self.config, self.host
-        opened = []
-        try:
-            await self._open(self.robot.start(host, config.robot_port), config.robot_port, "")
-            opened.append(self.robot.stop)
-            try:
-                self.udp.open(host)
-            except OSError as exc:
-                raise OSError(exc.errno, f"arm {self.spec.name}: no UDP socket on {host}: "
-                              f"{exc.strerror}") from exc
-            if self.gripper is not None:
-                await self._open(self.gripper_endpoint.start(host, config.gripper_port),
-                                 config.gripper_port, " (gripper)")
-                opened.append(self.gripper_endpoint.stop)
-            if config.control_port:
-                await self._open(self._start_control_api(), config.control_port,
-                                 " (control API)")
-        except BaseException:
-            for stop in reversed(opened):
-                await stop()
-            self.udp.close()
-            raise
-
-    async def _open(self, opening, port: int, what: str) -> None:
-        try:
-            await opening
-        except OSError as exc:
-            where = f"arm {self.spec.name}: {self.host}:{port}{what}"
-            if exc.errno == errno.EADDRINUSE:
-                raise AddressInUse(exc.errno, f"{where} is already in use (another franka-sim "
-                                   "or robot bridge on this address?)") from exc
-            raise OSError(exc.errno, f"{where} cannot be served: {exc.strerror or exc}") from exc
-
-    async def _start_control_api(self) -> None:
-        from franka_sim.server.control_api import ControlApi  # aiohttp: only when served
-
-        api = ControlApi(self.control, token=self.config.control_token)
-        await api.start(self.host, self.config.control_port)
-        self._control_api = api
-
-    async def stop_control_api(self) -> None:
-        if self._control_api is not None:
-            await self._control_api.stop()
-            self._control_api = None
-
-    async def stop_endpoints(self) -> None:
-        await self.robot.stop()
-        if self.gripper is not None:
-            await self.gripper_endpoint.stop()
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
@@ -136,9 +79,6 @@ class ArmServer:
         if replies.hand_state is not None:
             self.gripper_endpoint.send_state(replies.hand_state)
 
-    def has_client(self) -> bool:
-        return self.robot.active is not None or self.gripper_endpoint.active is not None
-
     # -- the endpoints' callbacks ----------------------------------------------------------------
     def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
@@ -147,19 +87,6 @@ class ArmServer:
     def _make_gripper_session(self) -> Session:
         self.driver.resume()
         return self.parts.gripper_session()
-
-    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.target = (peer_ip, udp_port)
-        self.core.client_connected()
-
-    def _client_silent(self) -> bool:
-        with self.lock:
-            return self.core.client_silent
-
-    def _on_disconnect(self) -> None:
-        self.udp.target = None
-        self.core.client_gone()
-        self.driver.client_event()
 
     def _on_gripper_disconnect(self) -> None:
         self.gripper.client_gone()

@@ -14,10 +14,10 @@ from franka_sim.control.errors import NotFound
 from franka_sim.robot.cycle import Replies
 from franka_sim.robot.mobile_base import BaseCore
 from franka_sim.robot.session import Session, robot_session
-from franka_sim.server.arm_server import AddressInUse, ArmServer
 from franka_sim.server.control_ops import mode_name
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.robot_server import AddressInUse, RobotServer
 from franka_sim.server.udp_endpoint import UdpEndpoint
 
 log = logging.getLogger(__name__)
@@ -52,14 +52,14 @@ class BaseOps:
     reset = bodies = pose = set_pose = push = _none
 
 
-class BaseServer:
+class BaseServer(RobotServer):
     """The base's endpoints on `host`; `on_command(command)` hands the driver its commands."""
 
     def __init__(self, core: BaseCore, host: str, config, *, driver: CycleDriver,
                  lock: threading.Lock, on_command) -> None:
         self.core, self.host, self.config = core, host, config
         self.driver, self.lock = driver, lock
-        self.name = "mobile base"
+        self.name = self.label = "mobile base"
         self.udp = UdpEndpoint(on_command)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
                                    defer_replies=driver.after_next_state, lock=lock,
@@ -69,17 +69,6 @@ class BaseServer:
                                lambda: self.robot.active is not None)
         self._control_api = None
         self.gripper = None
-
-    # An ArmServer's way of opening, naming and closing its endpoints (it has no Hand).
-    start = ArmServer.start
-    _open = ArmServer._open
-    _start_control_api = ArmServer._start_control_api
-    stop_control_api = ArmServer.stop_control_api
-    stop_endpoints = ArmServer.stop_endpoints
-
-    @property
-    def spec(self):
-        return self  # .name, .host: what ArmServer's error messages name
 
     def describe(self) -> str:
         config = self.config
@@ -95,22 +84,7 @@ class BaseServer:
         for reply in replies.robot:
             self.robot.send(reply)
 
-    def has_client(self) -> bool:
-        return self.robot.active is not None
-
     def _make_session(self) -> Session:
         self.driver.resume()
         return robot_session(self.core)
 
-    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.target = (peer_ip, udp_port)
-        self.core.client_connected()
-
-    def _client_silent(self) -> bool:
-        with self.lock:
-            return self.core.client_silent
-
-    def _on_disconnect(self) -> None:
-        self.udp.target = None
-        self.core.client_gone()
-        self.driver.client_event()

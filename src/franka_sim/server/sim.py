@@ -16,10 +16,11 @@ import threading
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.physics.mujoco_backend import ArmBackend
-from franka_sim.server.arm_server import AddressInUse, ArmServer
+from franka_sim.server.arm_server import ArmServer
 from franka_sim.server.base_server import BaseServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
+from franka_sim.server.robot_server import AddressInUse
 
 __all__ = ["AddressInUse", "FrankaSim"]
 
