@@ -76,7 +76,9 @@ def _number(value: float) -> str:
 
 def parse_spec(text: str) -> FaultSpec:
     """`KEY=VALUE,...` (keys: loss, delay, jitter, burst, reorder, dir; burst may repeat)."""
-    if not isinstance(text, str) or not text.strip():
+    if not isinstance(text, str):
+        raise FaultSpecError(f"a spec is a string (e.g. loss=0.01,delay=2ms), not {text!r}")
+    if not text.strip():
         raise FaultSpecError("an empty spec injects nothing (e.g. loss=0.01,delay=2ms)")
     values: dict[str, object] = {}
     for part in text.split(","):
