@@ -4,6 +4,7 @@ the rehearsal example trips communication_constraints_violation and recovers."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import time
@@ -14,10 +15,11 @@ import pytest
 
 from franka_sim.control import Control
 from franka_sim.server.faults import COMMANDS, FaultPlan, parse_spec
-from franka_sim.testing import running_sim
+from franka_sim.testing import ServerProcess, fresh_loopback_address, running_sim
 from support.clients import connect
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+ARM_PROGRAM = Path(__file__).resolve().parents[1] / "support" / "arm_program.py"
 CYCLES = 1500
 WINDOW = 100  # control_command_success_rate: the share of the last 100 windows answered
 ATTEMPTS = 4  # runs made to find two whose motion started at the same message_id
@@ -119,3 +121,31 @@ def test_the_rehearsal_example_trips_the_violation_and_recovers():
         # The 21st lost cycle ends the motion; the world then settles at once, its states
         # unsent but the last (docs/architecture.md), so the burst meets 21 of them.
         assert report["spec"] == "burst=25@3s" and 20 < report["states"]["dropped"] <= 25
+
+
+def test_every_arm_of_a_world_meets_its_own_faults_and_both_finish():
+    """Two arms, one pylibfranka program each, at once: each arm's answers are lost on their
+    own plan (its index is part of the key), and lockstep waits for both without stalling."""
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(left, "--arm", f"left={left}", "--arm", f"right={right}",
+                           "--scene", "dual_arm_table", "--clock", "lockstep",
+                           "--inject", "loss=0.05,dir=commands", "--seed", "3").wait_ready()
+    try:
+        programs = [subprocess.Popen(
+            [sys.executable, str(ARM_PROGRAM), host, json.dumps([0, 0, 0, 0.2, 0, 0, 0]), "1.0"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for host in (left, right)]
+        outcomes = []
+        for program in programs:
+            out, err = program.communicate(timeout=120)
+            assert program.returncode == 0, out + err
+            outcomes.append(json.loads(out.strip().splitlines()[-1]))
+        reports = [Control(host).faults() for host in (left, right)]
+    finally:
+        server.stop()
+    for outcome, report in zip(outcomes, reports):
+        assert outcome["error"] == ""
+        assert 0.8 < outcome["min_rate"] < 1.0  # answers were lost, the motion went on
+        assert report["commands"]["dropped"] > 0 and report["states"]["dropped"] == 0
+    plans = [FaultPlan(parse_spec("loss=0.05,dir=commands"), 3, arm) for arm in (0, 1)]
+    assert ([plans[0].fate(COMMANDS, n) for n in range(3000)]
+            != [plans[1].fate(COMMANDS, n) for n in range(3000)])
