@@ -93,3 +93,26 @@ def test_a_bad_spec_is_answered_400_and_changes_nothing(faults: Control, served,
 def test_the_client_raises_bad_request(faults: Control):
     with pytest.raises(BadRequest, match="a probability"):
         faults.set_faults(loss=1.5)
+
+
+def test_embedded_the_faults_are_async_methods_with_the_same_errors():
+    import asyncio
+
+    from franka_sim import FrankaSim
+    from franka_sim.testing import fresh_loopback_address
+
+    async def app():
+        async with FrankaSim(host=fresh_loopback_address(), control_port=0,
+                             inject="loss=0.1", seed=5) as sim:
+            first = await sim.faults()
+            with pytest.raises(BadRequest, match="unknown fault"):
+                await sim.set_faults({"spec": "lost=0.1"})
+            second = await sim.set_faults({"burst": "10@60s"})
+            cleared = await sim.clear_faults()
+            return first, second, cleared, sim.driver.faults, sim.udp.faults
+
+    first, second, cleared, driver_faults, endpoint_faults = asyncio.run(app())
+    assert first["spec"] == "loss=0.1" and first["seed"] == 5
+    assert second["spec"] == "burst=10@60s"
+    assert cleared["spec"] is None
+    assert driver_faults is None and endpoint_faults is None  # the plain path again

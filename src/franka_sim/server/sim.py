@@ -48,10 +48,10 @@ class FrankaSim:
             command_socket=(lambda: self.arms[0].udp.sock) if one else
             (lambda: tuple(arm.udp.sock for arm in self.arms)),
         )
-        self.faults = NetworkFaults(self.driver, seed=config.seed)
+        self.network_faults = NetworkFaults(self.driver, seed=config.seed)
         self.arms = [
             ArmServer(arm_parts, i, driver=self.driver, worker=self.worker, lock=self.lock,
-                      faults=self.faults,
+                      faults=self.network_faults,
                       on_command=self.driver.receive if one else
                       (lambda command, i=i: self.driver.receive((i, command))))
             for i, arm_parts in enumerate(parts.arms)]
@@ -59,11 +59,11 @@ class FrankaSim:
             self.driver.send_state = self.arms[0].udp.send_state
             self.driver.deliver = self.arms[0].deliver
             self.driver.poll_commands = self.arms[0].udp.poll
-        self.faults.wire(arm.udp for arm in self.arms)
+        self.network_faults.wire(arm.udp for arm in self.arms)
         if config.inject:  # FaultSpecError: said now, before anything is served
             spec = parse_spec(config.inject)
             for i in range(len(self.arms)):
-                self.faults.set(i, spec)
+                self.network_faults.set(i, spec)
         self.recorder = None
         if config.record is not None:  # OSError: the target cannot be written
             if not one:
