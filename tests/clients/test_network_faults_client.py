@@ -70,9 +70,11 @@ def test_lost_commands_are_what_the_robot_counts_and_the_same_seed_gives_the_sam
     lost = {n for n in ids if plan.fate(COMMANDS, n) is None}
     assert 0.03 * CYCLES < len(lost) < 0.07 * CYCLES
     assert report["states"]["dropped"] == 0
-    # Every answer the client sent met the plan; the last may have been sent more than once.
-    assert report["commands"]["dropped"] == len(lost) + sum(
-        1 for _ in range(report["commands"]["seen"] - CYCLES) if ids[-1] in lost)
+    # Every answer the client sent met the plan. If the motion's last one (motion_finished)
+    # was lost, libfranka sent it again with the states that followed, each on its own fate.
+    extra = report["commands"]["seen"] - CYCLES
+    assert extra >= 0
+    assert len(lost) <= report["commands"]["dropped"] <= len(lost) + extra
     # The rate each state shows counts exactly the windows before it whose answer was lost
     # (the first answered window starts the history; libfranka never answers the first state).
     first = ids[0] + 1
