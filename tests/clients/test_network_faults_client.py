@@ -146,7 +146,8 @@ def test_every_arm_of_a_world_meets_its_own_faults_and_both_finish():
         server.stop()
     for outcome, report in zip(outcomes, reports):
         assert outcome["error"] == ""
-        assert 0.8 < outcome["min_rate"] < 1.0  # answers were lost, the motion went on
+        assert outcome["min_rate"] < 1.0  # answers were lost, the motion went on to its end
+        assert max(abs(a - b) for a, b in zip(outcome["q"], outcome["target"])) < 2e-3
         assert report["commands"]["dropped"] > 0 and report["states"]["dropped"] == 0
     plans = [FaultPlan(parse_spec("loss=0.05,dir=commands"), 3, arm) for arm in (0, 1)]
     assert ([plans[0].fate(COMMANDS, n) for n in range(3000)]
