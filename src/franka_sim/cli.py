@@ -115,6 +115,17 @@ def serve(
     viewer: bool = typer.Option(
         False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
     ),
+    inject: str | None = typer.Option(
+        None, envvar="FRANKA_SIM_INJECT", metavar="SPEC",
+        help="Network faults on every arm's UDP path, both directions unless dir= says one: "
+        "loss=P, delay=Dms, jitter=Jms (normal, truncated at 0), burst=N@Ts (N cycles lost "
+        "from T s of simulated time; may repeat), reorder=P, dir=states|commands; e.g. "
+        "loss=0.01,delay=2ms,jitter=0.5ms (docs/robustness.md).",
+    ),
+    seed: int = typer.Option(
+        0, envvar="FRANKA_SIM_SEED", min=0, max=2**64 - 1,
+        help="Seed of the injected faults: the same seed hits the same cycles.",
+    ),
 ) -> None:
     """Run the simulated robot until Ctrl-C or SIGTERM."""
     from franka_sim.serving import exec_serving
@@ -150,6 +161,15 @@ def serve(
     if record is not None and len(arms) > 1:
         raise typer.BadParameter("records a world of one arm; several arms cannot be recorded "
                                  "yet", param_hint="--record")
+    if inject is not None and not inject.strip():
+        inject = None  # an empty FRANKA_SIM_INJECT: no faults
+    if inject is not None:
+        from franka_sim.server.faults.spec import FaultSpecError, parse_spec
+
+        try:
+            inject = parse_spec(inject).text()
+        except FaultSpecError as exc:
+            raise typer.BadParameter(str(exc), param_hint="--inject") from None
     scene_path = None
     if scene is not None:
         from franka_sim.physics.scene import SceneError, resolve_scene
@@ -172,6 +192,7 @@ def serve(
         joint_discontinuity_scale=joint_discontinuity_scale,
         scene=scene_path, gripper=not no_gripper, control_port=control_port,
         control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
+        inject=inject, seed=seed,
     )
     exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
 

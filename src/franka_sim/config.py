@@ -50,6 +50,8 @@ class Config:
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
     record: Path | None = None  # write everything the run exchanged to this MCAP file
+    inject: str | None = None  # network faults on every arm's UDP path (server/faults/spec.py)
+    seed: int = 0  # the faults' seed: the same seed hits the same cycles
     # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
     arms: tuple[ArmSpec, ...] = ()
     # The mobile base every arm stands on, served on this address as a robot of its own;

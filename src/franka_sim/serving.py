@@ -157,6 +157,7 @@ async def _serve(config: Config, viewer: bool = False) -> None:
 
     from franka_sim.description.urdf import DescriptionError
     from franka_sim.physics.scene import SceneError
+    from franka_sim.server.faults import FaultSpecError
     from franka_sim.server.sim import FrankaSim
 
     try:
@@ -165,6 +166,8 @@ async def _serve(config: Config, viewer: bool = False) -> None:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
         raise _Failed(str(exc)) from None
+    except FaultSpecError as exc:
+        raise _Failed(f"--inject: {exc}") from None
     except OSError as exc:  # only the recording's target is opened here
         raise _Failed(f"cannot record to {config.record}: {exc.strerror or exc}") from None
     # Everything built so far lives as long as the server: keep it out of the collector's

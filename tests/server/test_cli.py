@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import signal
 import subprocess
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pylibfranka
+import pytest
 
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 
@@ -116,3 +118,30 @@ def test_the_server_runs_without_the_cli_machinery():
         robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
         assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
         del robot
+
+
+@pytest.mark.parametrize("args, env, reason", [
+    (["--inject", "loss=2"], {}, "loss=2: a probability is in [0, 1]"),
+    (["--inject", "burst=20"], {}, "expected N@T"),
+    ([], {"FRANKA_SIM_INJECT": "delay=fast"}, "not a duration"),
+    (["--inject", "loss=0.1", "--seed", "-1"], {}, "--seed"),
+])
+def test_a_bad_fault_spec_or_seed_is_refused(args, env, reason):
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                           fresh_loopback_address(), *args], capture_output=True, text=True,
+                          env={**os.environ, "COLUMNS": "200", **env}, timeout=60)
+    assert done.returncode != 0
+    assert reason in done.stderr and "Traceback" not in done.stderr
+
+
+def test_faults_and_their_seed_from_the_environment():
+    from franka_sim.control import Control
+
+    server = ServerProcess(fresh_loopback_address(), env={
+        "FRANKA_SIM_INJECT": "loss=0.01,delay=2ms,jitter=0.5ms", "FRANKA_SIM_SEED": "7"})
+    try:
+        server.wait_ready()
+        report = Control(server.host).faults()
+        assert report["spec"] == "loss=0.01,delay=2ms,jitter=0.5ms" and report["seed"] == 7
+    finally:
+        server.stop()

@@ -96,6 +96,28 @@ class Control:
         Returns {"path", "cycle", "dropped"} (events the recorder could not keep up with)."""
         return self._call("DELETE", "/recording")
 
+    def faults(self) -> dict:
+        """The network faults injected on this arm's UDP path: {"spec", "fields", "seed",
+        "states", "commands"}, the last two counting what was seen, dropped, delayed,
+        reordered and is held now."""
+        return self._call("GET", "/faults")
+
+    def set_faults(self, spec: str | None = None, *, seed: int | None = None,
+                   **fields) -> dict:
+        """Inject faults from the next datagram on: a spec ("loss=0.01,delay=2ms") or its
+        fields (loss=0.01, delay="2ms", burst="25@3s", reorder=..., dir="commands");
+        `seed`: the server's --seed when None. Returns what GET /faults does."""
+        body: dict = dict(fields)
+        if spec is not None:
+            body["spec"] = spec  # (with fields too: refused, one or the other)
+        if seed is not None:
+            body["seed"] = int(seed)
+        return self._call("POST", "/faults", body)
+
+    def clear_faults(self) -> dict:
+        """Inject nothing more; returns what the faults did."""
+        return self._call("DELETE", "/faults")
+
     # -- HTTP --------------------------------------------------------------------------------------
     def _call(self, method: str, path: str, body: dict | None = None):
         headers = dict(self._headers)

@@ -28,10 +28,10 @@ log = logging.getLogger(__name__)
 class ArmServer(RobotServer):
     """Arm `index` of the world (its parts: assembly.ArmParts, named and addressed by their
     spec). `driver` is the world's (its clock serves every arm); `on_command(command)` hands it
-    this arm's commands."""
+    this arm's commands; `faults`: the world's NetworkFaults (its control API sets this arm's)."""
 
     def __init__(self, parts: ArmParts, index: int, *, driver: CycleDriver, worker: CycleThread,
-                 lock: threading.Lock, on_command) -> None:
+                 lock: threading.Lock, on_command, faults=None) -> None:
         self.parts, self.spec, self.index, self.config = parts, parts.spec, index, parts.config
         self.driver, self.lock = driver, lock
         self.core, self.gripper = parts.core, parts.gripper
@@ -47,7 +47,7 @@ class ArmServer(RobotServer):
             core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
             description=parts.description, q0=parts.q0, clock=self.config.clock.value,
             client_connected=lambda: self.robot.active is not None, arm=self.spec.name,
-            arm_index=index)
+            arm_index=index, faults=faults)
         self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
         self.label = f"arm {self.spec.name}"
 

@@ -21,10 +21,12 @@ from aiohttp import web
 
 from franka_sim.control.errors import BadRequest, ControlError, Unauthorized
 from franka_sim.server.control_ops import ControlOps
+from franka_sim.server.faults.spec import KEYS as FAULT_KEYS
 
 log = logging.getLogger(__name__)
 
 MAX_BODY = 64 * 1024  # bytes: the largest request is a few hundred
+FAULT_FIELDS = ("spec", *FAULT_KEYS, "seed")  # POST /faults
 
 
 def _no_constants(name: str) -> float:
@@ -74,6 +76,9 @@ class ControlApi:
         app.router.add_post("/push", self._push)
         app.router.add_post("/recording", self._start_recording)
         app.router.add_delete("/recording", self._finish_recording)
+        app.router.add_get("/faults", self._faults)
+        app.router.add_post("/faults", self._set_faults)
+        app.router.add_delete("/faults", self._clear_faults)
         self.app = app
 
     async def start(self, host: str, port: int) -> None:
@@ -154,3 +159,13 @@ class ControlApi:
 
     async def _finish_recording(self, request: web.Request) -> web.Response:
         return _answer(await self.ops.finish_recording())
+
+    async def _faults(self, request: web.Request) -> web.Response:
+        return _answer(await self.ops.faults())
+
+    async def _set_faults(self, request: web.Request) -> web.Response:
+        fields = parse_object(await request.read(), dict.fromkeys(FAULT_FIELDS, False))
+        return _answer(await self.ops.set_faults(fields))
+
+    async def _clear_faults(self, request: web.Request) -> web.Response:
+        return _answer(await self.ops.clear_faults())

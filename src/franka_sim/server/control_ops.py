@@ -28,6 +28,7 @@ from franka_sim.robot.core import RobotCore
 from franka_sim.robot.gripper import NOMINAL_MAX_WIDTH, Gripper
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
+from franka_sim.server.faults import FaultSpecError, check_seed, spec_from_fields
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 
@@ -81,7 +82,7 @@ class ControlOps:
     def __init__(self, *, core: RobotCore, gripper: Gripper | None, driver: CycleDriver,
                  worker: CycleThread, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
-                 arm_index: int = 0) -> None:
+                 arm_index: int = 0, faults=None) -> None:
         self.core, self.gripper, self.driver = core, gripper, driver
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
@@ -92,6 +93,7 @@ class ControlOps:
         # recording.live.LiveRecordings: recordings started and finished through this API
         # (None: a world of several arms, which is not recorded).
         self.recordings = None
+        self.network_faults = faults  # server/faults.NetworkFaults (None: none can be injected)
 
     async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
         """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
@@ -302,3 +304,40 @@ class ControlOps:
         return await self._job(push, ("push", {
             "body": body, "force": force.tolist(), "torque": torque.tolist(),
             "duration": duration}))
+
+    # -- network faults (this arm's UDP path) ----------------------------------------------------
+    async def faults(self) -> dict:
+        """What is injected on this arm's path, and what it did so far."""
+        network = self._network()
+        return await self._job(lambda physics: network.report(self.arm_index))
+
+    async def set_faults(self, fields: dict) -> dict:
+        """Inject `fields` (the spec's fields, or {"spec": "..."}; "seed" optional: the
+        server's --seed) on this arm's path from the next datagram on, in place of what was."""
+        network = self._network()
+        fields = dict(fields)
+        seed = fields.pop("seed", None)
+        try:
+            seed = None if seed is None else check_seed(seed)
+            spec = spec_from_fields(fields)
+        except (FaultSpecError, ValueError) as exc:
+            raise BadRequest(str(exc)) from None
+
+        def inject(physics) -> dict:
+            network.set(self.arm_index, spec, seed)
+            return network.report(self.arm_index)
+        return await self._job(inject)
+
+    async def clear_faults(self) -> dict:
+        """No more faults on this arm's path; what they did is still reported."""
+        network = self._network()
+
+        def clear(physics) -> dict:
+            network.set(self.arm_index, None)
+            return network.report(self.arm_index)
+        return await self._job(clear)
+
+    def _network(self):
+        if self.network_faults is None:
+            raise NotFound("this simulator cannot inject network faults")
+        return self.network_faults

@@ -116,6 +116,10 @@ class CycleDriver:
         self._frozen = False  # lockstep, idle: the world is left as it is until a client event
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         self.paused = False
+        # server/faults.NetworkFaults while faults are injected (cycle thread only): in lockstep
+        # the client's answer to the state it was last sent releases the next cycle, whatever
+        # the network then does with it, and a state that did not reach it is not waited for.
+        self.faults = None
 
     # -- the loop's side -------------------------------------------------------------------------
     async def start(self) -> None:
@@ -218,10 +222,10 @@ class CycleDriver:
         """
         clock = self.clock
         spin_until = clock() + LOCKSTEP_SPIN
-        poll, inbox = self.poll_commands, self._inbox
+        poll, inbox, faults = self.poll_commands, self._inbox, self.faults
         while True:
             poll(1)  # the answer, and not a further read that finds the socket empty
-            if inbox:
+            if inbox or (faults is not None and faults.answered(self.cycle)):
                 return True
             if clock() > spin_until:
                 return False
@@ -236,6 +240,8 @@ class CycleDriver:
         ready = self._prepared is not None  # an idle cycle released ahead: it goes first
         if due and not ready:
             answered = self._read_socket() or answered
+        if self.faults is not None:
+            answered = self.faults.answered(cycle)
         requested = (self._requests != self._served and self.lockstep
                      and not cycle.client_driven)
         if not due and not self.paused and not (answered and lockstep) and not requested:

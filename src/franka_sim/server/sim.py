@@ -21,6 +21,7 @@ from franka_sim.server.base_server import BaseServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.robot_server import AddressInUse
+from franka_sim.server.faults import NetworkFaults, parse_spec
 
 __all__ = ["AddressInUse", "FrankaSim"]
 
@@ -49,8 +50,10 @@ class FrankaSim:
             command_socket=(lambda: self.arms[0].udp.sock) if one else
             (lambda: tuple(robot.udp.sock for robot in self.robots)),
         )
+        self.network_faults = NetworkFaults(self.driver, seed=config.seed)
         self.arms = [
             ArmServer(arm_parts, i, driver=self.driver, worker=self.worker, lock=self.lock,
+                      faults=self.network_faults,
                       on_command=self.driver.receive if one else
                       (lambda command, i=i: self.driver.receive((i, command))))
             for i, arm_parts in enumerate(parts.arms)]
@@ -67,6 +70,11 @@ class FrankaSim:
             self.driver.send_state = self.arms[0].udp.send_state
             self.driver.deliver = self.arms[0].deliver
             self.driver.poll_commands = self.arms[0].udp.poll
+        self.network_faults.wire(arm.udp for arm in self.arms)
+        if config.inject:  # FaultSpecError: said now, before anything is served
+            spec = parse_spec(config.inject)
+            for i in range(len(self.arms)):
+                self.network_faults.set(i, spec)
         self.recorder = None
         if config.record is not None:  # OSError: the target cannot be written
             if not one:
@@ -190,6 +198,15 @@ class FrankaSim:
 
     async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
         return await self.control.push(body, force, torque, duration)
+
+    async def faults(self) -> dict:
+        return await self.control.faults()
+
+    async def set_faults(self, fields: dict) -> dict:
+        return await self.control.set_faults(fields)
+
+    async def clear_faults(self) -> dict:
+        return await self.control.clear_faults()
 
     # -- the world's cycle -------------------------------------------------------------------------
     def _make_cycle(self, physics: list[ArmBackend]):

@@ -9,6 +9,11 @@ answer is there (the cycle thread watches the socket then). The loop never reads
 datagram wakes one thread, the one that runs the cycle, and on a 2-core VM every further
 wake-up (a reader in the loop) cost more than a cycle's own work and, in lockstep, ~10 % of
 the speed, taking the interpreter from the thread that runs the cycle.
+
+With faults injected (server/faults/), `faults` is this arm's link: every state and every
+command from the client passes through it, which drops, holds or lets it through; held
+commands reach the robot at the first read after their cycle came. Without, it is None and
+the path is as it was.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ class UdpEndpoint:
         self.dropped_foreign = 0
         self.dropped_malformed = 0
         self.recorder = None  # recording.Recorder: every state sent, every datagram dropped
+        self.faults = None  # faults.link.ArmLink while faults are injected (cycle thread only)
 
     def open(self, host: str) -> None:
         """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
@@ -61,18 +67,34 @@ class UdpEndpoint:
         target, sock = self.target, self.sock
         if target is None or sock is None:
             return
-        try:
-            sock.sendto(data, target)
-        except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
-            log.debug("state not sent: %s", exc)
+        if self.faults is not None:
+            self._send_through_faults(data, target, sock)
+        else:
+            try:
+                sock.sendto(data, target)
+            except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
+                log.debug("state not sent: %s", exc)
         if self.recorder is not None:
-            self.recorder.sent(data)
+            self.recorder.sent(data)  # what the robot sent, whatever the network made of it
+
+    def _send_through_faults(self, data: bytes, target, sock) -> None:
+        link = self.faults
+        if link.client != target:
+            link.new_client(target)
+        for datagram in link.states_out(int.from_bytes(data[:8], "little"), data):
+            try:
+                sock.sendto(datagram, target)
+            except OSError as exc:
+                log.debug("state not sent: %s", exc)
 
     def poll(self, limit: int = MAX_READ) -> None:
         """Take the datagrams queued on the socket now (up to `limit`), from any thread."""
         sock = self.sock
         if sock is None:
             return
+        if self.faults is not None:
+            for command in self.faults.commands_due():
+                self.on_command(command)
         for _ in range(limit):
             try:
                 data, addr = sock.recvfrom(4096)
@@ -101,5 +123,9 @@ class UdpEndpoint:
             if self.recorder is not None:
                 self.recorder.rejected(str(exc), addr, data)
             log.warning("dropped UDP datagram from the client: %s", exc)
+            return
+        if self.faults is not None:
+            for command in self.faults.command_in(command):
+                self.on_command(command)
             return
         self.on_command(command)

@@ -1,0 +1,99 @@
+"""The faults of a world's robot UDP paths: one ArmLink per arm, wired in only while needed.
+
+While no arm has a plan, the endpoints and the driver hold None and pay one `if` per datagram
+and per lockstep decision. Setting a plan on any arm attaches every arm's link (a link without
+a plan lets everything through, but still tells the driver which state each client will
+answer); clearing the last one detaches them all. Set and cleared in the cycle thread (a
+control API job) or before the server starts, so a cycle never sees half a change.
+"""
+
+from __future__ import annotations
+
+from franka_sim.server.faults.link import ArmLink
+from franka_sim.server.faults.plan import FaultPlan, check_seed
+from franka_sim.server.faults.spec import FaultSpec
+
+
+class NetworkFaults:
+    """`driver`: the world's CycleDriver (its `faults`, `cycle`); `seed`: the server's --seed;
+    then `wire` each arm's UdpEndpoint (its `faults`, `target`, `on_command`)."""
+
+    def __init__(self, driver, seed: int = 0) -> None:
+        self.driver, self.seed = driver, check_seed(seed)
+        self.endpoints: list = []
+        self.links: list[ArmLink] = []
+        self.seeds: list[int | None] = []
+        self.attached = False
+
+    def wire(self, endpoints) -> None:
+        """The arms' endpoints, by arm index (once, before any plan is set)."""
+        self.endpoints = list(endpoints)
+        self.links = [ArmLink(i) for i in range(len(self.endpoints))]
+        self.seeds = [None] * len(self.links)
+
+    def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
+        """Arm `arm`'s faults from the next datagram on (None: none)."""
+        link = self.links[arm]
+        if spec is None:
+            link.set_plan(None)
+            self.seeds[arm] = None
+            if self.attached and all(link.plan is None for link in self.links):
+                self._detach()
+            return
+        seed = self.seed if seed is None else check_seed(seed)
+        link.set_plan(FaultPlan(spec, seed, arm))
+        self.seeds[arm] = seed
+        if not self.attached:
+            self._attach()
+
+    def report(self, arm: int) -> dict:
+        """What is set on arm `arm` and what it did (GET /faults)."""
+        link = self.links[arm]
+        plan = link.plan
+        held_states, held_commands = link.held
+        return {
+            "spec": None if plan is None else plan.spec.text(),
+            "fields": None if plan is None else plan.spec.fields(),
+            "seed": self.seeds[arm] if plan is not None else self.seed,
+            "states": dict(link.counts["states"], held=held_states),
+            "commands": dict(link.counts["commands"], held=held_commands),
+        }
+
+    # -- the driver's question (cycle thread) ------------------------------------------------------
+    def answered(self, cycle) -> bool:
+        """Lockstep: every client whose answer the world waits for has answered the state it
+        was last sent, or was sent none new (nothing to wait for). Asked with the world's cycle
+        (a RobotCycle, or a WorldCycle's `cycles`), as WorldCycle decides whom it waits for."""
+        links = self.links
+        if len(links) == 1:
+            link = links[0]
+            return link.fresh is None or link.answered
+        cycles = cycle.cycles
+        awaited = ([i for i, c in enumerate(cycles)
+                    if c.lockstep_applies and not c.first_motion_state]
+                   or [i for i, c in enumerate(cycles) if c.first_motion_state])
+        return all(links[i].fresh is None or links[i].answered for i in awaited)
+
+    # -- wiring ------------------------------------------------------------------------------------
+    def _attach(self) -> None:
+        """Every arm's link into its endpoint, this into the driver. The state last sent went
+        out whole: each client is taken to answer it."""
+        cycle = self.driver.cycle
+        open_id = -1 if cycle is None else cycle.message_id
+        for link, endpoint in zip(self.links, self.endpoints):
+            link.new_client(endpoint.target)
+            link.now = link.newest = open_id
+            link.fresh = open_id if open_id >= 0 else None
+            endpoint.faults = link
+        self.driver.faults = self
+        self.attached = True
+
+    def _detach(self) -> None:
+        """Back to the plain path: held commands reach the robot now (late), held states are
+        dropped (the client has newer ones, or gets the next)."""
+        self.driver.faults = None
+        for link, endpoint in zip(self.links, self.endpoints):
+            endpoint.faults = None
+            for command in link.take_held_commands():
+                endpoint.on_command(command)
+        self.attached = False

@@ -1,0 +1,72 @@
+"""Each datagram's fate, as a pure function of (seed, arm, direction, message_id).
+
+Not a random stream consumed in arrival order: a datagram's fate does not depend on what came
+before it or when, so in lockstep the same seed hits the same cycles and a rehearsal reproduces
+to the bit, and a state and the command answering it are decided independently. A state is
+keyed on its own message_id, a command on the one it echoes (the state it answers).
+
+The numbers come from BLAKE2b over the key: three 64-bit words per datagram, one each for the
+loss, the latency and the reordering. Standard library only.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+from statistics import NormalDist
+
+from franka_sim.server.faults.spec import FaultSpec
+
+STATES, COMMANDS = 0, 1
+DIRECTION_NAMES = ("states", "commands")
+_KEY = struct.Struct("<QIBQ")
+_PERSON = b"franka-sim-fault"  # (16 bytes: BLAKE2b's personalisation)
+_TO_UNIT = 2.0 ** -53
+_NORMAL = NormalDist()
+MAX_SEED = 2**64 - 1
+
+
+def check_seed(seed) -> int:
+    """A seed is an integer in [0, 2**64) (ValueError otherwise)."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed must be an integer in [0, 2**64), not {seed!r}")
+    return seed
+
+
+class FaultPlan:
+    """The fates a spec gives one arm's datagrams under one seed."""
+
+    def __init__(self, spec: FaultSpec, seed: int, arm: int) -> None:
+        self.spec, self.seed, self.arm = spec, check_seed(seed), arm
+        self._directions = {"both": (STATES, COMMANDS), "states": (STATES,),
+                            "commands": (COMMANDS,)}[spec.dir]
+        self._bursts = tuple((b.start, b.start + b.cycles) for b in spec.bursts)
+        self._random = bool(spec.loss or spec.jitter or spec.reorder)
+        self._delay_us = round(spec.delay * 1000)
+
+    def fate(self, direction: int, message_id: int) -> tuple[int, bool] | None:
+        """None: lost. Else (cycles, reordered): held for that many cycles (0: goes now), and
+        whether it also trades places with the next datagram."""
+        if direction not in self._directions:
+            return 0, False
+        for start, end in self._bursts:
+            if start <= message_id < end:
+                return None
+        if not self._random:
+            return (self._delay_us + 999) // 1000, False
+        spec = self.spec
+        u_loss, u_latency, u_reorder = self.uniforms(direction, message_id)
+        if u_loss < spec.loss:
+            return None
+        latency_us = self._delay_us
+        if spec.jitter:
+            z = _NORMAL.inv_cdf(u_latency)
+            latency_us = max(0, latency_us + round(spec.jitter * 1000 * z))
+        return (latency_us + 999) // 1000, u_reorder < spec.reorder
+
+    def uniforms(self, direction: int, message_id: int) -> tuple[float, float, float]:
+        """Three numbers in (0, 1) for this datagram, the same on every run and machine."""
+        key = _KEY.pack(self.seed, self.arm, direction, message_id & MAX_SEED)
+        digest = hashlib.blake2b(key, digest_size=24, person=_PERSON).digest()
+        words = struct.unpack("<3Q", digest)
+        return tuple(((word >> 11) + 0.5) * _TO_UNIT for word in words)

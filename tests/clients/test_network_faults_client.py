@@ -1,0 +1,154 @@
+"""Network faults through pylibfranka, in lockstep: the robot's accounting sees exactly the
+datagrams the plan lost, a lost state is not waited for, and the same seed gives the same bits;
+the rehearsal example trips communication_constraints_violation and recovers."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pylibfranka
+import pytest
+
+from franka_sim.control import Control
+from franka_sim.server.faults import COMMANDS, FaultPlan, parse_spec
+from franka_sim.testing import ServerProcess, fresh_loopback_address, running_sim
+from support.clients import connect
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+ARM_PROGRAM = Path(__file__).resolve().parents[1] / "support" / "arm_program.py"
+CYCLES = 1500
+WINDOW = 100  # control_command_success_rate: the share of the last 100 windows answered
+ATTEMPTS = 4  # runs made to find two whose motion started at the same message_id
+
+
+def _paused(control: Control, timeout: float = 10.0) -> int:
+    """Wait until the clock of a simulator nobody has connected to pauses (2 s of cycles):
+    from then on its message_ids follow the client's events alone."""
+    deadline, last = time.monotonic() + timeout, None
+    while time.monotonic() < deadline:
+        cycle = control.health()["cycle"]
+        if cycle == last and cycle >= 2000:
+            return cycle
+        last = cycle
+        time.sleep(0.2)
+    raise AssertionError("the clock did not pause")
+
+
+def _torque_run(*inject: str) -> tuple[list[tuple], dict, float]:
+    """A zero-torque loop of CYCLES states on a fresh lockstep simulator: the states the client
+    saw (message_id, success rate, q, dq, tau_J), GET /faults afterwards, the loop's wall time."""
+    with running_sim("--clock", "lockstep", "--inject", *inject) as sim:
+        control = Control(sim.host)
+        _paused(control)
+        robot = connect(sim.host)
+        robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [100.0] * 6, [100.0] * 6)
+        started = time.perf_counter()
+        loop = robot.start_torque_control()
+        seen = []
+        for k in range(CYCLES):
+            state, _ = loop.readOnce()
+            seen.append((round(state.time.to_sec() * 1000), state.control_command_success_rate,
+                         tuple(state.q), tuple(state.dq), tuple(state.tau_J)))
+            command = pylibfranka.Torques([0.0] * 7)
+            command.motion_finished = k == CYCLES - 1
+            loop.writeOnce(command)
+        wall = time.perf_counter() - started
+        del loop, robot
+        return seen, control.faults(), wall
+
+
+def test_lost_commands_are_what_the_robot_counts_and_the_same_seed_gives_the_same_bits():
+    spec = "loss=0.05,dir=commands"
+    seen, report, _ = _torque_run(spec, "--seed", "7")
+    plan = FaultPlan(parse_spec(spec), 7, 0)
+    ids = [state[0] for state in seen]
+    assert ids == list(range(ids[0], ids[0] + CYCLES))  # every state reached the client
+    lost = {n for n in ids if plan.fate(COMMANDS, n) is None}
+    assert 0.03 * CYCLES < len(lost) < 0.07 * CYCLES
+    assert report["states"]["dropped"] == 0
+    # Every answer the client sent met the plan. If the motion's last one (motion_finished)
+    # was lost, libfranka sent it again with the states that followed, each on its own fate.
+    extra = report["commands"]["seen"] - CYCLES
+    assert extra >= 0
+    assert len(lost) <= report["commands"]["dropped"] <= len(lost) + extra
+    # The rate each state shows counts exactly the windows before it whose answer was lost
+    # (the first answered window starts the history; libfranka never answers the first state).
+    first = ids[0] + 1
+    for message_id, rate, *_ in seen:
+        if message_id - first >= WINDOW:
+            windows = range(message_id - WINDOW, message_id)
+            expected = sum(n not in lost for n in windows) / WINDOW
+            assert rate == pytest.approx(expected, abs=1e-6), message_id
+    other, _, _ = _torque_run(spec, "--seed", "8")
+    assert [s[1] for s in other] != [s[1] for s in seen]
+    # The same seed, the same bits, given the same message_ids: in lockstep a client that
+    # lingers over 100 ms between two requests gets a cycle per further ms (docs/architecture.md),
+    # which a busy machine may cause; such a run is set aside and another made.
+    runs = {ids[0]: seen}
+    for _ in range(ATTEMPTS):
+        again, _, _ = _torque_run(spec, "--seed", "7")
+        if again[0][0] in runs:
+            assert again == runs[again[0][0]]  # bit for bit
+            return
+        runs[again[0][0]] = again
+    pytest.skip(f"no two runs started their motion at the same message_id: {sorted(runs)}")
+
+
+def test_lost_states_are_not_waited_for_and_a_burst_hits_its_cycles():
+    seen, report, wall = _torque_run("loss=0.05,burst=150@2.5s,dir=states", "--seed", "7")
+    ids = [state[0] for state in seen]
+    missed = {n for n in range(ids[0], ids[-1]) if n not in set(ids)}
+    assert set(range(2500, 2650)) <= missed  # the burst
+    assert report["states"]["dropped"] >= len(missed)
+    assert report["commands"]["dropped"] == 0
+    # Waiting the lockstep window (100 ms) for answers to states the client never saw would
+    # take over 20 s here.
+    assert wall < 10.0
+
+
+def test_the_rehearsal_example_trips_the_violation_and_recovers():
+    with running_sim("--clock", "lockstep", "--enforce-comm-constraints",
+                     "--inject", "burst=25@3s") as sim:
+        done = subprocess.run([sys.executable, str(EXAMPLES / "rehearse_network_faults.py"),
+                               sim.host], capture_output=True, text=True, timeout=240)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert 'motion aborted by reflex! ["communication_constraints_violation"]' in done.stdout
+        assert "recovered: mode=Idle" in done.stdout
+        assert "Finished motion" in done.stdout and "success_rate=1.00" in done.stdout
+        report = Control(sim.host).faults()
+        # The 21st lost cycle ends the motion; the world then settles at once, its states
+        # unsent but the last (docs/architecture.md), so the burst meets 21 of them.
+        assert report["spec"] == "burst=25@3s" and 20 < report["states"]["dropped"] <= 25
+
+
+def test_every_arm_of_a_world_meets_its_own_faults_and_both_finish():
+    """Two arms, one pylibfranka program each, at once: each arm's answers are lost on their
+    own plan (its index is part of the key), and lockstep waits for both without stalling."""
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(left, "--arm", f"left={left}", "--arm", f"right={right}",
+                           "--scene", "dual_arm_table", "--clock", "lockstep",
+                           "--inject", "loss=0.05,dir=commands", "--seed", "3").wait_ready()
+    try:
+        programs = [subprocess.Popen(
+            [sys.executable, str(ARM_PROGRAM), host, json.dumps([0, 0, 0, 0.2, 0, 0, 0]), "1.0"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for host in (left, right)]
+        outcomes = []
+        for program in programs:
+            out, err = program.communicate(timeout=120)
+            assert program.returncode == 0, out + err
+            outcomes.append(json.loads(out.strip().splitlines()[-1]))
+        reports = [Control(host).faults() for host in (left, right)]
+    finally:
+        server.stop()
+    for outcome, report in zip(outcomes, reports):
+        assert outcome["error"] == ""
+        assert outcome["min_rate"] < 1.0  # answers were lost, the motion went on to its end
+        assert max(abs(a - b) for a, b in zip(outcome["q"], outcome["target"])) < 2e-3
+        assert report["commands"]["dropped"] > 0 and report["states"]["dropped"] == 0
+    plans = [FaultPlan(parse_spec("loss=0.05,dir=commands"), 3, arm) for arm in (0, 1)]
+    assert ([plans[0].fate(COMMANDS, n) for n in range(3000)]
+            != [plans[1].fate(COMMANDS, n) for n in range(3000)])
