@@ -120,6 +120,14 @@ class CycleDriver:
         # the client's answer to the state it was last sent releases the next cycle, whatever
         # the network then does with it, and a state that did not reach it is not waited for.
         self.faults = None
+        # Lockstep idle cycles that only repeated a state while a client lingered over the
+        # window: the one part of message_id that wall time decides. Faults key their fates on
+        # message_id less the count when the last motion started (so a motion's cycles get the
+        # same fates in every rehearsal, and idle states after it still get fates of their own).
+        # With no client their number is fixed (the clock pauses after PAUSE_AFTER).
+        self.repeated = 0
+        self.key_offset = 0  # `repeated` when the last motion started: faults key on the rest
+        self.windows_run_out = 0  # lockstep cycles released without the answer they waited for
 
     # -- the loop's side -------------------------------------------------------------------------
     async def start(self) -> None:
@@ -247,6 +255,8 @@ class CycleDriver:
         if not due and not self.paused and not (answered and lockstep) and not requested:
             return self._deadline  # woken, but nothing to release
         self.paused = False
+        if due and self.lockstep and cycle.lockstep_applies and not answered:
+            self.windows_run_out += 1  # a streaming client's answer did not come in time
         self._served = self._requests
         released, self._prepared = self._prepared, None
         # A motion's cycle (or its last): the client may start its next motion at once, so the
@@ -255,9 +265,13 @@ class CycleDriver:
         if released is None:
             if self._frozen and not requested:  # lockstep's idle time, the client away
                 released = cycle.repeat()
+                if self.has_client():  # (before a client comes their count is fixed)
+                    self.repeated += 1
             else:
                 self._frozen = False
                 released = cycle.release()
+                if cycle.first_motion_state:
+                    self.key_offset = self.repeated  # what this motion's cycles are keyed on
         if released.state is not None:
             self.send_state(released.state)
         sent_at = self.clock()  # what the next deadline counts from (pacing.py)

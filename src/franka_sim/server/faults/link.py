@@ -31,8 +31,12 @@ def _no_counts() -> dict[str, dict[str, int]]:
 
 
 class ArmLink:
-    def __init__(self, arm: int) -> None:
+    def __init__(self, arm: int, key_offset=lambda: 0) -> None:
         self.arm = arm
+        # () -> the cycles lockstep's idle clock only repeated (wall time decided them) before
+        # the last motion started: a fate is keyed on message_id less these, so a rehearsal
+        # hits the same cycles of its motions however long its client lingered between requests.
+        self.key_offset = key_offset
         self.plan: FaultPlan | None = None
         self.client = None  # the address the held datagrams belong to
         self.now = -1  # message_id of the last state sent: the cycle whose window is open
@@ -86,7 +90,7 @@ class ArmLink:
         else:
             counts = self.counts["states"]
             counts["seen"] += 1
-            fate = plan.fate(STATES, message_id)
+            fate = plan.fate(STATES, message_id - self.key_offset())
             if fate is None:
                 counts["dropped"] += 1
             else:
@@ -140,7 +144,7 @@ class ArmLink:
         else:
             counts = self.counts["commands"]
             counts["seen"] += 1
-            fate = plan.fate(COMMANDS, message_id)
+            fate = plan.fate(COMMANDS, message_id - self.key_offset())
             if fate is None:
                 counts["dropped"] += 1
             elif fate[0]:

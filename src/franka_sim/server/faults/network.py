@@ -28,7 +28,8 @@ class NetworkFaults:
     def wire(self, endpoints) -> None:
         """The arms' endpoints, by arm index (once, before any plan is set)."""
         self.endpoints = list(endpoints)
-        self.links = [ArmLink(i) for i in range(len(self.endpoints))]
+        offset = lambda: self.driver.key_offset  # noqa: E731
+        self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
         self.seeds = [None] * len(self.links)
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
@@ -55,6 +56,11 @@ class NetworkFaults:
             "spec": None if plan is None else plan.spec.text(),
             "fields": None if plan is None else plan.spec.fields(),
             "seed": self.seeds[arm] if plan is not None else self.seed,
+            # a fate is keyed on message_id less this: the cycles lockstep's idle clock only
+            # repeated (a client lingering) before the last motion started (docs/robustness.md)
+            "key_offset": self.driver.key_offset,
+            # lockstep cycles that went without the answer they waited for (window run out)
+            "windows_run_out": self.driver.windows_run_out,
             "states": dict(link.counts["states"], held=held_states),
             "commands": dict(link.counts["commands"], held=held_commands),
         }
