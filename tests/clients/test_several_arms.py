@@ -32,10 +32,10 @@ def two_arms(*args: str, left_at: str = "", right_at: str = "", clock: str = "lo
         server.stop()
 
 
-def start(host: str, delta, seconds: float) -> subprocess.Popen:
+def start(host: str, delta, seconds: float, threshold: float = 20.0) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, str(PROGRAM), host, json.dumps(list(delta)),
-                             str(seconds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                             str(seconds), str(threshold)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
 
 
 def result(program: subprocess.Popen) -> dict:
@@ -85,6 +85,22 @@ def test_arms_driven_into_each_other_both_feel_it_and_the_reflex_stops_them():
         assert "cartesian_reflex" in outcome["errors"] or "joint_reflex" in outcome["errors"]
         assert 0.6 < abs(outcome["q"][0]) < 0.85
         assert state["robot_mode"] == "Reflex"
+
+
+def test_contact_is_judged_with_each_arms_own_thresholds():
+    # The same contact as above, but the left arm's client set thresholds far above what the
+    # press reaches: only the right arm stops with a reflex; the left one feels the contact in
+    # its external torque and ends its motion without an error (pushing the stopped arm aside).
+    with two_arms(left_at="@0,0.3,0", right_at="@0,-0.3,0") as (server, left, right):
+        programs = [start(left, joint1(-0.9), 2.0, threshold=1000.0),
+                    start(right, joint1(0.9), 2.0)]
+        outcomes = [result(p) for p in programs]
+        states = [Control(host).state() for host in (left, right)]
+    held_on, stopped = outcomes
+    assert "aborted by reflex" in stopped["error"] and states[1]["robot_mode"] == "Reflex"
+    assert held_on["error"] == "" and states[0]["robot_mode"] == "Idle"
+    assert held_on["max_tau_ext"] > 20.0  # over the right arm's threshold, under its own
+    assert stopped["max_tau_ext"] > 0.0
 
 
 def test_a_client_killed_mid_motion_leaves_the_other_arms_motion_untouched():
