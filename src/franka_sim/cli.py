@@ -158,6 +158,11 @@ def serve(
         if record is not None:
             raise typer.BadParameter("a world with a mobile base cannot be recorded yet",
                                      param_hint="--record")
+    if record is not None:
+        from franka_sim.recording import mcap_missing
+
+        if missing := mcap_missing():
+            raise typer.BadParameter(missing, param_hint="--record")
     if record is not None and len(arms) > 1:
         raise typer.BadParameter("records a world of one arm; several arms cannot be recorded "
                                  "yet", param_hint="--record")
@@ -262,6 +267,11 @@ def check(
 
 def _open(path: Path):
     """The recording at `path`, or its one-line error and exit 1."""
+    from franka_sim.recording import mcap_missing
+
+    if missing := mcap_missing():
+        typer.echo(f"franka-sim: {missing}", err=True)
+        raise typer.Exit(1)
     from franka_sim.recording.reader import RecordingError, open_recording
 
     try:

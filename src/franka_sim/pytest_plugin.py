@@ -177,6 +177,11 @@ def _recording_path(item: pytest.Item) -> Path | None:
     config = item.config
     if config.getoption("--franka-sim-record") == "none":
         return None
+    from franka_sim.recording import mcap_missing
+
+    if missing := mcap_missing():  # said once, in the terminal summary
+        config.pluginmanager.get_plugin("franka-sim-recordings").unavailable = missing
+        return None
     directory = config.getoption("--franka-sim-record-dir")
     directory = (Path(config.invocation_params.dir, directory) if directory is not None
                  else Path(config.rootpath, "franka-sim-recordings"))
@@ -235,7 +240,12 @@ class _KeptRecordings:
             self.kept += [(report.nodeid, value) for name, value in report.user_properties
                           if name == PROPERTY]
 
+    unavailable: str | None = None  # why no test was recorded (mcap is not installed)
+
     def pytest_terminal_summary(self, terminalreporter) -> None:
+        if self.unavailable is not None:
+            terminalreporter.section("franka-sim recordings")
+            terminalreporter.line(f"no test was recorded: {self.unavailable}")
         if not self.kept:
             return
         terminalreporter.section("franka-sim recordings")

@@ -6,3 +6,15 @@ encoded; `reader.py` opens a recording and says in one line why it cannot.
 """
 
 FORMAT_VERSION = 1  # bumped when a reader of the previous format would misread a new file
+
+MCAP_HINT = "recording needs the mcap package: pip install 'franka-sim[record]'"
+
+
+def mcap_missing() -> str | None:
+    """None when recordings can be written and read; else the one line that says what to
+    install (mcap is an extra: a server that records nothing never needs it)."""
+    try:
+        import mcap  # noqa: F401
+    except ImportError:
+        return MCAP_HINT
+    return None

@@ -219,6 +219,10 @@ class ControlOps:
                            "several arms is not recorded)")
         if not isinstance(path, str) or not path:
             raise BadRequest(f"path must be the recording's file path, not {path!r}")
+        from franka_sim.recording import mcap_missing
+
+        if missing := mcap_missing():
+            raise BadRequest(missing)
         if self.recorder is not None:  # checked before the file is opened: it may be this one
             raise Conflict(f"already recording to {self.recorder.path}")
         q, _ = self._reset_arguments(None, None)
