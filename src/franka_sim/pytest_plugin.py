@@ -228,7 +228,7 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
 
 
 class _KeptRecordings:
-    """The recordings kept in this session (from xdist workers too), for the summary."""
+    """The recordings kept in this pytest run (from xdist workers too), for the summary."""
 
     SUMMARY_LINES = 50
 

@@ -10,7 +10,7 @@ arms on it ride along.
 
 from __future__ import annotations
 
-from franka_sim.robot.cycle import NO_REPLIES, Released, Replies
+from franka_sim.robot.cycle import NO_REPLIES, PacerQuestions, Released, Replies
 from franka_sim.robot.mobile_base import BaseCore
 
 
@@ -21,34 +21,14 @@ class StandingStill:
         pass
 
 
-class BaseCycle:
+class BaseCycle(PacerQuestions):
     def __init__(self, core: BaseCore, physics=None) -> None:
         self.core = core
         self.physics = physics if physics is not None else StandingStill()
         self.completed_id = 0
         self.recorder = None
 
-    # -- questions a pacer asks (as RobotCycle's) ------------------------------------------------
-    @property
-    def message_id(self) -> int:
-        return self.core.message_id
-
-    @property
-    def in_motion(self) -> bool:
-        return self.core.motion is not None
-
-    @property
-    def lockstep_applies(self) -> bool:
-        return self.core.streams_commands
-
-    @property
-    def first_motion_state(self) -> bool:
-        return self.core.first_motion_state
-
-    @property
-    def client_driven(self) -> bool:
-        return self.core.motion_running
-
+    # -- questions a pacer asks (and PacerQuestions') ------------------------------------------
     @property
     def busy(self) -> bool:
         return self.core.busy

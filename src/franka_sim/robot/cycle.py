@@ -63,21 +63,12 @@ class Replies:
 NO_REPLIES = Replies([], [], None)  # what most cycles leave: shared, never written to
 
 
-class RobotCycle:
-    def __init__(self, core: RobotCore, physics: Backend, hand: Gripper | None = None, *,
-                 hand_state_wanted=lambda: True) -> None:
-        self.core = core
-        self.physics = physics
-        self.hand = hand
-        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
-        self._failures = 0
-        self._measured = None  # the last step's measurement
-        self._unchanged = False  # the last step handed back the one before (physics at rest)
-        self._q_d = None  # the desired q of the cycle being released (None: no generator)
-        self.completed_id = 0  # the last completed cycle's message_id
-        self.recorder = None  # recording.Recorder, when the run is recorded
+class PacerQuestions:
+    """What a pacer asks of a robot's cycle, answered from its core (`self.core`): shared by an
+    arm's RobotCycle and the mobile base's BaseCycle."""
 
-    # -- questions a pacer asks ----------------------------------------------------------------
+    core: RobotCore
+
     @property
     def message_id(self) -> int:
         """The last published state's id."""
@@ -103,6 +94,22 @@ class RobotCycle:
         """A client's motion runs (its commands, not the robot alone, decide what comes next)."""
         return self.core.motion_running
 
+
+class RobotCycle(PacerQuestions):
+    def __init__(self, core: RobotCore, physics: Backend, hand: Gripper | None = None, *,
+                 hand_state_wanted=lambda: True) -> None:
+        self.core = core
+        self.physics = physics
+        self.hand = hand
+        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
+        self._failures = 0
+        self._measured = None  # the last step's measurement
+        self._unchanged = False  # the last step handed back the one before (physics at rest)
+        self._q_d = None  # the desired q of the cycle being released (None: no generator)
+        self.completed_id = 0  # the last completed cycle's message_id
+        self.recorder = None  # recording.Recorder, when the run is recorded
+
+    # -- questions a pacer asks (and PacerQuestions') ------------------------------------------
     @property
     def busy(self) -> bool:
         """Something is under way that ends by itself: a motion, a recovery, a lost client's
