@@ -21,6 +21,9 @@ app = typer.Typer(
     "(127.0.0.1 by default) instead of the robot's.",
     no_args_is_help=True,
     add_completion=False,
+    # Help is rich markup, where "[word]" is a style: an extra is written `franka-sim\\[plot]`
+    # (tests/server/test_cli.py checks that every help text is shown as written).
+    rich_markup_mode="rich",
 )
 
 
@@ -308,13 +311,13 @@ def plot(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
     joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
-    start: float | None = typer.Option(None, "--from", help="From this robot time [s]."),
-    end: float | None = typer.Option(None, "--to", help="To this robot time [s]."),
+    start: float | None = typer.Option(None, "--from", help="From this robot time \\[s]."),
+    end: float | None = typer.Option(None, "--to", help="To this robot time \\[s]."),
     fields: str | None = typer.Option(
         None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
-    rate, and the robot mode with motions and errors (needs franka-sim[plot])."""
+    rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
     from franka_sim.recording.plot import PlotError, parse_fields, parse_joints
     from franka_sim.recording.plot import plot as draw
 
@@ -339,7 +342,7 @@ def render(
     fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
-    needs franka-sim[render])."""
+    needs franka-sim\\[render])."""
     from franka_sim.recording.render import RenderError
     from franka_sim.recording.render import render as make_video
 

@@ -28,6 +28,33 @@ def test_help_names_every_flag_and_its_environment_variable():
         assert flag in out and env in out
 
 
+def _help_texts():
+    """(command, every help text written for it: its docstring and each option's help)."""
+    import typer.main
+
+    from franka_sim.cli import app
+
+    group = typer.main.get_command(app)
+    for name, command in group.commands.items():
+        yield name, [command.help, *(p.help for p in command.params if getattr(p, "help", None))]
+
+
+@pytest.mark.parametrize("command", ["serve", "check", "replay", "plot", "render"])
+def test_every_help_text_is_shown_as_written(command):
+    """What `--help` prints is the text as written, brackets included (`franka-sim[plot]` is
+    an extra to install, not markup to swallow)."""
+    out = subprocess.run([sys.executable, "-m", "franka_sim", command, "--help"],
+                         capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "COLUMNS": "1000"}).stdout
+    shown = " ".join(out.replace("│", " ").split())
+    texts = dict(_help_texts())[command]
+    assert texts
+    for text in texts:  # (a bracket is written escaped, `\\[`, in rich markup)
+        assert " ".join(text.replace("\\[", "[").split()) in shown, text
+    if command in ("plot", "render"):
+        assert f"franka-sim[{command}]" in shown
+
+
 def test_host_from_the_environment_and_sigterm_stops_cleanly():
     host = fresh_loopback_address()
     proc = subprocess.Popen([sys.executable, "-m", "franka_sim", "serve"],
