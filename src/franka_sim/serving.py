@@ -200,7 +200,7 @@ async def _serve(config: Config, viewer: bool = False) -> None:
 async def _open_viewer(sim):
     from franka_sim.server.viewer import LiveViewer
 
-    world = await sim.worker.call(lambda physics: physics.world)
+    world = await sim.worker.call(lambda physics: physics[0].world)
     viewer = LiveViewer(world.model, world.data)
     try:
         viewer.start()

@@ -44,8 +44,10 @@ class LiveViewer:
             raise self.error
 
     def stop(self) -> None:
+        """Close the window and wait until MuJoCo's GUI thread has let go of GLFW: the
+        process's exit terminates GLFW, and a GUI thread still drawing then would crash it."""
         self._stop.set()
-        self._thread.join(2.0)
+        self._thread.join(5.0)
 
     def _run(self) -> None:
         import mujoco
@@ -53,6 +55,7 @@ class LiveViewer:
 
         model = self.model
         data = mujoco.MjData(model)
+        before = set(threading.enumerate())
         try:
             handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False,
                                                   show_right_ui=False)
@@ -60,6 +63,8 @@ class LiveViewer:
             self.error = RuntimeError(f"the viewer cannot open: {exc}")
             self._ready.set()
             return
+        # The thread launch_passive started draws the window until the handle is closed.
+        gui = [thread for thread in threading.enumerate() if thread not in before]
         self._ready.set()
         with handle:
             while handle.is_running() and not self._stop.is_set():
@@ -67,3 +72,5 @@ class LiveViewer:
                 mujoco.mj_forward(model, data)
                 handle.sync()
                 time.sleep(FRAME_PERIOD)
+        for thread in gui:
+            thread.join(4.0)
