@@ -120,7 +120,7 @@ def serve(
     ),
     inject: str | None = typer.Option(
         None, envvar="FRANKA_SIM_INJECT", metavar="SPEC",
-        help="Network faults on every arm's UDP path, both directions unless dir= says one: "
+        help="Network faults on every robot's UDP path (each arm, the mobile base), both directions unless dir= says one: "
         "loss=P, delay=Dms, jitter=Jms (normal, truncated at 0), burst=N@Ts (N cycles lost "
         "from T s of simulated time; may repeat), reorder=P, dir=states|commands; e.g. "
         "loss=0.01,delay=2ms,jitter=0.5ms (docs/robustness.md).",

@@ -137,3 +137,34 @@ def test_a_mobile_base_needs_its_own_address_and_arms_to_carry():
                              capture_output=True, text=True, timeout=60)
         assert run.returncode != 0
         assert "mobile" in run.stderr.lower(), run.stderr
+
+
+def test_faults_on_both_arms_and_the_streaming_base_keep_the_world_running():
+    """--inject acts on every robot's path, the base's too: in lockstep the world waits for
+    each streaming client's answer through the losses, every motion ends on its target, the
+    losses show in each robot's success rate, and the clock runs on afterwards."""
+    base, left, right = (fresh_loopback_address() for _ in range(3))
+    server = ServerProcess(left, "--scene", "mobile_duo", "--arm", f"left={left}", "--arm",
+                           f"right={right}", "--mobile-base", base, "--clock", "lockstep",
+                           "--inject", "loss=0.02", "--seed", "3").wait_ready()
+    try:
+        runs = [program(BASE_PROGRAM, base, 0.2, 0.0, 0.0, 1.5),
+                program(ARM_PROGRAM, left, json.dumps([0.3, 0, 0, 0, 0, 0, 0]), 1.5),
+                program(ARM_PROGRAM, right, json.dumps([-0.3, 0, 0, 0, 0, 0, 0]), 1.5)]
+        drove, *moved = [result(run) for run in runs]
+        # (each rate counts the losses; early in a motion its short history makes it coarse)
+        assert drove["error"] == "" and drove["min_rate"] < 1.0
+        assert np.subtract(drove["after"], drove["before"])[0] == pytest.approx(0.2, abs=0.01)
+        for arm in moved:
+            assert arm["error"] == "" and arm["min_rate"] < 1.0
+            np.testing.assert_allclose(arm["q"], arm["target"], atol=5e-3)
+        for host in (base, left, right):
+            health = Control(host).health()
+            assert health["ready"]
+            before = health["cycle"]
+            connect(host).read_once()  # a client's read releases a cycle: the clock runs
+            assert Control(host).health()["cycle"] > before
+        assert not server.log_matching("the cycle failed")
+    finally:
+        server.stop()
+    assert server.proc.returncode == 0

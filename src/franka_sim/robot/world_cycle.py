@@ -56,7 +56,10 @@ class WorldCycle:
             raise ValueError("a world cycle is for several arms (one arm: its RobotCycle)")
         self.cycles = tuple(cycles)
         self.step = step
-        self._awaited: set[int] = set()  # arms whose answer to the open state is waited for
+        # Whom the open state waits for (lockstep), by robot index: `waits_for` as released,
+        # `_awaited` those of them that have not answered yet.
+        self.waits_for: frozenset[int] = frozenset()
+        self._awaited: set[int] = set()
         self._nothing = WorldReplies(tuple(NO_REPLIES for _ in self.cycles))
 
     # -- questions a pacer asks, about the world -------------------------------------------------
@@ -128,9 +131,12 @@ class WorldCycle:
         return self._nothing
 
     def _await(self) -> None:
-        """Whose answers the state just released waits for: every arm whose client streams;
-        with none, the arms whose motion's first state it is (an answer is taken at once)."""
+        """Whose answers the state just released waits for: every robot whose client streams;
+        with none, the robots whose motion's first state it is (an answer is taken at once).
+        The one answer to that question: the faults ask it too (`waits_for`)."""
         cycles = self.cycles
         awaited = {i for i, c in enumerate(cycles)
                    if c.lockstep_applies and not c.first_motion_state}
-        self._awaited = awaited or {i for i, c in enumerate(cycles) if c.first_motion_state}
+        awaited = awaited or {i for i, c in enumerate(cycles) if c.first_motion_state}
+        self.waits_for = frozenset(awaited)
+        self._awaited = awaited

@@ -70,10 +70,10 @@ class FrankaSim:
             self.driver.send_state = self.arms[0].udp.send_state
             self.driver.deliver = self.arms[0].deliver
             self.driver.poll_commands = self.arms[0].udp.poll
-        self.network_faults.wire(arm.udp for arm in self.arms)
+        self.network_faults.wire(robot.udp for robot in self.robots)
         if config.inject:  # FaultSpecError: said now, before anything is served
             spec = parse_spec(config.inject)
-            for i in range(len(self.arms)):
+            for i in range(len(self.robots)):
                 self.network_faults.set(i, spec)
         self.recorder = None
         if config.record is not None:  # OSError: the target cannot be written

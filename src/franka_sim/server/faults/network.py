@@ -1,4 +1,5 @@
-"""The faults of a world's robot UDP paths: one ArmLink per arm, wired in only while needed.
+"""The faults of a world's robot UDP paths: one link per robot (each arm, the mobile base),
+wired in only while needed.
 
 While no arm has a plan, the endpoints and the driver hold None and pay one `if` per datagram
 and per lockstep decision. Setting a plan on any arm attaches every arm's link (a link without
@@ -16,7 +17,8 @@ from franka_sim.server.faults.spec import FaultSpec
 
 class NetworkFaults:
     """`driver`: the world's CycleDriver (its `faults`, `cycle`); `seed`: the server's --seed;
-    then `wire` each arm's UdpEndpoint (its `faults`, `target`, `on_command`)."""
+    then `wire` each robot's UdpEndpoint (its `faults`, `target`, `on_command`), in the world
+    cycle's order (the arms, then the mobile base)."""
 
     def __init__(self, driver, seed: int = 0) -> None:
         self.driver, self.seed = driver, check_seed(seed)
@@ -26,7 +28,7 @@ class NetworkFaults:
         self.attached = False
 
     def wire(self, endpoints) -> None:
-        """The arms' endpoints, by arm index (once, before any plan is set)."""
+        """The robots' endpoints, by robot index (once, before any plan is set)."""
         self.endpoints = list(endpoints)
         offset = lambda: self.driver.key_offset  # noqa: E731
         self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
@@ -68,17 +70,13 @@ class NetworkFaults:
     # -- the driver's question (cycle thread) ------------------------------------------------------
     def answered(self, cycle) -> bool:
         """Lockstep: every client whose answer the world waits for has answered the state it
-        was last sent, or was sent none new (nothing to wait for). Asked with the world's cycle
-        (a RobotCycle, or a WorldCycle's `cycles`), as WorldCycle decides whom it waits for."""
+        was last sent, or was sent none new (nothing to wait for). Asked with the world's cycle:
+        a lone arm's RobotCycle, or a WorldCycle, whose `waits_for` says whom it waits for."""
         links = self.links
         if len(links) == 1:
             link = links[0]
             return link.fresh is None or link.answered
-        cycles = cycle.cycles
-        awaited = ([i for i, c in enumerate(cycles)
-                    if c.lockstep_applies and not c.first_motion_state]
-                   or [i for i, c in enumerate(cycles) if c.first_motion_state])
-        return all(links[i].fresh is None or links[i].answered for i in awaited)
+        return all(links[i].fresh is None or links[i].answered for i in cycle.waits_for)
 
     # -- wiring ------------------------------------------------------------------------------------
     def _attach(self) -> None:
