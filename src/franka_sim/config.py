@@ -46,7 +46,7 @@ class Config:
     q0: tuple[float, ...] = field(default=READY_POSE)
     gripper: bool = True  # serve the Franka Hand (TCP 1338 + its state stream); False: no Hand
     gripper_port: int = 1338  # libfranka pins it too
-    scene: Path | None = None  # MJCF whose bodies surround the arms; None: the packaged default
+    scene: Path | str | None = None  # a packaged scene's name or an MJCF file; None: the default
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
     record: Path | None = None  # write everything the run exchanged to this MCAP file

@@ -37,15 +37,23 @@ _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 def exec_serving(config: Config, *, rt_priority: int, log_level: str,
                  viewer: bool = False) -> None:
     """Become the serving process (does not return)."""
+    os.environ.pop(_TOKEN, None)
+    if config.control_token is not None:
+        os.environ[_TOKEN] = config.control_token
+    _become_serving(serving_argument(config, rt_priority=rt_priority, log_level=log_level,
+                                     viewer=viewer))
+
+
+def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "info",
+                     viewer: bool = False) -> str:
+    """The one argument of `python -m franka_sim.serving`: the parsed flags as JSON (the
+    control API's token travels in the environment instead)."""
     settings = {name: value.value if isinstance(value, Enum) else
                 str(value) if isinstance(value, Path) else value
                 for name, value in asdict(config).items()}
-    token = settings.pop("control_token")
-    os.environ.pop(_TOKEN, None)
-    if token is not None:
-        os.environ[_TOKEN] = token
-    _become_serving(json.dumps({"config": settings, "rt_priority": rt_priority,
-                                "log_level": log_level, "viewer": viewer}))
+    settings.pop("control_token")
+    return json.dumps({"config": settings, "rt_priority": rt_priority, "log_level": log_level,
+                       "viewer": viewer})
 
 
 def _become_serving(blob: str) -> None:
@@ -62,7 +70,7 @@ def _config(settings: dict) -> Config:
     from franka_sim.config import ArmSpec, ClockMode, Config  # (numpy: after SIGTERM's handler)
 
     settings = dict(settings)
-    for name in ("urdf", "scene", "record"):
+    for name in ("urdf", "record"):  # (a scene is a packaged name or a path: WorldParts says)
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
@@ -187,14 +195,35 @@ async def _serve(config: Config, viewer: bool = False) -> None:
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
+    stopped, failed = asyncio.create_task(stop.wait()), asyncio.create_task(sim.failed.wait())
     try:
-        await stop.wait()
+        await asyncio.wait((stopped, failed), return_when=asyncio.FIRST_COMPLETED)
     finally:
-        log.info("stopping")
+        stopped.cancel()
+        failed.cancel()
         status.cancel()
         if live is not None:
             live.stop()
+        if sim.failure is not None:
+            # A simulator that stopped simulating must not look alive to a supervisor (Docker's
+            # restart policy, Kubernetes): exit non-zero now, however the rest shuts down.
+            log.error("exiting: the simulator stopped simulating (%s)", sim.failure)
+            await _stop_within(sim, FAILED_EXIT_WITHIN)
+            raise _Failed(f"the simulator stopped simulating: {sim.failure}")
+        log.info("stopping")
         await sim.stop()
+
+
+FAILED_EXIT_WITHIN = 0.5  # s the endpoints get to close before a failed server exits anyway
+
+
+async def _stop_within(sim, seconds: float) -> None:
+    import asyncio
+
+    try:
+        await asyncio.wait_for(sim.stop(), seconds)
+    except (asyncio.TimeoutError, Exception):  # noqa: BLE001 - exiting anyway
+        pass
 
 
 async def _open_viewer(sim):

@@ -9,10 +9,11 @@ from franka_sim.control.errors import (
     BadRequest,
     Conflict,
     ControlError,
+    Failed,
     NotFound,
     Unauthorized,
     Unreachable,
 )
 
-__all__ = ["DEFAULT_PORT", "BadRequest", "Conflict", "Control", "ControlError", "NotFound",
-           "Unauthorized", "Unreachable"]
+__all__ = ["DEFAULT_PORT", "BadRequest", "Conflict", "Control", "ControlError", "Failed",
+           "NotFound", "Unauthorized", "Unreachable"]

@@ -42,7 +42,8 @@ class Control:
 
     # -- resources -------------------------------------------------------------------------------
     def health(self) -> dict:
-        """{"ready", "clock", "cycle", "client_connected", "robot_mode"}: cheap, for probes."""
+        """{"ready", "clock", "cycle", "client_connected", "robot_mode"}: cheap, for probes.
+        Failed (503) once the simulator stopped simulating, with the reason."""
         return self._call("GET", "/health")
 
     def state(self) -> dict:

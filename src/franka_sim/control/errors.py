@@ -49,11 +49,19 @@ class Conflict(ControlError):
     status = 409
 
 
+class Failed(ControlError):
+    """The simulator stopped simulating: its cycle failed (503, the message says why). Under
+    `franka-sim serve` the process exits non-zero within a second, so a supervisor restarts it."""
+
+    status = 503
+
+
 class Unreachable(ControlError):
     """No answer: nothing listens there (connection refused), or the answer took too long."""
 
 
 def error_for(status: int, message: str) -> ControlError:
     """The exception a client raises for an HTTP error status."""
-    kinds = {400: BadRequest, 422: BadRequest, 401: Unauthorized, 404: NotFound, 409: Conflict}
+    kinds = {400: BadRequest, 422: BadRequest, 401: Unauthorized, 404: NotFound, 409: Conflict,
+             503: Failed}
     return kinds.get(status, ControlError)(message, status)

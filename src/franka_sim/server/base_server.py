@@ -14,8 +14,9 @@ from franka_sim.control.errors import NotFound
 from franka_sim.robot.cycle import Replies
 from franka_sim.robot.mobile_base import BaseCore
 from franka_sim.robot.session import Session, robot_session
-from franka_sim.server.control_ops import mode_name
+from franka_sim.server.control_ops import mode_name, refuse_if_failed
 from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.robot_endpoint import RobotEndpoint
 from franka_sim.server.robot_server import AddressInUse, RobotServer
 from franka_sim.server.udp_endpoint import UdpEndpoint
@@ -28,11 +29,13 @@ __all__ = ["AddressInUse", "BaseServer"]
 class BaseOps:
     """The base's control operations: what it is doing, nothing that changes the world."""
 
-    def __init__(self, core: BaseCore, lock: threading.Lock, clock: str, client_connected) -> None:
+    def __init__(self, core: BaseCore, lock: threading.Lock, clock: str, client_connected,
+                 worker: CycleThread) -> None:
         self.core, self.lock, self.clock = core, lock, clock
-        self.client_connected = client_connected
+        self.client_connected, self.worker = client_connected, worker
 
     def health(self) -> dict:
+        refuse_if_failed(self.worker)
         core = self.core
         return {"ready": True, "mobile_base": True, "clock": self.clock,
                 "cycle": core.message_id, "client_connected": self.client_connected(),
@@ -56,7 +59,7 @@ class BaseServer(RobotServer):
     """The base's endpoints on `host`; `on_command(command)` hands the driver its commands."""
 
     def __init__(self, core: BaseCore, host: str, config, *, driver: CycleDriver,
-                 lock: threading.Lock, on_command) -> None:
+                 worker: CycleThread, lock: threading.Lock, on_command) -> None:
         self.core, self.host, self.config = core, host, config
         self.driver, self.lock = driver, lock
         self.name = self.label = "mobile base"
@@ -66,7 +69,7 @@ class BaseServer(RobotServer):
                                    replaceable=self._client_silent,
                                    on_request=driver.client_event)
         self.control = BaseOps(core, lock, config.clock.value,
-                               lambda: self.robot.active is not None)
+                               lambda: self.robot.active is not None, worker)
         self._control_api = None
         self.gripper = None
 

@@ -66,6 +66,7 @@ class ControlApi:
         self.ops = ops
         self._expected = None if token is None else f"Bearer {token}".encode()
         self._runner: web.AppRunner | None = None
+        self._said_failed = False  # "stopped simulating" refusals are logged once
         app = web.Application(middlewares=[self._refusals], client_max_size=MAX_BODY)
         app.router.add_get("/health", self._health)
         app.router.add_get("/state", self._state)
@@ -121,8 +122,10 @@ class ControlApi:
         except Exception as exc:  # noqa: BLE001 - answered, not raised into aiohttp
             log.exception("control API: %s %s failed", request.method, request.path)
             return web.json_response({"error": f"internal error: {exc}"}, status=500)
-        log.warning("control API: %s %s refused (%d): %s", request.method, request.path,
-                    status, message)
+        if status != 503 or not self._said_failed:  # (a dead world was logged loudly already)
+            log.warning("control API: %s %s refused (%d): %s", request.method, request.path,
+                        status, message)
+            self._said_failed = self._said_failed or status == 503
         headers = {"WWW-Authenticate": "Bearer"} if status == 401 else None
         return web.json_response({"error": message}, status=status, headers=headers)
 

@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
+from franka_sim.control.errors import BadRequest, Conflict, ControlError, Failed, NotFound
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.bodies import NotFree, UnknownBody
@@ -61,6 +61,13 @@ def number(name: str, value: Any) -> float:
     if not math.isfinite(value):
         raise BadRequest(f"{name} must be finite, not {value}")
     return value
+
+
+def refuse_if_failed(worker: CycleThread) -> None:
+    """Failed (503, with the reason) once the cycle thread stopped stepping the world: a probe
+    must not keep a dead simulator in service."""
+    if worker.failure is not None:
+        raise Failed(f"the simulator stopped simulating: {worker.failure}")
 
 
 def body_name(value: Any) -> str:
@@ -117,7 +124,9 @@ class ControlOps:
 
     # -- reading ---------------------------------------------------------------------------------
     def health(self) -> dict:
-        """Cheap: no job, no lock (each figure is one attribute read)."""
+        """Cheap: no job, no lock (each figure is one attribute read). Failed once the world
+        stopped simulating."""
+        refuse_if_failed(self.worker)
         core = self.core
         return {"ready": True, "arm": self.arm, "clock": self.clock, "cycle": core.message_id,
                 "client_connected": self.client_connected(),

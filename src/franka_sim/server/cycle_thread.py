@@ -70,9 +70,15 @@ class CycleThread:
         self._tick: Tick | None = None
         self._deadline: float | None = None
         self._watched: socket.socket | tuple[socket.socket, ...] | None = None
+        # Why the clock stopped for good (a tick raised), and whom to tell, on their loop.
+        self.failure: str | None = None
+        self._on_failure: tuple[Callable[[str], None], asyncio.AbstractEventLoop] | None = None
 
-    async def start(self) -> None:
-        """Build the backend inside the worker thread (MjData must live where it steps)."""
+    async def start(self, on_failure: Callable[[str], None] | None = None) -> None:
+        """Build the backend inside the worker thread (MjData must live where it steps).
+        `on_failure(reason)` is called on this loop if the clock stops for good."""
+        if on_failure is not None:
+            self._on_failure = (on_failure, asyncio.get_running_loop())
         self._thread.start()
         await self.call(lambda backend: None)
 
@@ -169,9 +175,20 @@ class CycleThread:
             return
         try:
             self._deadline = tick(self._backend, due)
-        except Exception:  # noqa: BLE001 - the clock stops; jobs are still served
+        except Exception as exc:  # noqa: BLE001 - the clock stops; jobs are still served
             log.exception("the cycle failed; the clock stops")
             self._tick = self._deadline = None
+            self._failed(f"the cycle failed: {type(exc).__name__}: {exc}")
+
+    def _failed(self, reason: str) -> None:
+        """The clock stopped for good: say so to whoever asked to be told."""
+        self.failure = reason
+        if self._on_failure is not None:
+            callback, loop = self._on_failure
+            try:
+                loop.call_soon_threadsafe(callback, reason)
+            except RuntimeError:  # loop already closed during shutdown
+                pass
 
     def _run(self) -> None:
         _tune_this_thread()
@@ -179,6 +196,14 @@ class CycleThread:
             self._backend = self._make_backend()
         except BaseException as exc:  # reported to whoever awaits start()
             self._backend = exc
+        try:
+            self._serve()
+        except BaseException as exc:  # the thread itself dies: nothing steps any more
+            log.exception("the cycle thread failed")
+            self._failed(f"the cycle thread failed: {type(exc).__name__}: {exc}")
+
+    def _serve(self) -> None:
+        """Ticks and jobs until stopped."""
         while True:
             job = self._next_job()
             if job is None or job is _WAKE:

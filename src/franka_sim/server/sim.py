@@ -10,6 +10,7 @@ requirement here).
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import threading
 
@@ -63,7 +64,7 @@ class FrankaSim:
         if parts.base is not None:
             index = len(self.arms)
             self.base = BaseServer(parts.base, config.mobile_base, config, driver=self.driver,
-                                   lock=self.lock, on_command=lambda command:
+                                   worker=self.worker, lock=self.lock, on_command=lambda command:
                                    self.driver.receive((index, command)))
             self.robots.append(self.base)
         if one:  # the one arm's own endpoints, without a per-cycle loop over a list
@@ -89,11 +90,12 @@ class FrankaSim:
 
             self.recordings = self.control.recordings = LiveRecordings(self)
         self._started = False
+        self.failed = asyncio.Event()  # set once the world stopped simulating (`failure`)
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> "FrankaSim":
         """Serve every arm, or none: an endpoint that cannot open closes all that did."""
-        await self.worker.start()
+        await self.worker.start(on_failure=lambda reason: self.failed.set())
         started = []
         try:
             for robot in self.robots:
@@ -139,6 +141,12 @@ class FrankaSim:
 
     async def __aexit__(self, *exc) -> None:
         await self.stop()
+
+    @property
+    def failure(self) -> str | None:
+        """Why the world stopped simulating (its cycle failed), or None while it runs. Its
+        control APIs then answer /health with 503 and this reason; `failed` is set."""
+        return self.worker.failure
 
     # -- the first (or only) arm, as a lone robot's simulator offers it ----------------------------
     @property
