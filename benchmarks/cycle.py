@@ -1,6 +1,6 @@
 """µs of one motion cycle's own work, in a tight loop, without sockets or threads.
 
-What the cycle thread does per cycle, through the server's own `RobotCycle`, section by
+What the cycle thread does per cycle, through the server's own `ArmCycle`, section by
 section: `release` (the core closes the command window and decides the drives' task, MuJoCo
 steps, the desired-side kinematics, the core packs the state), `complete` (once the state is
 out: the rest of mj_step1 and the next g(q), and the limit checks that only log, none of which
@@ -40,15 +40,15 @@ from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import StateBuffer, decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import Frame, decode_request
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import RobotCycle
+from franka_sim.robot.arm_core import ArmCore
+from franka_sim.robot.arm_cycle import ArmCycle
 
 SECTIONS = ("release", "complete", "decode", "receive")
 FLOOR_SECTIONS = ("decode", "step", "publish", "finish")
 MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
 
 
-def _move(core: RobotCore, controller: int, generator: int) -> None:
+def _move(core: ArmCore, controller: int, generator: int) -> None:
     deviation = dict(translation=10.0, rotation=3.12, elbow=2 * math.pi)
     data = msg.build_request(
         Command.Move, 1, controller_mode=controller, motion_generator_mode=generator,
@@ -84,8 +84,8 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     desc = load_arm_description(default_urdf_text())
     q0 = np.array(READY_POSE)
     backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
-    core = RobotCore(desc, q0)
-    cycle = RobotCycle(core, backend)
+    core = ArmCore(desc, q0)
+    cycle = ArmCycle(core, backend)
     cycle.complete(cycle.release())
     _move(core, *MOVES[mode])
     released = cycle.release()

@@ -3,8 +3,9 @@ runs without any. Built in one place so that a replayed run starts from the very
 recorded one did.
 
 `WorldParts` resolves the scene, places the arms (the --arm poses, else the scene's `arm/NAME`
-sites, else the origin), checks that they can stand there, and builds the physics; each arm's
-own parts (description, core, Hand, sessions) are an `ArmParts`.
+sites, else the origin), checks that they can stand there, and builds the physics and the
+world's cycle; each robot's own parts (its core, tools and sessions) are an `ArmParts` or the
+mobile base's `BaseParts`, in the world's order: the arms, then the base.
 """
 
 from __future__ import annotations
@@ -19,12 +20,11 @@ from franka_sim.physics.mujoco_backend import ArmBackend
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
                                       resolve_scene, scene_mounts)
 from franka_sim.physics.world import World
+from franka_sim.robot.arm_core import ArmCore
+from franka_sim.robot.arm_cycle import ArmCycle
+from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.base_cycle import BaseCycle
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import RobotCycle
 from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.mobile_base import BaseCore
-from franka_sim.robot.requests import RequestHandler
 from franka_sim.robot.session import Session, gripper_session, robot_session
 from franka_sim.robot.world_cycle import WorldCycle
 
@@ -32,27 +32,51 @@ from franka_sim.robot.world_cycle import WorldCycle
 class ArmParts:
     """One arm's description, core and Hand (None: --no-gripper), and its sessions."""
 
+    kind = "arm"
+
     def __init__(self, config: Config, spec: ArmSpec, description: ArmDescription,
                  urdf_text: str) -> None:
         self.config, self.spec = config, spec
+        self.name, self.host, self.label = spec.name, spec.host, f"arm {spec.name}"
         self.description, self.urdf_text = description, urdf_text
         self.q0 = np.array(config.q0, dtype=float)
-        self.core = RobotCore(
-            description, self.q0, enforce_comm_constraints=config.enforce_comm_constraints,
+        self.core = ArmCore(
+            description, self.q0, urdf=urdf_text.encode(), enforce_comm_constraints=config.enforce_comm_constraints,
             enforce_motion_limits=config.enforce_motion_limits,
             joint_discontinuity_scale=config.joint_discontinuity_scale,
         )
         # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
         self.gripper = Gripper() if config.gripper else None
 
-    def make_cycle(self, physics, hand_state_wanted=lambda: True) -> RobotCycle:
-        return RobotCycle(self.core, physics, self.gripper, hand_state_wanted=hand_state_wanted)
+    def make_part(self, physics, hand_state_wanted) -> ArmCycle:
+        """Its part of the world cycle, on its body in the world; `hand_state_wanted()`: a
+        Hand client takes GripperStates."""
+        return ArmCycle(self.core, physics, self.gripper, hand_state_wanted=hand_state_wanted)
 
     def robot_session(self) -> Session:
-        return robot_session(RequestHandler(self.core, self.urdf_text.encode()))
+        return robot_session(self.core)
 
     def gripper_session(self) -> Session:
         return gripper_session(self.gripper)
+
+
+class BaseParts:
+    """The mobile base (--mobile-base ADDRESS): a robot of its own after the arms, which ride on
+    it. Its core and its session; no tools."""
+
+    kind = "base"
+    name, label = "base", "mobile base"
+    gripper = None
+
+    def __init__(self, host: str) -> None:
+        self.host = host
+        self.core = BaseCore(base_urdf_text().encode())
+
+    def make_part(self, physics, hand_state_wanted) -> BaseCycle:
+        return BaseCycle(self.core, physics)
+
+    def robot_session(self) -> Session:
+        return robot_session(self.core)
 
 
 class WorldParts:
@@ -70,8 +94,9 @@ class WorldParts:
         self.placements = self._place(specs)
         self._check()
         self.arms = [ArmParts(config, spec, self.description, self.urdf_text) for spec in specs]
-        # The mobile base (--mobile-base): a robot of its own after the arms, which ride on it.
-        self.base = None if config.mobile_base is None else BaseCore(base_urdf_text().encode())
+        self.base = None if config.mobile_base is None else BaseParts(config.mobile_base)
+        # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
+        self.robots = [*self.arms, *([self.base] if self.base is not None else [])]
 
     def _place(self, specs) -> list[ArmPlacement]:
         """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
@@ -113,14 +138,9 @@ class WorldParts:
             physics.append(BaseBody(world.model, world.data))
         return physics
 
-    def make_cycle(self, physics: list, hand_state_wanted) -> RobotCycle | WorldCycle:
-        """One arm: its RobotCycle. Several (or a mobile base): a WorldCycle around the
-        world's one step. `hand_state_wanted[i]`: whether arm i's Hand client takes
-        GripperStates."""
-        cycles = [arm.make_cycle(physics[i], hand_state_wanted[i])
-                  for i, arm in enumerate(self.arms)]
-        if self.base is not None:
-            cycles.append(BaseCycle(self.base, physics[len(self.arms)]))
-        if len(cycles) == 1:
-            return cycles[0]
-        return WorldCycle(cycles, physics[0].world.step)
+    def make_cycle(self, physics: list, hand_state_wanted) -> WorldCycle:
+        """The world's cycle: every robot's part around the world's one step.
+        `hand_state_wanted[i]`: whether robot i's Hand client takes GripperStates."""
+        parts = [robot.make_part(physics[i], hand_state_wanted[i])
+                 for i, robot in enumerate(self.robots)]
+        return WorldCycle(parts, physics[0].world.step)

@@ -16,7 +16,7 @@ from franka_sim.protocol.enums import (Command, MotionGeneratorMode, MoveMotionG
                                        MoveStatus, RobotMode)
 from franka_sim.protocol.errors import error_index
 from franka_sim.robot.base_cycle import BaseCycle
-from franka_sim.robot.mobile_base import PLANAR_REFLEX, BaseCore
+from franka_sim.robot.base_core import PLANAR_REFLEX, BaseCore
 from franka_sim.robot.swerve import SwerveDrive
 
 CARTESIAN_VELOCITY = int(MoveMotionGeneratorMode.kCartesianVelocity)

@@ -318,7 +318,7 @@ def test_a_command_before_the_modes_flip_is_ignored_with_a_log_line(caplog):
     shows the new modes answers nothing and never reaches the generator."""
     h = Harness()
     assert h.move(0, 1) == MoveStatus.kMotionStarted
-    with caplog.at_level(logging.INFO, logger="franka_sim.robot.core"):
+    with caplog.at_level(logging.INFO, logger="franka_sim.robot.fci"):
         assert not h.send(dq_c=np.full(7, 0.5))
         assert not h.send(dq_c=np.full(7, 0.5))  # one line, not one per datagram
     assert [r.getMessage() for r in caplog.records] == [
@@ -331,7 +331,7 @@ def test_a_command_before_the_modes_flip_is_ignored_with_a_log_line(caplog):
 
 def test_each_client_gets_its_first_stray_command_logged(caplog):
     h = Harness()
-    with caplog.at_level(logging.INFO, logger="franka_sim.robot.core"):
+    with caplog.at_level(logging.INFO, logger="franka_sim.robot.fci"):
         h.core.client_connected()
         assert not h.send(dq_c=np.zeros(7))
         h.core.client_gone()

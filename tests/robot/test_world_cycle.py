@@ -24,7 +24,7 @@ def world() -> tuple[WorldCycle, WorldParts]:
 def step(cycle: WorldCycle) -> list:
     released = cycle.release()
     cycle.complete(released)
-    return [decode_state(state) for state in released.state]
+    return [decode_state(state) for state in released.states]
 
 
 def answer(arm: int, state, **fields) -> tuple[int, object]:
@@ -43,12 +43,12 @@ def run(streams: dict[int, float], cycles: int = 400) -> list[bytes]:
     for k in range(cycles):
         released = cycle.release()
         cycle.complete(released)
-        out.append(b"".join(released.state))
-        states = [decode_state(state) for state in released.state]
+        out.append(b"".join(released.states))
+        states = [decode_state(state) for state in released.states]
         for arm, amplitude in streams.items():
             q = q0.copy()
             q[0] += amplitude * 0.5 * (1 - np.cos(np.pi * k / cycles))
-            cycle.receive(answer(arm, states[arm], q_c=q))
+            cycle.receive(*answer(arm, states[arm], q_c=q))
     return out
 
 
@@ -67,7 +67,7 @@ def test_one_arm_moving_leaves_the_other_exactly_where_it_was():
         left, right = step(cycle)
         dq = np.zeros(7)
         dq[0] = 0.2 * np.sin(np.pi * k / 300)
-        cycle.receive(answer(0, left, dq_c=dq))
+        cycle.receive(*answer(0, left, dq_c=dq))
     assert abs(left["q"][0] - before["q"][0]) > 0.01
     assert right["q"].tobytes() == before["q"].tobytes()
 
@@ -80,8 +80,8 @@ def test_the_answer_releases_the_next_cycle_once_every_streaming_arm_gave_it():
     states = step(cycle)  # the motions' first states: libfranka answers neither
     states = step(cycle)
     assert cycle.lockstep_applies and not cycle.first_motion_state
-    assert not cycle.receive(answer(0, states[0], dq_c=np.zeros(7)))  # the right one is owed
-    assert cycle.receive(answer(1, states[1], dq_c=np.zeros(7)))  # now both: go
+    assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))  # the right one is owed
+    assert cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))  # now both: go
 
 
 def test_a_motion_first_state_is_not_waited_for_while_another_arm_streams():
@@ -91,10 +91,10 @@ def test_a_motion_first_state_is_not_waited_for_while_another_arm_streams():
     step(cycle)
     states = step(cycle)  # left streams from here
     parts.arms[1].core.request_move(5, move_request(0, 1))
-    cycle.receive(answer(0, states[0], dq_c=np.zeros(7)))
+    cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
     states = step(cycle)  # right's first motion state
     assert not cycle.first_motion_state  # the streaming left arm sets the pace
-    assert cycle.receive(answer(0, states[0], dq_c=np.zeros(7)))
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
 
 
 @pytest.mark.parametrize("streams", [{0: 0.3, 1: -0.3}, {1: 0.2}])

@@ -1,14 +1,13 @@
-"""Lockstep's idle time, on the cycle driver with a fake clock: it follows the client's events,
+"""Lockstep's idle time, on the clock policy with fake time: it follows the client's events,
 not the wall clock, so a program reproduces to the bit however long the client pauses.
 
-No sockets and no threads: the driver's tick is called by hand, its wall clock is a number and
-its event loop a recorder (server/cycle_driver.py says what a tick does).
+No sockets and no threads: the clock's tick is called by hand, wall time is a number, and what
+it sends and posts is recorded (server/clock.py says what a tick does).
 """
 
 from __future__ import annotations
 
 import struct
-import threading
 
 import numpy as np
 import pytest
@@ -21,8 +20,9 @@ from franka_sim.protocol.enums import Command, GripperCommand, GripperStatus, Mo
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
 from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.cycle import RobotCycle
-from franka_sim.server.cycle_driver import TREMBLE_CYCLES, CycleDriver
+from franka_sim.robot.arm_cycle import ArmCycle
+from franka_sim.robot.world_cycle import WorldCycle
+from franka_sim.server.clock import TREMBLE_CYCLES, Clock
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD
 
 from support.harness import Harness, reply_status
@@ -30,9 +30,8 @@ from support.harness import Harness, reply_status
 DESC = load_arm_description(default_urdf_text())
 
 
-class _Clock:
-    """Wall time that moves 1 µs per reading (a lockstep tick reads it while it waits for an
-    answer), and as the test says."""
+class _WallTime:
+    """Wall time that moves 1 µs per reading (a state leaving reads it), and as the test says."""
 
     def __init__(self) -> None:
         self.now = 0.0
@@ -42,26 +41,9 @@ class _Clock:
         return self.now
 
 
-class _Worker:
-    def __init__(self) -> None:
-        self.wakes = 0
-
-    def wake(self) -> None:
-        self.wakes += 1
-
-    def watch(self, sock) -> None:
-        pass
-
-
-class _Loop:
-    """The event loop as the driver uses it: what it was handed, run at once."""
-
-    def call_soon_threadsafe(self, fn, *args) -> None:
-        fn(*args)
-
-
 class Rig:
-    """A lockstep driver ticking a harness's cycle (with the Hand), its states and replies."""
+    """A lockstep clock ticking a harness's arm (with the Hand) as a world of one, its states
+    and replies."""
 
     def __init__(self, hand: bool = False) -> None:
         self.harness = Harness()
@@ -69,55 +51,57 @@ class Rig:
             self.harness.backend = MujocoBackend(DESC, self.harness.core.drives.q_hold,
                                                  scene_xml=default_scene_path(), fingers=True)
             self.harness.robot_cycle.hand = Gripper()
-        self.clock = _Clock()
+        self.wall = _WallTime()
         self.states: list[bytes] = []
         self.delivered: list[tuple[int, object]] = []  # (last message_id sent, replies)
         self.on_socket: list[bytes] = []
         self.ticks: list[tuple[int, int]] = []  # (cycles released, states sent) by each tick
-        driver = self.driver = CycleDriver(
-            lambda physics: self.harness.robot_cycle, _Worker(), threading.Lock(),
-            self.states.append, lockstep=True, deliver=self._deliver,
-            poll_commands=self._poll, command_socket=lambda: None, clock=self.clock)
-        driver.cycle = self.harness.robot_cycle
-        driver._loop = _Loop()
-        driver._running = True
+        self.world = WorldCycle([self.harness.robot_cycle], self.harness.backend.world.step)
+        self.clock = Clock(self.world, lockstep=True, send=self._send, post=self._post,
+                           has_client=lambda: True)
+
+    def _send(self, states: tuple) -> float:
+        self.states.append(states[0])
+        return self.wall()
+
+    def _post(self, message_id: int, replies) -> None:
+        if replies:
+            self.delivered.append((message_id, replies.robots[0]))
 
     @property
     def cycle(self):
         return self.harness.robot_cycle
-
-    def _deliver(self, replies) -> None:
-        self.delivered.append((self.message_id, replies))
-
-    def _poll(self, limit: int = 64) -> None:
-        for _ in range(min(limit, len(self.on_socket))):
-            self.driver.receive(decode_command(self.on_socket.pop(0)))
 
     @property
     def message_id(self) -> int:
         return int(decode_state(self.states[-1])["message_id"])
 
     def tick(self, due: bool) -> float | None:
+        """The cycle thread's tick: the answers that came, handed to the world, then the clock."""
         cycles, states = self.cycle.message_id, len(self.states)
-        deadline = self.driver._tick(None, due)
+        awaited = self.clock.answer_awaited
+        answered = False
+        while self.on_socket:
+            answered = self.world.receive(0, decode_command(self.on_socket.pop(0))) or answered
+        deadline = self.clock.tick(due, answered, awaited)
         self.ticks.append((self.cycle.message_id - cycles, len(self.states) - states))
         return deadline
 
     def event(self) -> float | None:
         """A client request (robot or Hand) has been handled: it wakes the clock."""
-        self.driver.client_event()
+        self.clock.client_event()
         return self.tick(False)
 
     def wait(self, seconds: float) -> None:
         """The client takes `seconds` of wall time: every deadline in it comes."""
-        end = self.clock.now + seconds
+        end = self.wall.now + seconds
         while True:
-            deadline = self.driver._deadline
+            deadline = self.clock.deadline
             if deadline is None or deadline > end:
                 break
-            self.clock.now = deadline
+            self.wall.now = deadline
             self.tick(True)
-        self.clock.now = end
+        self.wall.now = end
 
     def motion(self, velocities) -> None:
         """A joint-velocity Move answered cycle by cycle, the last command finishing it."""
@@ -144,7 +128,7 @@ def test_after_a_motion_the_arm_settles_in_the_same_tick_and_the_reply_waits_for
     message_id, replies = rig.delivered[-1]
     assert message_id == rig.message_id  # after the state at rest, not the motion's last
     assert [reply_status(r) for r in replies.robot] == [(Command.Move, 5, MoveStatus.kSuccess)]
-    assert rig.driver._deadline == pytest.approx(rig.clock.now + LOCKSTEP_WINDOW)
+    assert rig.clock.deadline == pytest.approx(rig.wall.now + LOCKSTEP_WINDOW)
 
 
 def test_at_rest_the_clock_holds_for_the_client_then_ticks_on_the_wall_clock():
@@ -155,7 +139,7 @@ def test_at_rest_the_clock_holds_for_the_client_then_ticks_on_the_wall_clock():
     assert rig.tick(False) is not None and rig.message_id == at_rest  # a wake alone: nothing
     rig.event()  # a request: its cycle goes at once, and the clock holds again
     assert rig.message_id == at_rest + 1
-    assert rig.driver._deadline == pytest.approx(rig.clock.now + LOCKSTEP_WINDOW)
+    assert rig.clock.deadline == pytest.approx(rig.wall.now + LOCKSTEP_WINDOW)
     rig.wait(LOCKSTEP_WINDOW + 10.5 * PERIOD)  # then 1 kHz, 11 cycles in the rest of the wait
     assert rig.message_id == at_rest + 1 + 11
     assert rig.cycle.core.measured is measured  # cycles that changed nothing but message_id
@@ -199,8 +183,8 @@ def test_a_hand_action_runs_on_the_wall_clock_and_the_fingers_settle_before_its_
     rig.wait(0.2)
     assert hand.idle and rig.cycle.at_rest
     assert max(rig.ticks[-200:])[0] > 10  # the fingers' settling, in one tick
-    [(message_id, replies)] = [(m, r) for m, r in rig.delivered if r.hand]
-    assert [struct.unpack("<HIIH", r) for r in replies.hand] == [
+    [(message_id, replies)] = [(m, r) for m, r in rig.delivered if r.tools and r.tools[0][0]]
+    assert [struct.unpack("<HIIH", r) for r in replies.tools[0][0]] == [
         (GripperCommand.Move, 7, 12, GripperStatus.kSuccess)]
     [after] = [decode_state(state) for state in rig.states
                if int(decode_state(state)["message_id"]) == message_id]
@@ -232,7 +216,7 @@ def test_after_homing_the_fingers_come_to_rest_clear_of_their_stops(then_open):
                                                       speed=0.1))
         rig.event()
         rig.wait(1.0)
-    assert rig.cycle.at_rest and not rig.driver._trembling
+    assert rig.cycle.at_rest and not rig.clock._trembling
     assert hand.width == pytest.approx(hand.max_width, abs=1e-5)
 
 
@@ -243,7 +227,7 @@ def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(mo
     rig = Rig()
     rig.event()
     rig.wait(1.0)
-    monkeypatch.setattr(RobotCycle, "at_rest", property(lambda cycle: False))
+    monkeypatch.setattr(ArmCycle, "at_rest", property(lambda cycle: False))
     rig.event()
     assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
     stepped = rig.harness.backend.data.time

@@ -1,17 +1,20 @@
 """The clock policy: absolute 1 ms deadlines, a floor on the spacing of two states, lockstep.
 
-Pure arithmetic on given times (the Pacer), and the cycle driver on a fake clock: no test here
-depends on how fast this machine runs.
+Pure arithmetic on given times (the Pacer), the clock policy on fake time, and the cycle
+driver on a fake thread: no test here depends on how fast this machine runs.
 """
 
 from __future__ import annotations
 
+import asyncio
 import threading
 
 import pytest
 
 from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import MoveStatus
+from franka_sim.robot.world_cycle import WorldCycle
+from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD, Pacer
 
@@ -60,7 +63,7 @@ def test_lockstep_waits_a_window_from_when_the_state_left():
     assert pacer.next_deadline(5.0, lockstep=True) == 5.0 + LOCKSTEP_WINDOW
 
 
-class _FakeClock:
+class _FakeTime:
     def __init__(self) -> None:
         self.now = 0.0
 
@@ -68,47 +71,37 @@ class _FakeClock:
         return self.now
 
 
-class _Worker:
-    def __init__(self) -> None:
-        self.watched: list = []
-
-    def wake(self) -> None:
-        pass
-
-    def watch(self, sock) -> None:
-        self.watched.append(sock)
-
-
-def driver_for(harness: Harness, *args, **kwargs) -> CycleDriver:
-    """A driver ticking the harness's own cycle (its start() would build one in the thread)."""
-    driver = CycleDriver(lambda physics: harness.robot_cycle, *args, **kwargs)
-    driver.cycle = harness.robot_cycle
-    return driver
+def clock_for(harness: Harness, send, **kwargs) -> Clock:
+    """The clock policy running the harness's arm as a world of one."""
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    return Clock(world, send=send, post=lambda message_id, replies: None,
+                 has_client=lambda: True, **kwargs)
 
 
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
     """A thread held up inside a send (preempted, a busy host) sends that state late; the next
     state must still leave at least min_spacing after it, not min_spacing after the late
     cycle began."""
-    clock = _FakeClock()
+    time = _FakeTime()
     left: list[float] = []
     hold_up = [0.0]
 
-    def send_state(data: bytes) -> None:
-        clock.now += hold_up[0]
-        left.append(clock.now)
+    def send(states) -> float:
+        time.now += hold_up[0]
+        left.append(time.now)
+        return time.now
 
     harness = Harness()
-    driver = driver_for(harness, _Worker(), threading.Lock(), send_state, clock=clock)
-    deadline = driver._tick(harness.backend, True)  # anchored at 0
+    clock = clock_for(harness, send, lockstep=False)
+    deadline = clock.tick(True, False, False)  # anchored at 0
     assert deadline == pytest.approx(PERIOD)
-    clock.now = 3.0 * MS  # the next tick woke 2 ms late
+    time.now = 3.0 * MS  # the next tick woke 2 ms late
     hold_up[0] = 0.4 * MS  # and the send then took 0.4 ms
-    deadline = driver._tick(harness.backend, True)
-    assert deadline >= left[-1] + driver.pacer.min_spacing
-    clock.now, hold_up[0] = deadline, 0.0
-    driver._tick(harness.backend, True)
-    assert left[-1] - left[-2] >= driver.pacer.min_spacing
+    deadline = clock.tick(True, False, False)
+    assert deadline >= left[-1] + clock.pacer.min_spacing
+    time.now, hold_up[0] = deadline, 0.0
+    clock.tick(True, False, False)
+    assert left[-1] - left[-2] >= clock.pacer.min_spacing
 
 
 def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
@@ -117,49 +110,78 @@ def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
     harness = Harness()
     unfinished_at_send: list[bool] = []
 
-    def send_state(data: bytes) -> None:
+    def send(states) -> float:
         unfinished_at_send.append(harness.backend._unfinished)
+        return 0.0
 
-    driver = driver_for(harness, _Worker(), threading.Lock(), send_state,
-                         clock=_FakeClock())
+    clock = clock_for(harness, send, lockstep=False)
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
-    driver._tick(harness.backend, True)  # the state that shows the motion running
+    clock.tick(True, False, False)  # the state that shows the motion running
     unfinished_at_send.clear()
     for _ in range(3):  # the motion's cycles (unanswered: the last torques are reused)
-        driver._tick(harness.backend, True)
+        clock.tick(True, False, False)
         assert not harness.backend._unfinished
     assert unfinished_at_send == [True, True, True]
 
 
-def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_socket():
-    """In lockstep only the physics thread reads the answers. When its short spin finds none,
-    the tick has the worker watch the command socket; the wake that follows (not due) reads the
-    answer and releases the next cycle at once. No answer, no cycle."""
+class _Thread:
+    """The cycle thread as the driver uses it: jobs run at once, the tick is the test's."""
+
+    def __init__(self) -> None:
+        self.watched: list = []
+
+    async def call(self, fn, *args):
+        return fn(None, *args)
+
+    async def run_clock(self, tick) -> None:
+        self.tick = tick
+
+    def wake(self) -> None:
+        pass
+
+    def watch(self, sockets) -> None:
+        self.watched.append(sockets)
+
+
+class _Endpoint:
+    """A robot's UDP endpoint: datagrams the test puts on it, states it was sent."""
+
+    def __init__(self) -> None:
+        self.sock = object()  # what the thread is asked to watch (it only passes it on)
+        self.on_socket: list[bytes] = []
+        self.sent: list[int] = []
+
+    def read(self, limit: int = 64) -> list:
+        taken, self.on_socket = self.on_socket[:limit], self.on_socket[limit:]
+        return [decode_command(data) for data in taken]
+
+    def send_state(self, data: bytes) -> None:
+        self.sent.append(int(decode_state(data)["message_id"]))
+
+
+def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_sockets():
+    """In lockstep only the cycle thread reads the answers. When its short spin finds none,
+    the tick has the thread watch the robots' sockets; the wake that follows (not due) reads
+    the answer and releases the next cycle at once. No answer, no cycle."""
     harness = Harness()
-    sent: list[int] = []
-    on_socket: list[bytes] = []
-    command_socket = object()  # what the worker is asked to watch (it only passes it on)
-    worker = _Worker()
-
-    def poll_commands(limit: int = 64) -> None:
-        for _ in range(min(limit, len(on_socket))):
-            driver.receive(decode_command(on_socket.pop(0)))
-
-    driver = driver_for(harness, worker, threading.Lock(),
-                         lambda data: sent.append(int(decode_state(data)["message_id"])),
-                         lockstep=True, poll_commands=poll_commands,
-                         command_socket=lambda: command_socket)
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    thread, endpoint = _Thread(), _Endpoint()
+    driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
+                         deliver=lambda replies: None, has_client=lambda: True,
+                         watcher=ClockWatcher())
+    asyncio.run(driver.start([endpoint]))
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
-    deadline = driver._tick(harness.backend, True)  # the motion's first state; no answer yet
-    assert worker.watched == [command_socket]
-    assert deadline == pytest.approx(driver._deadline)
+    deadline = thread.tick(None, True)  # the motion's first state; no answer yet
+    assert thread.watched == [(endpoint.sock,)]
+    assert deadline == pytest.approx(driver.clock.deadline)
+    sent = endpoint.sent
     first = len(sent)
 
-    driver._tick(harness.backend, False)  # woken with nothing on the socket: nothing goes
-    assert len(sent) == first and worker.watched == [command_socket] * 2
+    thread.tick(None, False)  # woken with nothing on the socket: nothing goes
+    assert len(sent) == first and thread.watched == [(endpoint.sock,)] * 2
 
-    on_socket.append(encode_command(message_id=sent[-1], tau_J_d=[0.0] * 7))
-    driver._tick(harness.backend, False)  # the datagram woke it: the next cycle goes at once
+    endpoint.on_socket.append(encode_command(message_id=sent[-1], tau_J_d=[0.0] * 7))
+    thread.tick(None, False)  # the datagram woke it: the next cycle goes at once
     assert sent[first:] == [sent[first - 1] + 1]
     assert harness.core.success_rate > 0.0
-    assert worker.watched == [command_socket] * 3  # and it waits for the next answer again
+    assert thread.watched == [(endpoint.sock,)] * 3  # and it waits for the next answer again

@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import sys
 
-from franka_sim.robot.cycle import RobotCycle
+from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.serving import main
 
 FAIL_AT = 500  # cycles: before the clock of a server without clients pauses (2000)
 
-_publish = RobotCycle.publish
+_publish = ArmCycle.publish
 
 
 def _publish_then_fail(self):
@@ -22,7 +22,7 @@ def _publish_then_fail(self):
     return _publish(self)
 
 
-RobotCycle.publish = _publish_then_fail
+ArmCycle.publish = _publish_then_fail
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1]))

@@ -1,6 +1,6 @@
 """Drive the robot core and real physics cycle by cycle, without sockets, threads or clocks.
 
-It runs the server's own cycle (`RobotCycle`) in a loop, so robot behaviour can be specified
+It runs the server's own cycle (`ArmCycle`) in a loop, so robot behaviour can be specified
 in microseconds and deterministically.
 """
 
@@ -17,8 +17,8 @@ from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import decode_request, Frame
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import RobotCycle
+from franka_sim.robot.arm_core import ArmCore
+from franka_sim.robot.arm_cycle import ArmCycle
 
 _DESCRIPTION = load_arm_description(default_urdf_text())
 
@@ -42,8 +42,8 @@ def reply_status(reply: bytes) -> tuple[int, int, int]:
 
 class Harness:
     def __init__(self, q0=READY_POSE, **core_kwargs) -> None:
-        self.core = RobotCore(_DESCRIPTION, np.array(q0), **core_kwargs)
-        self.robot_cycle = RobotCycle(self.core, MujocoBackend(_DESCRIPTION, np.array(q0)))
+        self.core = ArmCore(_DESCRIPTION, np.array(q0), **core_kwargs)
+        self.robot_cycle = ArmCycle(self.core, MujocoBackend(_DESCRIPTION, np.array(q0)))
         self.state = None
         self.replies: list[bytes] = []
         self.cycle()

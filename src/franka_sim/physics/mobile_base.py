@@ -1,6 +1,6 @@
 """The mobile base's body in the world: a mocap body the arms on it ride on.
 
-The base is moved kinematically: its core (robot/mobile_base.py) integrates the commanded
+The base is moved kinematically: its core (robot/base_core.py) integrates the commanded
 twist into a planar pose, and `BaseBody.command` puts the body there before the world's step.
 The arms' roots are children of it, so they go where it goes, and each arm reads its flange in
 its own root's frame as it is now (physics/readings.py), so an arm's state does not show the

@@ -1,17 +1,16 @@
-"""The mobile base's control cycle, sans-IO: one more robot of a world cycle.
+"""The mobile base's part of a world cycle, sans-IO (the contract: robot/cycle.py).
 
-It answers a pacer's questions and runs the same sequence as an arm's RobotCycle (receive,
-drive, the world's step, publish, complete), so robot/world_cycle.py and the server's driver
-run it beside the arms: the base's state carries the world's message_id. What its drive gives
-the physics is the base's planar pose (x, y, yaw), which `physics` (a follower with
+It runs the same sequence as an arm's part (receive, drive, the world's step, publish,
+complete), so the base's state carries the world's message_id. What its drive gives the
+physics is the base's planar pose (x, y, yaw), which `physics` (a follower with
 `command(x, y, yaw)`: physics/mobile_base.py) puts the base's body at before the step, so the
 arms on it ride along.
 """
 
 from __future__ import annotations
 
+from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.cycle import NO_REPLIES, PacerQuestions, Released, Replies
-from franka_sim.robot.mobile_base import BaseCore
 
 
 class StandingStill:
@@ -22,33 +21,34 @@ class StandingStill:
 
 
 class BaseCycle(PacerQuestions):
+    tool_busy = False  # a base has no tool
+
     def __init__(self, core: BaseCore, physics=None) -> None:
         self.core = core
         self.physics = physics if physics is not None else StandingStill()
         self.completed_id = 0
-        self.recorder = None
+        self.taps = None  # the recording's taps for the base (recording), or None
 
-    # -- questions a pacer asks (and PacerQuestions') ------------------------------------------
     @property
     def busy(self) -> bool:
         return self.core.busy
-
-    hand_busy = False  # a base has no Hand
 
     @property
     def at_rest(self) -> bool:
         return not self.core.busy
 
-    # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
-        return self.core.receive_command(command)
+        on_time = self.core.receive_command(command)
+        if self.taps is not None:
+            self.taps.command(command, on_time)
+        return on_time
 
-    def drive(self) -> tuple[float, float, float]:
-        return self.core.release_cycle()
+    def drive(self) -> None:
+        self.physics.command(*self.core.release_cycle())
 
     def release(self) -> Released:
         """Alone (no arms: tests): the base moves, its body follows, the state is packed."""
-        self.physics.command(*self.drive())
+        self.drive()
         return self.publish()
 
     def publish(self) -> Released:
@@ -62,4 +62,4 @@ class BaseCycle(PacerQuestions):
     def complete(self, released: Released) -> Replies:
         self.completed_id = released.message_id
         replies = self.core.take_replies()
-        return Replies(replies, [], None) if replies else NO_REPLIES
+        return Replies(replies) if replies else NO_REPLIES

@@ -76,6 +76,11 @@ class CommandWindow:
         return command
 
     @property
+    def holds_command(self) -> bool:
+        """A command arrived that the window's close has still to apply."""
+        return self._latest is not None
+
+    @property
     def success_rate(self) -> float:
         if not self._history:
             return 0.0

@@ -1,73 +1,77 @@
-"""One arm's control cycle, sans-IO: release it, send its state, complete it.
+"""The contract of a control cycle, sans-IO: what the server's clock runs, and what each robot
+of a world contributes to it.
 
-This is the only place the sequence of a cycle is written; the server's cycle thread, the test
-harness and the benchmarks all run it through `RobotCycle`:
+A world cycle (`Cycle`, robot/world_cycle.py) is what the cycle thread runs, for a world of one
+arm as for several arms and a mobile base. Each robot has its part (`RobotPart`: an arm's
+robot/arm_cycle.py, the base's robot/base_cycle.py), run in a fixed order around the world's
+one physics step:
 
-1. `receive(command)` for each RobotCommand that arrived (an on-time answer closes the open
-   cycle's command window at once);
-2. `release()`: the core closes the window if still open and says what the drives do
-   (`drive`), the physics steps once (with the Hand's finger command), the desired-side
-   kinematics are taken at q_d when a generator sets it, and the core packs the RobotState
-   (`publish`);
-3. the caller sends the state;
-4. `complete(released)`: the Hand advances on the new finger reading, the part of the physics
-   step that no reading needed is done, the log-only limit checks run, and the replies the cycle
-   produced (robot and Hand) are handed back to be written to TCP.
+1. `receive(robot, command)` for each RobotCommand that arrived, tagged with the robot's index
+   (an on-time answer closes that robot's open command window at once);
+2. `release()`: every robot's part says what its body does in the next step (`drive`), the world
+   steps once, every part publishes its state (`publish`); or `repeat()`: the world left as it
+   is, each robot's last state again under the next message_id; or `hold()`: the same while a
+   motion awaits its client's first command (None when it cannot: step instead);
+3. the caller sends the states;
+4. `complete(released)`: the part of the step no client waits for, each robot's tools and
+   replies, handed back to be written to TCP.
 
-Work that a client does not wait for comes after the send, so a lockstep client gets its state
-as early as possible; doing it later gives the same bits (physics/world.py, "Step
-structure"). Time is the cycle number; no clock is read here.
+Time is the cycle number; nothing here reads a clock. Whoever runs a cycle asks it the
+questions in `PacerQuestions` to decide when the next one goes (server/clock.py).
 """
 
 from __future__ import annotations
 
-import logging
-from dataclasses import dataclass
+from typing import Protocol
 
-from franka_sim.physics.backend import Backend, Measured
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.gripper import Gripper
-from franka_sim.thinned_log import worth_logging
-
-log = logging.getLogger(__name__)
+from franka_sim.physics.backend import Measured
 
 
 class Released:
-    """A released cycle: its message_id, its RobotState bytes (None: packing failed, nothing
-    to send), and the measurement it published. (A slotted class: a frozen dataclass costs
-    ~1 µs more per cycle to build.)"""
+    """A released cycle of one robot: its message_id, its RobotState bytes (None: packing
+    failed, nothing to send), and the measurement it published. (A slotted class: a frozen
+    dataclass costs ~1 µs more per cycle to build.)"""
 
     __slots__ = ("message_id", "state", "measured")
 
-    def __init__(self, message_id: int, state: bytes | None, measured: Measured) -> None:
+    def __init__(self, message_id: int, state: bytes | None, measured: Measured | None) -> None:
         self.message_id, self.state, self.measured = message_id, state, measured
 
 
-@dataclass(frozen=True)
 class Replies:
-    """What a completed cycle leaves to write: robot replies, Hand replies, a GripperState."""
+    """What one robot's completed cycle leaves to write: the robot's TCP replies, and each of
+    its tools' (replies, state or None), in the order of its tools."""
 
-    robot: list[bytes]
-    hand: list[bytes]
-    hand_state: bytes | None
+    __slots__ = ("robot", "tools")
+
+    def __init__(self, robot: list[bytes], tools: tuple = ()) -> None:
+        self.robot, self.tools = robot, tools
 
     def __bool__(self) -> bool:
-        return bool(self.robot or self.hand or self.hand_state)
+        return bool(self.robot) or any(replies or state is not None
+                                       for replies, state in self.tools)
 
     def then(self, later: "Replies") -> "Replies":
-        """These replies and a later cycle's, to go out together after the later state (its
-        GripperState only: an earlier one would reach a client late)."""
-        return Replies(self.robot + later.robot, self.hand + later.hand, later.hand_state)
+        """These replies and a later cycle's, to go out together after the later state (a
+        tool's later state only: an earlier one would reach a client late)."""
+        if not self.tools:
+            tools = later.tools
+        elif not later.tools:
+            tools = tuple((replies, None) for replies, _ in self.tools)
+        else:
+            tools = tuple((replies + later_replies, later_state) for (replies, _), (
+                later_replies, later_state) in zip(self.tools, later.tools))
+        return Replies(self.robot + later.robot, tools)
 
 
-NO_REPLIES = Replies([], [], None)  # what most cycles leave: shared, never written to
+NO_REPLIES = Replies([])  # what most cycles leave: shared, never written to
 
 
 class PacerQuestions:
-    """What a pacer asks of a robot's cycle, answered from its core (`self.core`): shared by an
-    arm's RobotCycle and the mobile base's BaseCycle."""
+    """What a clock asks of one robot's cycle, answered from its core (`self.core`, an
+    robot/fci.py FciRobot): shared by every robot kind's part."""
 
-    core: RobotCore
+    core = None
 
     @property
     def message_id(self) -> int:
@@ -81,7 +85,7 @@ class PacerQuestions:
 
     @property
     def lockstep_applies(self) -> bool:
-        """The client answers every state now, so a lockstep pacer may wait for it."""
+        """The client answers every state now, so a lockstep clock may wait for it."""
         return self.core.streams_commands
 
     @property
@@ -94,110 +98,68 @@ class PacerQuestions:
         """A client's motion runs (its commands, not the robot alone, decide what comes next)."""
         return self.core.motion_running
 
+    @property
+    def awaiting_first_command(self) -> bool:
+        """A streamed motion runs whose client has sent no command yet."""
+        return self.core.awaiting_first_command
 
-class RobotCycle(PacerQuestions):
-    def __init__(self, core: RobotCore, physics: Backend, hand: Gripper | None = None, *,
-                 hand_state_wanted=lambda: True) -> None:
-        self.core = core
-        self.physics = physics
-        self.hand = hand
-        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
-        self._failures = 0
-        self._measured = None  # the last step's measurement
-        self._unchanged = False  # the last step handed back the one before (physics at rest)
-        self._q_d = None  # the desired q of the cycle being released (None: no generator)
-        self.completed_id = 0  # the last completed cycle's message_id
-        self.recorder = None  # recording.Recorder, when the run is recorded
 
-    # -- questions a pacer asks (and PacerQuestions') ------------------------------------------
+class RobotPart(Protocol):
+    """One robot's part of a world cycle (an arm's, the base's)."""
+
+    core: object  # its robot/fci.py FciRobot
+    completed_id: int  # the last completed cycle's message_id
+
     @property
     def busy(self) -> bool:
-        """Something is under way that ends by itself: a motion, a recovery, a lost client's
-        motion stopping, a Hand action."""
-        return self.core.busy or self.hand_busy
+        """Something is under way that ends by itself (a motion, a recovery, a tool's action)."""
 
     @property
-    def hand_busy(self) -> bool:
-        """A Hand action runs (a client may watch it and stop it)."""
-        hand = self.hand
-        return hand is not None and not hand.idle
+    def tool_busy(self) -> bool:
+        """One of its tools runs an action a client may watch (and stop)."""
 
     @property
     def at_rest(self) -> bool:
-        """The next cycle would change nothing but message_id: no motion or recovery under way,
-        the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
-        change nothing hands back the last measurement itself, physics "Rest")."""
-        hand = self.hand
-        return self._unchanged and self.core.settled and (hand is None or hand.idle)
+        """The next cycle would change nothing of this robot but message_id."""
 
-    # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
         """A decoded RobotCommand; True if it answered the open cycle in time."""
-        on_time = self.core.receive_command(command)
-        if self.recorder is not None:
-            self.recorder.command(command, on_time)
-        return on_time
 
-    def release(self) -> Released:
-        self.physics.step(*self.drive())
-        return self.publish()
-
-    def drive(self) -> tuple:
-        """The first half of `release`: the core closes the window and says what the drives
-        do; (joint command, finger command or None) for the physics. (A world of several arms
-        gives each arm its command, steps once, then has each cycle `publish`.)"""
-        core = self.core
-        joint_command = core.release_cycle()
-        self._q_d = core.desired_q
-        return joint_command, (None if self.hand is None else self.hand.command)
+    def drive(self) -> None:
+        """Say what its body does in the world's next step (closes the command window)."""
 
     def publish(self) -> Released:
-        """The second half, once the physics stepped: the state from the new measurement."""
-        core, physics, q_d = self.core, self.physics, self._q_d
-        measured = physics.measure()
-        self._unchanged = measured is self._measured
-        self._measured = measured
-        kinematics = None if q_d is None else physics.flange_pose_and_jacobian(q_d)
-        try:
-            state = core.publish(measured, kinematics)
-        except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
-            self._failed()
-            state = None
-        if self.recorder is not None:
-            self.recorder.released(core.message_id)
-        return Released(core.message_id, state, measured)
+        """Once the world stepped: its state from the new measurement."""
 
     def repeat(self) -> Released:
-        """A cycle that leaves the world as it is: the last state again under the next
-        message_id, nothing stepped (complete it as any other). At rest it is the cycle that
-        stepping would give, bit for bit."""
-        core = self.core
-        state = core.republish()
-        return Released(core.message_id, state, self._measured)
+        """Its last state again under the next message_id, nothing stepped."""
 
     def complete(self, released: Released) -> Replies:
-        """After the state has left: the Hand, the rest of the step, the log-only checks. A
-        cycle whose state could not be packed leaves its replies for the next one's state."""
-        core, hand = self.core, self.hand
-        robot_replies, hand_replies, hand_state = [], [], None
-        if released.state is not None:
-            robot_replies = core.take_replies()
-            if hand is not None:
-                try:
-                    hand.advance(released.message_id, released.measured.fingers)
-                    hand_replies = hand.take_replies()
-                    if hand.state_due(released.message_id) and self.hand_state_wanted():
-                        hand_state = hand.pack_state(released.message_id)
-                except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
-                    self._failed()
-        self.physics.finish_step()
-        core.run_deferred_checks()
-        self.completed_id = released.message_id
-        if robot_replies or hand_replies or hand_state is not None:
-            return Replies(robot_replies, hand_replies, hand_state)
-        return NO_REPLIES
+        """After the state has left: its tools, the rest of the step, its replies."""
 
-    def _failed(self) -> None:
-        self._failures += 1
-        if worth_logging(self._failures):
-            log.exception("cycle %d failed (%d so far)", self.core.message_id, self._failures)
+
+class Cycle(Protocol):
+    """A world's control cycle (robot/world_cycle.py), as a clock runs it."""
+
+    message_id: int
+    in_motion: bool
+    lockstep_applies: bool
+    first_motion_state: bool
+    client_driven: bool
+    busy: bool
+    tool_busy: bool
+    at_rest: bool
+    holds_start: bool
+    waits_for: frozenset[int]
+
+    def receive(self, robot: int, command) -> bool:
+        """True when it was the last answer the open state waited for."""
+
+    def release(self): ...
+
+    def repeat(self): ...
+
+    def hold(self):
+        """repeat() while a motion awaits its client's first command; None: release instead."""
+
+    def complete(self, released): ...

@@ -128,9 +128,9 @@ class Session:
                                       version=service.version)
 
 
-def robot_session(handler) -> Session:
-    """The robot's conversation: requests go to a RequestHandler."""
-    return Session(ROBOT, handler.handle)
+def robot_session(robot) -> Session:
+    """The robot's conversation: requests go to the robot (robot/fci.py: an arm or a base)."""
+    return Session(ROBOT, robot.handle)
 
 
 def gripper_session(gripper) -> Session:

@@ -1,142 +1,170 @@
-"""The cycle of a world of several arms, sans-IO: every arm's cycle, around one physics step.
+"""A world's control cycle, sans-IO: every robot's part around one physics step.
 
-Each arm is a whole robot (its own core, Hand, commands and replies: robot/cycle.py); what they
-share is the world, so they share its clock. A world cycle gives every arm its command
-(`RobotCycle.drive`), steps the world once, and has every arm publish its state
-(`RobotCycle.publish`): all arms' states of a cycle carry the same message_id and show the same
-instant, so contact between two arms is seen by both in the same cycle.
+A world holds one arm, several arms, or arms on a mobile base; each robot is a whole robot (its
+own core, tools, commands and replies: robot/arm_cycle.py, robot/base_cycle.py), and what they
+share is the world, so they share its clock. A world cycle has every robot's part say what its
+body does (`drive`), steps the world once, and has every part publish its state (`publish`): all
+states of a cycle carry the same message_id and show the same instant, so contact between two
+arms is seen by both in the same cycle. A world of one arm is the same cycle with one part.
 
-`WorldCycle` answers a pacer's questions as one robot would (server/cycle_driver.py runs it
-exactly as it runs one arm's cycle): a client motion anywhere makes the world client-driven,
-and in lockstep the next cycle waits for the answers of every arm whose client streams
-commands. An arm whose motion has just started (libfranka never answers that first state) is
-not waited for while another streams; alone, it sets the pace as a lone arm's would.
+`WorldCycle` answers a clock's questions as one robot would (server/clock.py): a client motion
+anywhere makes the world client-driven, and in lockstep the next cycle waits for the answers of
+every robot whose client streams commands (`waits_for`: the one answer to "whom does lockstep
+wait for", which the network faults ask too). A robot whose motion has just started (libfranka
+never answers that first state) is not waited for while another streams; alone, it sets the
+pace as a lone robot's would.
 """
 
 from __future__ import annotations
 
 from typing import Callable, Sequence
 
-from franka_sim.robot.cycle import NO_REPLIES, Released, Replies, RobotCycle
+from franka_sim.robot.cycle import NO_REPLIES, Released, Replies, RobotPart
 
 
 class WorldReleased:
-    """A released world cycle: its message_id, one Released per arm, and their states (a
-    tuple, one per arm, None where packing failed) for the sender."""
+    """A released world cycle: its message_id, one Released per robot, and their states (one
+    per robot, None where packing failed) for the sender."""
 
-    __slots__ = ("message_id", "arms", "state")
+    __slots__ = ("message_id", "robots", "states")
 
-    def __init__(self, arms: tuple[Released, ...]) -> None:
-        self.arms = arms
-        self.message_id = arms[0].message_id
-        self.state = tuple(released.state for released in arms)
+    def __init__(self, robots: tuple[Released, ...]) -> None:
+        self.robots = robots
+        self.message_id = robots[0].message_id
+        self.states = tuple(released.state for released in robots)
 
 
 class WorldReplies:
-    """What a completed world cycle leaves to write, one Replies per arm (by position)."""
+    """What a completed world cycle leaves to write, one Replies per robot (by index)."""
 
-    __slots__ = ("arms",)
+    __slots__ = ("robots",)
 
-    def __init__(self, arms: tuple[Replies, ...]) -> None:
-        self.arms = arms
+    def __init__(self, robots: tuple[Replies, ...]) -> None:
+        self.robots = robots
 
     def __bool__(self) -> bool:
-        return any(self.arms)
+        return any(self.robots)
 
     def then(self, later: "WorldReplies") -> "WorldReplies":
-        return WorldReplies(tuple(a.then(b) for a, b in zip(self.arms, later.arms)))
+        return WorldReplies(tuple(a.then(b) for a, b in zip(self.robots, later.robots)))
 
 
 class WorldCycle:
-    """The arms' cycles (in a fixed order: a world cycle runs them in it, so the same command
+    """The robots' parts (in a fixed order: a world cycle runs them in it, so the same command
     streams give the same bits) and `step`, the world's one physics step."""
 
-    def __init__(self, cycles: Sequence[RobotCycle], step: Callable[[], None]) -> None:
-        if len(cycles) < 2:
-            raise ValueError("a world cycle is for several arms (one arm: its RobotCycle)")
-        self.cycles = tuple(cycles)
+    def __init__(self, parts: Sequence[RobotPart], step: Callable[[], None]) -> None:
+        if not parts:
+            raise ValueError("a world cycle needs a robot")
+        self.parts = tuple(parts)
         self.step = step
         # Whom the open state waits for (lockstep), by robot index: `waits_for` as released,
         # `_awaited` those of them that have not answered yet.
         self.waits_for: frozenset[int] = frozenset()
         self._awaited: set[int] = set()
-        self._nothing = WorldReplies(tuple(NO_REPLIES for _ in self.cycles))
+        self.nothing = WorldReplies(tuple(NO_REPLIES for _ in self.parts))
 
-    # -- questions a pacer asks, about the world -------------------------------------------------
+    # -- questions a clock asks, about the world -------------------------------------------------
     @property
     def message_id(self) -> int:
-        return self.cycles[0].message_id
+        return self.parts[0].message_id
 
     @property
     def in_motion(self) -> bool:
-        return any(c.in_motion for c in self.cycles)
+        return any(p.in_motion for p in self.parts)
 
     @property
     def lockstep_applies(self) -> bool:
-        return any(c.lockstep_applies and not c.first_motion_state for c in self.cycles)
+        return any(p.lockstep_applies and not p.first_motion_state for p in self.parts)
 
     @property
     def first_motion_state(self) -> bool:
-        """A motion's first state is out and no other arm's client streams: the next goes one
-        period after it, as for a lone arm."""
-        return (any(c.first_motion_state for c in self.cycles)
+        """A motion's first state is out and no other robot's client streams: the next goes one
+        period after it, as for a lone robot."""
+        return (any(p.first_motion_state for p in self.parts)
                 and not self.lockstep_applies)
 
     @property
     def client_driven(self) -> bool:
-        return any(c.client_driven for c in self.cycles)
+        return any(p.client_driven for p in self.parts)
 
     @property
     def busy(self) -> bool:
-        return any(c.busy for c in self.cycles)
+        return any(p.busy for p in self.parts)
 
     @property
-    def hand_busy(self) -> bool:
-        return any(c.hand_busy for c in self.cycles)
+    def tool_busy(self) -> bool:
+        return any(p.tool_busy for p in self.parts)
 
     @property
     def at_rest(self) -> bool:
-        return all(c.at_rest for c in self.cycles)
+        return all(p.at_rest for p in self.parts)
+
+    @property
+    def holds_start(self) -> bool:
+        """Some robot's motion awaits its client's first command and nothing else is under
+        way: lockstep may hold the world until it comes (`hold`)."""
+        waiting = False
+        for part in self.parts:
+            if part.awaiting_first_command and not part.tool_busy:
+                waiting = True
+            elif part.busy:
+                return False
+        return waiting
 
     # -- the cycle -------------------------------------------------------------------------------
-    def receive(self, arm_command: tuple[int, object]) -> bool:
-        """(arm index, decoded RobotCommand); True when it was the last answer the open state
+    def receive(self, robot: int, command) -> bool:
+        """Robot `robot`'s decoded RobotCommand; True when it was the last answer the open state
         waited for."""
-        index, command = arm_command
-        if not self.cycles[index].receive(command):
+        if not self.parts[robot].receive(command):
             return False
         awaited = self._awaited
-        if index not in awaited:
+        if robot not in awaited:
             return False
-        awaited.discard(index)
+        awaited.discard(robot)
         return not awaited
 
     def release(self) -> WorldReleased:
-        for cycle in self.cycles:
-            cycle.physics.command(*cycle.drive())
+        for part in self.parts:
+            part.drive()
         self.step()
-        released = WorldReleased(tuple(cycle.publish() for cycle in self.cycles))
+        released = WorldReleased(tuple(part.publish() for part in self.parts))
         self._await()
         return released
 
     def repeat(self) -> WorldReleased:
-        released = WorldReleased(tuple(cycle.repeat() for cycle in self.cycles))
+        released = WorldReleased(tuple(part.repeat() for part in self.parts))
         self._await()
         return released
 
+    def hold(self) -> WorldReleased | None:
+        """A motion awaits its client's first command: its window closes as at any release
+        (the miss is counted, and enforcement may end the motion); while that changes nothing,
+        the world is left as it is and each robot's last state goes again under the next
+        message_id (its motion's window open for it). None: something changed, release.
+
+        libfranka reads a state or two after the motion's first before it answers one, and how
+        many depends on how fast the client runs; holding the world meanwhile makes its first
+        command meet the same world in every run (a lockstep clock's choice, server/clock.py)."""
+        for part in self.parts:
+            if part.awaiting_first_command:
+                part.core.release_cycle()
+        if not self.holds_start:
+            return None
+        return self.repeat()
+
     def complete(self, released: WorldReleased) -> WorldReplies:
-        replies = tuple(cycle.complete(arm) for cycle, arm in zip(self.cycles, released.arms))
+        replies = tuple(part.complete(robot) for part, robot in zip(self.parts, released.robots))
         if any(replies):
             return WorldReplies(replies)
-        return self._nothing
+        return self.nothing
 
     def _await(self) -> None:
         """Whose answers the state just released waits for: every robot whose client streams;
-        with none, the robots whose motion's first state it is (an answer is taken at once).
-        The one answer to that question: the faults ask it too (`waits_for`)."""
-        cycles = self.cycles
-        awaited = {i for i, c in enumerate(cycles)
-                   if c.lockstep_applies and not c.first_motion_state}
-        awaited = awaited or {i for i, c in enumerate(cycles) if c.first_motion_state}
+        with none, the robots whose motion's first state it is (an answer is taken at once)."""
+        parts = self.parts
+        awaited = {i for i, p in enumerate(parts)
+                   if p.lockstep_applies and not p.first_motion_state}
+        awaited = awaited or {i for i, p in enumerate(parts) if p.first_motion_state}
         self.waits_for = frozenset(awaited)
         self._awaited = awaited

@@ -24,7 +24,7 @@ from franka_sim.physics.bodies import NotFree, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
-from franka_sim.robot.core import RobotCore
+from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.gripper import NOMINAL_MAX_WIDTH, Gripper
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -86,7 +86,7 @@ class ControlOps:
     """The control operations on one simulated arm, its Hand (None: none) and its world (whose
     bodies every arm's API sees alike)."""
 
-    def __init__(self, *, core: RobotCore, gripper: Gripper | None, driver: CycleDriver,
+    def __init__(self, *, core: ArmCore, gripper: Gripper | None, driver: CycleDriver,
                  worker: CycleThread, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None) -> None:
@@ -354,3 +354,32 @@ class ControlOps:
         if self.network_faults is None:
             raise NotFound("this simulator cannot inject network faults")
         return self.network_faults
+
+
+class BaseOps:
+    """The base's control operations: what it is doing, nothing that changes the world."""
+
+    def __init__(self, core, lock: threading.Lock, clock: str, client_connected,
+                 worker: CycleThread) -> None:
+        self.core, self.lock, self.clock = core, lock, clock
+        self.client_connected, self.worker = client_connected, worker
+
+    def health(self) -> dict:
+        refuse_if_failed(self.worker)
+        core = self.core
+        return {"ready": True, "mobile_base": True, "clock": self.clock,
+                "cycle": core.message_id, "client_connected": self.client_connected(),
+                "robot_mode": mode_name(core.robot_mode)}
+
+    async def state(self) -> dict:
+        with self.lock:
+            core, drive = self.core, self.core.drive
+            return {"q": list(drive.q), "dq": list(drive.dq),
+                    "pose": {"x": drive.x, "y": drive.y, "yaw": drive.yaw},
+                    "twist": {"vx": drive.vx, "vy": drive.vy, "wz": drive.wz},
+                    "robot_mode": mode_name(core.robot_mode), "cycle": core.message_id}
+
+    async def _none(self, *args, **kwargs):
+        raise NotFound("the mobile base's control API serves /health and /state only")
+
+    reset = bodies = pose = set_pose = push = _none

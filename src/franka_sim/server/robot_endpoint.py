@@ -1,7 +1,7 @@
 """The TCP side of the robot (port 1337): one client at a time, as on the real FCI.
 
 The FR3 allows a single FCI connection; a second client is closed at once (see single_client.py
-and docs/deviations.md), unless the first has fallen silent mid-motion (RobotCore.client_silent).
+and docs/deviations.md), unless the first has fallen silent mid-motion (ArmCore.client_silent).
 """
 
 from __future__ import annotations

@@ -1,13 +1,28 @@
-"""What every robot of the world does with its address: open its endpoints (all or none),
-name them in errors, serve its control API, close them, and follow its FCI client.
+"""One robot of the world on its own address, whatever its kind (an arm, the mobile base): its
+FCI endpoints (TCP 1337 + UDP), its tool's endpoint (the Franka Hand on 1338, an arm's), its
+control API, opened all or none, and the FCI client it follows.
 
-An arm (server/arm_server.py) and the mobile base (server/base_server.py) are both robots on
-an address of their own; each names itself (`label`) and says what it has (`gripper`).
+What a robot has of its own comes from its parts (assembly.py: `ArmParts`, `BaseParts`): its
+core, its tools, its sessions, its name. What the robots share (the cycle thread and its world,
+the lock, the driver that paces the world's cycles) is FrankaSim's (server/sim.py), which wires
+them.
 """
 
 from __future__ import annotations
 
 import errno
+import logging
+import threading
+
+from franka_sim.robot.session import Session
+from franka_sim.server.control_ops import BaseOps, ControlOps
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.cycle_thread import CycleThread
+from franka_sim.server.gripper_endpoint import GripperEndpoint
+from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.udp_endpoint import UdpEndpoint
+
+log = logging.getLogger(__name__)
 
 
 class AddressInUse(OSError):
@@ -15,11 +30,45 @@ class AddressInUse(OSError):
 
 
 class RobotServer:
-    """The shared part. A subclass sets `label` ("arm left", "mobile base"), `host`,
-    `config`, `core`, `lock`, `driver`, `udp`, `robot`, `control`, `gripper` (None: no Hand)
-    and, with a Hand, `gripper_endpoint`; and `_control_api = None`."""
+    """Robot `index` of the world (its `parts`); `driver`, `worker`, `lock`: the world's;
+    `faults`: the world's NetworkFaults (its control API sets this robot's)."""
 
-    label: str
+    def __init__(self, parts, index: int, *, config, driver: CycleDriver, worker: CycleThread,
+                 lock: threading.Lock, faults=None) -> None:
+        self.parts, self.index, self.config = parts, index, config
+        self.name, self.host, self.label = parts.name, parts.host, parts.label
+        self.driver, self.lock = driver, lock
+        self.core, self.gripper = parts.core, parts.gripper
+        self.udp = UdpEndpoint()
+        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
+                                   defer_replies=driver.after_next_state, lock=lock,
+                                   replaceable=self._client_silent,
+                                   on_request=driver.client_event)
+        self.gripper_endpoint = None
+        if self.gripper is not None:
+            self.gripper_endpoint = GripperEndpoint(
+                self._make_gripper_session, self._on_gripper_disconnect, lock=lock,
+                on_request=driver.client_event)
+        connected = lambda: self.robot.active is not None  # noqa: E731
+        if parts.kind == "arm":
+            self.control = ControlOps(
+                core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
+                description=parts.description, q0=parts.q0, clock=config.clock.value,
+                client_connected=connected, arm=self.name, arm_index=index, faults=faults)
+        else:
+            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker)
+        self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+
+    def describe(self) -> str:
+        """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
+        config = self.config
+        parts = [self.label]
+        if self.parts.kind == "arm":
+            parts.append(f"Franka Hand on {config.gripper_port}" if self.gripper is not None
+                         else "no gripper")
+        parts.append(f"control API on {config.control_port}" if config.control_port
+                     else "no control API")
+        return "serving on {}:{} ({}".format(self.host, config.robot_port, "; ".join(parts))
 
     # -- lifecycle -------------------------------------------------------------------------------
     async def start(self) -> None:
@@ -35,7 +84,7 @@ class RobotServer:
             except OSError as exc:
                 raise OSError(exc.errno, f"{self.label}: no UDP socket on {host}: "
                               f"{exc.strerror}") from exc
-            if self.gripper is not None:
+            if self.gripper_endpoint is not None:
                 await self._open(self.gripper_endpoint.start(host, config.gripper_port),
                                  config.gripper_port, " (gripper)")
                 opened.append(self.gripper_endpoint.stop)
@@ -72,14 +121,38 @@ class RobotServer:
 
     async def stop_endpoints(self) -> None:
         await self.robot.stop()
-        if self.gripper is not None:
+        if self.gripper_endpoint is not None:
             await self.gripper_endpoint.stop()
 
     def has_client(self) -> bool:
         return self.robot.active is not None or (
-            self.gripper is not None and self.gripper_endpoint.active is not None)
+            self.gripper_endpoint is not None and self.gripper_endpoint.active is not None)
 
-    # -- the FCI endpoint's callbacks -------------------------------------------------------------
+    # -- the cycle -------------------------------------------------------------------------------
+    def hand_state_wanted(self) -> bool:
+        """A Hand client takes GripperStates (its handshake said where)."""
+        endpoint = self.gripper_endpoint
+        return endpoint is not None and endpoint.state_target is not None
+
+    def deliver(self, replies) -> None:
+        """A cycle's replies (robot/cycle.py Replies), on the loop, once its state has left."""
+        for reply in replies.robot:
+            self.robot.send(reply)
+        for hand_replies, hand_state in replies.tools:
+            for reply in hand_replies:
+                self.gripper_endpoint.send(reply)
+            if hand_state is not None:
+                self.gripper_endpoint.send_state(hand_state)
+
+    # -- the endpoints' callbacks ----------------------------------------------------------------
+    def _make_session(self) -> Session:
+        self.driver.resume()  # a paused clock starts again for the newcomer
+        return self.parts.robot_session()
+
+    def _make_gripper_session(self) -> Session:
+        self.driver.resume()
+        return self.parts.gripper_session()
+
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
         self.udp.target = (peer_ip, udp_port)
         self.core.client_connected()
@@ -91,4 +164,8 @@ class RobotServer:
     def _on_disconnect(self) -> None:
         self.udp.target = None
         self.core.client_gone()
+        self.driver.client_event()
+
+    def _on_gripper_disconnect(self) -> None:
+        self.gripper.client_gone()
         self.driver.client_event()

@@ -1,11 +1,11 @@
-"""FrankaSim: a simulated world of one or several FR3 arms, usable as `async with FrankaSim(...)`.
+"""FrankaSim: a simulated world of one or several FR3 arms (and a mobile base), usable as
+`async with FrankaSim(...)`.
 
 It wires the pieces and nothing else: description + scene → the cycle thread (which owns the
-world's physics), one ArmServer per arm (its robot core, Hand, endpoints and control API on its
-own address: server/arm_server.py), the world's cycle and the driver that paces it. With one
-arm the driver runs that arm's RobotCycle; with several, a WorldCycle (robot/world_cycle.py)
-around one physics step for all. Works on any asyncio loop (uvloop is the CLI's choice, not a
-requirement here).
+world's physics), one RobotServer per robot (its core, tools, endpoints and control API on its
+own address: server/robot_server.py), the world's cycle (robot/world_cycle.py: every robot's
+part around one physics step; a world of one arm is a world too) and the driver that paces it.
+Works on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
 """
 
 from __future__ import annotations
@@ -16,13 +16,10 @@ import threading
 
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
-from franka_sim.physics.mujoco_backend import ArmBackend
-from franka_sim.server.arm_server import ArmServer
-from franka_sim.server.base_server import BaseServer
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.robot_server import AddressInUse
 from franka_sim.server.faults import NetworkFaults, parse_spec
+from franka_sim.server.robot_server import AddressInUse, RobotServer
 
 __all__ = ["AddressInUse", "FrankaSim"]
 
@@ -43,49 +40,33 @@ class FrankaSim:
         # TCP request): whoever touches them holds this lock (see cycle_driver.py).
         self.lock = threading.Lock()
         self.worker = CycleThread(parts.make_physics)
-        one = len(parts.arms) == 1 and parts.base is None
+        self.network_faults = NetworkFaults(seed=config.seed)
         self.driver = CycleDriver(
-            self._make_cycle, self.worker, self.lock, self._send_states,
-            lockstep=config.clock is ClockMode.lockstep, deliver=self._deliver,
-            has_client=self._has_client, poll_commands=self._poll,
-            command_socket=(lambda: self.arms[0].udp.sock) if one else
-            (lambda: tuple(robot.udp.sock for robot in self.robots)),
-        )
-        self.network_faults = NetworkFaults(self.driver, seed=config.seed)
-        self.arms = [
-            ArmServer(arm_parts, i, driver=self.driver, worker=self.worker, lock=self.lock,
-                      faults=self.network_faults,
-                      on_command=self.driver.receive if one else
-                      (lambda command, i=i: self.driver.receive((i, command))))
-            for i, arm_parts in enumerate(parts.arms)]
+            self._make_cycle, self.worker, self.lock, deliver=self._deliver,
+            lockstep=config.clock is ClockMode.lockstep, has_client=self._has_client,
+            watcher=self.network_faults)
         # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
-        self.robots = list(self.arms)
-        self.base = None
-        if parts.base is not None:
-            index = len(self.arms)
-            self.base = BaseServer(parts.base, config.mobile_base, config, driver=self.driver,
-                                   worker=self.worker, lock=self.lock, on_command=lambda command:
-                                   self.driver.receive((index, command)))
-            self.robots.append(self.base)
-        if one:  # the one arm's own endpoints, without a per-cycle loop over a list
-            self.driver.send_state = self.arms[0].udp.send_state
-            self.driver.deliver = self.arms[0].deliver
-            self.driver.poll_commands = self.arms[0].udp.poll
-        self.network_faults.wire(robot.udp for robot in self.robots)
+        self.robots = [
+            RobotServer(robot_parts, i, config=config, driver=self.driver, worker=self.worker,
+                        lock=self.lock, faults=self.network_faults)
+            for i, robot_parts in enumerate(parts.robots)]
+        self.arms = [robot for robot in self.robots if robot.parts.kind == "arm"]
+        self.base = next((robot for robot in self.robots if robot.parts.kind == "base"), None)
+        self.network_faults.wire(self.driver, [robot.udp for robot in self.robots])
         if config.inject:  # FaultSpecError: said now, before anything is served
             spec = parse_spec(config.inject)
             for i in range(len(self.robots)):
                 self.network_faults.set(i, spec)
         self.recorder = None
         if config.record is not None:  # OSError: the target cannot be written
-            if not one:
+            if len(self.robots) > 1:
                 raise ValueError("--record records a world of one arm (several, or a mobile "
                                  "base: not supported)")
             from franka_sim.recording.taps import install_recorder
 
             self.recorder = install_recorder(self)
         self.recordings = None  # the control API's (recording/live.py): a world of one arm
-        if one:
+        if len(self.robots) == 1:
             from franka_sim.recording.live import LiveRecordings
 
             self.recordings = self.control.recordings = LiveRecordings(self)
@@ -101,12 +82,12 @@ class FrankaSim:
             for robot in self.robots:
                 await robot.start()
                 started.append(robot)
-            await self.driver.start()
+            await self.driver.start([robot.udp for robot in self.robots])
         except BaseException:
-            for arm in reversed(started):
-                await arm.stop_control_api()
-                await arm.stop_endpoints()
-                arm.udp.close()
+            for robot in reversed(started):
+                await robot.stop_control_api()
+                await robot.stop_endpoints()
+                robot.udp.close()
             await self.worker.stop()
             raise
         self._started = True
@@ -115,7 +96,7 @@ class FrankaSim:
         config = self.config
         for robot in self.robots:
             log.info("simulated %s %s; clock %s; scene %s)",
-                     "FR3" if robot in self.arms else "base", robot.describe(),
+                     "FR3" if robot.parts.kind == "arm" else "base", robot.describe(),
                      config.clock.value, self.scene)
         return self
 
@@ -178,12 +159,12 @@ class FrankaSim:
     def gripper_endpoint(self):
         return self.arms[0].gripper_endpoint
 
-    def arm(self, name: str) -> ArmServer:
+    def arm(self, name: str) -> RobotServer:
         """The arm of that name (KeyError: none)."""
         for arm in self.arms:
-            if arm.spec.name == name:
+            if arm.name == name:
                 return arm
-        raise KeyError(f"no arm named {name!r} ({', '.join(a.spec.name for a in self.arms)})")
+        raise KeyError(f"no arm named {name!r} ({', '.join(a.name for a in self.arms)})")
 
     # -- the control API's operations on the first arm (docs/control_api.md) ----------------------
     async def health(self) -> dict:
@@ -217,28 +198,17 @@ class FrankaSim:
         return await self.control.clear_faults()
 
     # -- the world's cycle -------------------------------------------------------------------------
-    def _make_cycle(self, physics: list[ArmBackend]):
-        cycle = self.parts.make_cycle(physics, [arm.hand_state_wanted for arm in self.arms])
+    def _make_cycle(self, physics: list):
+        cycle = self.parts.make_cycle(physics, [robot.hand_state_wanted for robot in self.robots])
         if self.recorder is not None:
-            cycle.recorder = self.recorder
             self.recorder.attach(cycle, physics[0])
         return cycle
 
-    def _send_states(self, states: tuple) -> None:
-        """Each arm's state of a world cycle to its client (None: packing failed)."""
-        for robot, state in zip(self.robots, states):
-            if state is not None:
-                robot.udp.send_state(state)
-
     def _deliver(self, replies) -> None:
-        """Each arm's replies of a world cycle, on the loop, once the states have left."""
-        for robot, robot_replies in zip(self.robots, replies.arms):
+        """Each robot's replies of a world cycle, on the loop, once the states have left."""
+        for robot, robot_replies in zip(self.robots, replies.robots):
             if robot_replies:
                 robot.deliver(robot_replies)
-
-    def _poll(self, *limit) -> None:
-        for robot in self.robots:
-            robot.udp.poll(*limit)
 
     def _has_client(self) -> bool:
         return any(robot.has_client() for robot in self.robots)

@@ -3,14 +3,15 @@
 States go to (client IP, the port it announced in Connect); libfranka answers from that same
 socket, so a datagram from any other address is not the client's and is dropped and counted.
 
-The event loop opens and closes the socket; the physics thread sends every state on it and reads
-the commands (`poll`) when a cycle needs them: at its deadline, and in lockstep as soon as the
-answer is there (the cycle thread watches the socket then). The loop never reads it: a
-datagram wakes one thread, the one that runs the cycle, and on a 2-core VM every further
-wake-up (a reader in the loop) cost more than a cycle's own work and, in lockstep, ~10 % of
-the speed, taking the interpreter from the thread that runs the cycle.
+The event loop opens and closes the socket; the cycle thread sends every state on it and reads
+the commands (`read`: the datagrams, decoded and checked, as commands the driver hands to the
+cycle) when a cycle needs them: at its deadline, and in lockstep as soon as the answer is there
+(the cycle thread watches the socket then). The loop never reads it: a datagram wakes one
+thread, the one that runs the cycle, and on a 2-core VM every further wake-up (a reader in the
+loop) cost more than a cycle's own work and, in lockstep, ~10 % of the speed, taking the
+interpreter from the thread that runs the cycle.
 
-With faults injected (server/faults/), `faults` is this arm's link: every state and every
+With faults injected (server/faults/), `faults` is this robot's link: every state and every
 command from the client passes through it, which drops, holds or lets it through; held
 commands reach the robot at the first read after their cycle came. Without, it is None and
 the path is as it was.
@@ -20,8 +21,6 @@ from __future__ import annotations
 
 import logging
 import socket
-from typing import Callable
-
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
 from franka_sim.thinned_log import worth_logging
@@ -32,14 +31,14 @@ MAX_READ = 64  # datagrams one poll takes at most (a flood is read over several 
 
 
 class UdpEndpoint:
-    def __init__(self, on_command: Callable[[object], None]) -> None:
-        self.on_command = on_command
+    def __init__(self) -> None:
         self.target: tuple[str, int] | None = None
         self.sock: socket.socket | None = None
         self.dropped_foreign = 0
         self.dropped_malformed = 0
         self.recorder = None  # recording.Recorder: every state sent, every datagram dropped
         self.faults = None  # faults.link.ArmLink while faults are injected (cycle thread only)
+        self.late: list = []  # commands faults held when they were cleared: the next read's
 
     def open(self, host: str) -> None:
         """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
@@ -87,25 +86,38 @@ class UdpEndpoint:
             except OSError as exc:
                 log.debug("state not sent: %s", exc)
 
-    def poll(self, limit: int = MAX_READ) -> None:
-        """Take the datagrams queued on the socket now (up to `limit`), from any thread."""
+    def read(self, limit: int = MAX_READ) -> list:
+        """The commands that arrived (up to `limit` datagrams read now), decoded and checked,
+        in order; from the cycle thread."""
         sock = self.sock
         if sock is None:
-            return
-        if self.faults is not None:
-            for command in self.faults.commands_due():
-                self.on_command(command)
+            return []
+        commands = []
+        if self.late:
+            commands, self.late = self.late, []
+        faults = self.faults
+        if faults is not None:
+            commands.extend(faults.commands_due())
         for _ in range(limit):
             try:
                 data, addr = sock.recvfrom(4096)
             except (BlockingIOError, InterruptedError):
-                return
+                break
             except OSError as exc:  # an ICMP error queued on the socket
                 log.debug("UDP error: %s", exc)
-                return
-            self.datagram_received(data, addr)
+                break
+            command = self.accept(data, addr)
+            if command is None:
+                continue
+            if faults is not None:
+                commands.extend(faults.command_in(command))
+            else:
+                commands.append(command)
+        return commands
 
-    def datagram_received(self, data: bytes, addr) -> None:
+    def accept(self, data: bytes, addr):
+        """The RobotCommand in a datagram, or None: not the client's, or malformed (dropped,
+        counted and logged)."""
         if self.target is None or tuple(addr[:2]) != self.target:
             self.dropped_foreign += 1
             if self.recorder is not None:
@@ -115,17 +127,12 @@ class UdpEndpoint:
                     "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
                     addr[0], addr[1], self.dropped_foreign,
                 )
-            return
+            return None
         try:
-            command = decode_command(data)
+            return decode_command(data)
         except ProtocolError as exc:
             self.dropped_malformed += 1
             if self.recorder is not None:
                 self.recorder.rejected(str(exc), addr, data)
             log.warning("dropped UDP datagram from the client: %s", exc)
-            return
-        if self.faults is not None:
-            for command in self.faults.command_in(command):
-                self.on_command(command)
-            return
-        self.on_command(command)
+            return None

@@ -4,7 +4,7 @@ Each check raises on a broken invariant (AssertionError) or lets an unexpected e
 either is a crash. The rejections the protocol allows are not: a decoder's `ProtocolError`, a
 session's `SessionError` (the server logs it and closes that connection). The session targets
 wire the real pieces as the server does (server/sim.py), minus the sockets and threads: a
-session over a RequestHandler and a RobotCore stepped by MuJoCo, or over the Hand.
+session over a ArmCore stepped by MuJoCo, or over the Hand.
 """
 
 from __future__ import annotations
@@ -30,10 +30,9 @@ from franka_sim.protocol.codec import (
 from franka_sim.protocol.enums import ConnectStatus, GripperConnectStatus, RobotMode
 from franka_sim.protocol.exceptions import DatagramSizeError, ProtocolError
 from franka_sim.protocol.framing import FrameReader, decode_request
-from franka_sim.robot.core import RobotCore
-from franka_sim.robot.cycle import RobotCycle
+from franka_sim.robot.arm_core import ArmCore
+from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.requests import RequestHandler
 from franka_sim.robot.session import GRIPPER, ROBOT, Service, Session, SessionError
 from franka_sim.testing.fuzz_inputs import (
     GRIPPER_WIRE,
@@ -105,9 +104,9 @@ class _Target:
         # (the server's default) applies it: an absurd one (|dq_c| ~ 1e300) makes MuJoCo
         # unstable, so the physics' stability is an invariant only under enforcement.
         self.stable_physics = enforce_motion_limits
-        self.core = RobotCore(_DESCRIPTION, np.array(READY_POSE),
+        self.core = ArmCore(_DESCRIPTION, np.array(READY_POSE), urdf=_URDF.encode(),
                               enforce_motion_limits=enforce_motion_limits)
-        self.cycle = RobotCycle(self.core, self._backend(), self._hand())
+        self.cycle = ArmCycle(self.core, self._backend(), self._hand())
         self.session: Session | None = None
         self.replies: list[bytes] = []
         self.step()
@@ -177,12 +176,12 @@ class _Target:
 
 
 class RobotTarget(_Target):
-    """Port 1337: a Session over a RequestHandler over a RobotCore, stepped by MuJoCo."""
+    """Port 1337: a Session over a ArmCore, stepped by MuJoCo."""
 
     wire, service, _success = ROBOT_WIRE, ROBOT, ConnectStatus.kSuccess.name
 
     def _session(self) -> Session:
-        return Session(ROBOT, RequestHandler(self.core, _URDF.encode()).handle)
+        return Session(ROBOT, self.core.handle)
 
     def _connected(self) -> None:
         self.core.client_connected()

@@ -10,29 +10,51 @@ control API job) or before the server starts, so a cycle never sees half a chang
 
 from __future__ import annotations
 
+from franka_sim.server.clock import ClockWatcher
 from franka_sim.server.faults.link import ArmLink
 from franka_sim.server.faults.plan import FaultPlan, check_seed
 from franka_sim.server.faults.spec import FaultSpec
 
 
-class NetworkFaults:
-    """`driver`: the world's CycleDriver (its `faults`, `cycle`); `seed`: the server's --seed;
-    then `wire` each robot's UdpEndpoint (its `faults`, `target`, `on_command`), in the world
-    cycle's order (the arms, then the mobile base)."""
+class NetworkFaults(ClockWatcher):
+    """`seed`: the server's --seed; then `wire` the world's CycleDriver (its `faults`, `cycle`)
+    and each robot's UdpEndpoint (its `faults`, `target`, `late`), in the world cycle's order
+    (the arms, then the mobile base). The world's clock tells it what it did (ClockWatcher),
+    from its start: the counts a fate's key and a report need."""
 
-    def __init__(self, driver, seed: int = 0) -> None:
-        self.driver, self.seed = driver, check_seed(seed)
+    def __init__(self, seed: int = 0) -> None:
+        self.seed = check_seed(seed)
+        self.driver = None
         self.endpoints: list = []
         self.links: list[ArmLink] = []
         self.seeds: list[int | None] = []
         self.attached = False
+        # Lockstep idle cycles that only repeated a state while a client lingered over the
+        # window: the one part of message_id that wall time decides. Fates are keyed on
+        # message_id less the count when the last motion started (so a motion's cycles get the
+        # same fates in every rehearsal, and idle states after it still get fates of their own).
+        self.repeats = 0
+        self.key_offset = 0  # `repeats` when the last motion started: faults key on the rest
+        self.windows_run_out = 0  # lockstep cycles released without the answer they waited for
 
-    def wire(self, endpoints) -> None:
-        """The robots' endpoints, by robot index (once, before any plan is set)."""
+    def wire(self, driver, endpoints) -> None:
+        """The world's driver and the robots' endpoints, by robot index (once, before any plan
+        is set)."""
+        self.driver = driver
         self.endpoints = list(endpoints)
-        offset = lambda: self.driver.key_offset  # noqa: E731
+        offset = lambda: self.key_offset  # noqa: E731
         self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
         self.seeds = [None] * len(self.links)
+
+    # -- what the clock did (ClockWatcher, cycle thread) -------------------------------------------
+    def repeated(self) -> None:
+        self.repeats += 1
+
+    def motion_started(self) -> None:
+        self.key_offset = self.repeats
+
+    def window_ran_out(self) -> None:
+        self.windows_run_out += 1
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
         """Arm `arm`'s faults from the next datagram on (None: none)."""
@@ -60,9 +82,9 @@ class NetworkFaults:
             "seed": self.seeds[arm] if plan is not None else self.seed,
             # a fate is keyed on message_id less this: the cycles lockstep's idle clock only
             # repeated (a client lingering) before the last motion started (docs/robustness.md)
-            "key_offset": self.driver.key_offset,
+            "key_offset": self.key_offset,
             # lockstep cycles that went without the answer they waited for (window run out)
-            "windows_run_out": self.driver.windows_run_out,
+            "windows_run_out": self.windows_run_out,
             "states": dict(link.counts["states"], held=held_states),
             "commands": dict(link.counts["commands"], held=held_commands),
         }
@@ -93,11 +115,10 @@ class NetworkFaults:
         self.attached = True
 
     def _detach(self) -> None:
-        """Back to the plain path: held commands reach the robot now (late), held states are
-        dropped (the client has newer ones, or gets the next)."""
+        """Back to the plain path: held commands reach the robot at the next read (late), held
+        states are dropped (the client has newer ones, or gets the next)."""
         self.driver.faults = None
         for link, endpoint in zip(self.links, self.endpoints):
             endpoint.faults = None
-            for command in link.take_held_commands():
-                endpoint.on_command(command)
+            endpoint.late.extend(link.take_held_commands())
         self.attached = False

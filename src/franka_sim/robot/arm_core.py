@@ -1,12 +1,14 @@
-"""The FCI robot as a state machine clocked by the cycle number: it composes the concepts.
+"""The arm behind the FCI as a state machine clocked by the cycle number: it composes the
+concepts.
 
-No sockets, threads or wall time here (see docs/architecture.md). Per cycle `release_cycle()`
-closes the open cycle's command window and says what the drives do, the physics steps, and
-`publish()` takes the measurement and returns the RobotState bytes (`robot/cycle.py` runs
-that sequence). TCP requests and UDP commands arrive in between. Each concept has its own
-module: the status and the replies it owes (status), recovery, the command window, Move
-admission, the motion and its generators, the drives, the checks and their enforcement, the
-external forces, and the publisher.
+No sockets, threads or wall time here (see docs/architecture.md). What every robot does alike
+(the clock, the requests, a Move's lifecycle, the command window) is robot/fci.py's; this is
+the arm's part of it. Per cycle `release_cycle()` closes the open cycle's command window and
+says what the drives do, the physics steps, and `publish()` takes the measurement and returns
+the RobotState bytes (robot/robot_cycle.py runs that sequence). TCP requests and UDP commands
+arrive in between. Each concept has its own module: the status and the replies it owes
+(status), recovery, Move admission, the motion and its generators, the drives, the checks and
+their enforcement, the external forces, the Set* settings, and the publisher.
 """
 
 from __future__ import annotations
@@ -19,84 +21,53 @@ import numpy as np
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.backend import JointCommand, Measured
-from franka_sim.protocol.codec import non_finite_command_fields
 from franka_sim.protocol.enums import (
     Command,
+    GetterSetterStatus,
     MoveMotionGeneratorMode,
     MoveStatus,
     RobotMode,
-    StopMoveStatus,
 )
-from franka_sim.protocol.robot_messages import build_response
 from franka_sim.robot.admission import admit_move
 from franka_sim.robot.checks import LimitPolicy, MotionGuard
 from franka_sim.robot.command_window import CommandWindow
 from franka_sim.robot.drive import Drives
 from franka_sim.robot.external_forces import ExternalForces
-from franka_sim.robot.motion import MAX_EXTRAPOLATED_CYCLES, Motion, MoveRejected
+from franka_sim.robot.fci import FciRobot
+from franka_sim.robot.motion import MAX_EXTRAPOLATED_CYCLES, Motion
 from franka_sim.robot.publisher import CycleFacts, StatePublisher
 from franka_sim.robot.recovery import Recovery, complete_recovery, request_recovery
+from franka_sim.robot.requests import set_parameter
 from franka_sim.robot.settings import Load, RobotSettings
-from franka_sim.robot.status import RobotStatus
-from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
 
-class RobotCore:
-    """The robot behind the FCI: settings, status, the running motion, the state it publishes."""
+class ArmCore(FciRobot):
+    """The arm behind the FCI: settings, drives, checks, external forces, the state it
+    publishes; the lifecycle it shares with every robot is FciRobot's."""
 
-    def __init__(self, desc: ArmDescription, q0: np.ndarray, *,
+    def __init__(self, desc: ArmDescription, q0: np.ndarray, *, urdf: bytes = b"",
                  enforce_comm_constraints: bool = False, enforce_motion_limits: bool = False,
                  joint_discontinuity_scale: float = 1.0, first_message_id: int = 1) -> None:
+        super().__init__(urdf, first_message_id)
         self.desc = desc
         self.enforce_comm_constraints = enforce_comm_constraints
         self.joint_discontinuity_scale = joint_discontinuity_scale
         self.limit_policy = LimitPolicy(enforce_motion_limits)
         self.settings = RobotSettings()
-        self.status = RobotStatus()
         self.drives = Drives(self.settings, q0)
         self.external = ExternalForces()
         self.publisher = StatePublisher(self.settings)
-        self.window = CommandWindow()
         self.motion: Motion | None = None
         self.guard: MotionGuard | None = None
         self.measured: Measured | None = None
-        self.message_id = first_message_id - 1  # id of the last published state
         self._facts = CycleFacts(self.status, self.external)
         self._recovery: Recovery | None = None
-        self._stray_commands = 0  # this client's: its first one is logged
-        self._window_closed = False  # the open cycle's command window was closed early
         self._silent = False  # the running motion's client missed MAX_EXTRAPOLATED_CYCLES
         self._estimate_before = None  # the external torque estimate before the last update
 
     # -- questions the server asks -----------------------------------------------------------
-    @property
-    def robot_mode(self) -> RobotMode:
-        return self.status.robot_mode
-
-    @property
-    def motion_running(self) -> bool:
-        return self.motion is not None and self.motion.running
-
-    @property
-    def streams_commands(self) -> bool:
-        """A motion runs whose client answers every state (an async motion's does not), and
-        the open state is not the motion's first: libfranka never answers the state on which
-        the modes flip (its start-motion handshake reads it), so nothing waits for that one."""
-        motion = self.motion
-        return (motion is not None and motion.running and not motion.spec.use_async
-                and motion.first_state != self.message_id)
-
-    @property
-    def first_motion_state(self) -> bool:
-        motion = self.motion
-        return motion is not None and motion.first_state == self.message_id
-
-    @property
-    def success_rate(self) -> float:
-        return self.window.success_rate if self.motion_running else 0.0
-
     @property
     def desired_q(self) -> np.ndarray | None:
         """Joint positions whose kinematics the published state (or a motion coasting to a
@@ -136,31 +107,18 @@ class RobotCore:
         return self.motion is not None and self._silent
 
     # -- the cycle -----------------------------------------------------------------------------
-    def release_cycle(self) -> JointCommand:
-        """Release the next cycle: close the open command window if an answer has not closed
-        it already, then say what the drives do. A second call before `publish` only
-        recomputes the drives' task."""
-        if not self._window_closed:
-            self._window_closed = True
-            motion = self.motion
-            if motion is not None and motion.running:
-                self._close_window(motion)
-            elif self.drives.coasting is not None:
-                self.drives.coast_on(self.measured)
+    def _idle_release(self) -> None:
+        if self.drives.coasting is not None:
+            self.drives.coast_on(self.measured)
+
+    def _drive(self) -> JointCommand:
         return self.drives.command(self.motion, self.measured)  # closing may have ended it
 
     def publish(self, measured: Measured, desired_kinematics=None) -> bytes:
         """Close the cycle: take the measurement, advance the clock, pack the RobotState."""
-        self.message_id += 1
         self.measured = measured
-        self._window_closed = False
-        motion = self.motion
+        motion = self._published()
         if motion is not None:
-            if not motion.running:
-                motion.running = True  # the modes flip on the first state after kMotionStarted
-                motion.first_state = self.message_id
-                self.status.motion_started()
-            self.window.opened(self.message_id)
             motion.kinematics = desired_kinematics
             self._judge(self.guard.judge_measured, measured.q, measured.dq)
         elif self.drives.coasting is not None:
@@ -178,13 +136,6 @@ class RobotCore:
         facts.measured = measured
         facts.desired_kinematics = desired_kinematics
         return self.publisher.pack(facts)
-
-    def republish(self) -> bytes:
-        """The last state again as the next cycle's, nothing stepped or estimated: a cycle of
-        a world left as it was (server/cycle_driver.py: lockstep's idle time)."""
-        self.message_id += 1
-        self._window_closed = False
-        return self.publisher.restamp(self.message_id)
 
     def run_deferred_checks(self) -> None:
         """The log-only limit checks queued this cycle (see LimitPolicy): the server runs them
@@ -244,61 +195,26 @@ class RobotCore:
             return True
         return False
 
-    # -- UDP commands ----------------------------------------------------------------------------
-    def receive_command(self, command) -> bool:
-        """A RobotCommand datagram from the client. True if it answered the open cycle in time."""
-        motion = self.motion
-        message_id = int(command["message_id"])
-        if motion is None or not motion.running:
-            self._stray_commands += 1
-            if worth_logging(self._stray_commands):
-                log.info("RobotCommand for message_id %d ignored: no motion is running "
-                         "(%d so far)", message_id, self._stray_commands)
-            return False
-        bad = non_finite_command_fields(command)
-        if bad:
-            log.warning("RobotCommand for message_id %d dropped: non-finite %s",
-                        message_id, ", ".join(bad))
-            return False
-        on_time = self.window.receive(message_id, command)
-        if on_time and not self._window_closed:
-            # The answer is in: the window closes now, so the next cycle's command is known
-            # before its deadline (the server can release it without asking again).
-            self._window_closed = True
-            self._close_window(motion)
-        return on_time
-
     # -- TCP requests ----------------------------------------------------------------------------
-    def request_move(self, command_id: int, request) -> list[bytes]:
+    def _admit(self, command_id: int, request) -> Motion:
         measured = self.measured
         q = measured.q if measured is not None else self.drives.q_hold
-        try:
-            motion = admit_move(
-                self.desc, command_id, request, running=self.motion is not None,
-                robot_mode=self.status.robot_mode, q=q,
-                O_T_F=None if measured is None else measured.O_T_F,
-                F_T_EE=flange_to_ee(self.settings.NE_T_EE))
-        except MoveRejected as exc:
-            log.warning("Move rejected (%s): %s", exc.status.name, exc)
-            return [build_response(Command.Move, command_id, exc.status)]
+        return admit_move(
+            self.desc, command_id, request, running=self.motion is not None,
+            robot_mode=self.status.robot_mode, q=q,
+            O_T_F=None if measured is None else measured.O_T_F,
+            F_T_EE=flange_to_ee(self.settings.NE_T_EE))
+
+    def _started(self, motion: Motion) -> None:
         start = self.publisher.published_start()  # what the client saw, as it will echo it
         self.guard = MotionGuard(
             self.desc, motion.spec, q_start=start.q, O_T_EE_start=start.O_T_EE,
             elbow_start=start.elbow, joint_discontinuity_scale=self.joint_discontinuity_scale)
-        self.motion = motion
-        self.window = CommandWindow()
         self._silent = False
         self.drives.coasting = None  # a lost client's motion still stopping: this one takes over
-        return [build_response(Command.Move, command_id, MoveStatus.kMotionStarted)]
 
-    def request_stop(self, command_id: int) -> list[bytes]:
-        replies = []
-        if self.motion is not None:
-            replies.append(build_response(Command.Move, self.motion.command_id,
-                                          MoveStatus.kPreempted))
-            self._end_motion(RobotMode.kIdle)
-        replies.append(build_response(Command.StopMove, command_id, StopMoveStatus.kSuccess))
-        return replies
+    def _set(self, command: Command, request) -> GetterSetterStatus:
+        return set_parameter(self, command, request)
 
     def request_recovery(self, command_id: int) -> list[bytes]:
         replies, self._recovery = request_recovery(self.status, self.external, self._recovery,
@@ -335,11 +251,6 @@ class RobotCore:
         self.measured = measured
 
     # -- the session's view ----------------------------------------------------------------------
-    def client_connected(self) -> None:
-        """A client completed Connect; states now stream to it (and its first stray command
-        is logged, whatever earlier clients sent)."""
-        self._stray_commands = 0
-
     def client_gone(self) -> None:
         """The client closed TCP. Under enforcement its motion ends in the reflex. Without, the
         robot runs it on as it runs any motion whose commands stop coming (extrapolated, then
@@ -361,10 +272,6 @@ class RobotCore:
         if self.status.robot_mode is RobotMode.kAutomaticErrorRecovery:
             self.status.robot_mode = RobotMode.kReflex
         self.status.take_replies()
-
-    def take_replies(self) -> list[bytes]:
-        """TCP replies the robot produced on its own (a Move's final status), in order."""
-        return self.status.take_replies()
 
     # -- transitions -----------------------------------------------------------------------------
     def _finish(self, motion: Motion) -> None:

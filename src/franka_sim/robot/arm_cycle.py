@@ -1,0 +1,132 @@
+"""An arm's part of a world cycle, sans-IO (the contract: robot/cycle.py).
+
+`drive` has the core close the open command window and say what the joint drives do, and gives
+the arm's body that command (with the Hand's finger command) for the world's next step;
+`publish`, once the world stepped, takes the desired-side kinematics at q_d when a generator
+sets it, and has the core pack the RobotState; `complete`, after the state has left, advances
+the Hand on the new finger reading, does the part of the physics step that no reading needed,
+runs the log-only limit checks and hands back the replies the cycle produced (robot and Hand).
+
+Work that a client does not wait for comes after the send, so a lockstep client gets its state
+as early as possible; doing it later gives the same bits (physics/world.py, "Step structure").
+"""
+
+from __future__ import annotations
+
+import logging
+
+from franka_sim.physics.backend import Backend
+from franka_sim.robot.arm_core import ArmCore
+from franka_sim.robot.cycle import NO_REPLIES, PacerQuestions, Released, Replies
+from franka_sim.robot.gripper import Gripper
+from franka_sim.thinned_log import worth_logging
+
+log = logging.getLogger(__name__)
+
+
+class ArmCycle(PacerQuestions):
+    def __init__(self, core: ArmCore, physics: Backend, hand: Gripper | None = None, *,
+                 hand_state_wanted=lambda: True) -> None:
+        self.core = core
+        self.physics = physics
+        self.hand = hand
+        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
+        self._failures = 0
+        self._measured = None  # the last step's measurement
+        self._unchanged = False  # the last step handed back the one before (physics at rest)
+        self._q_d = None  # the desired q of the cycle being released (None: no generator)
+        self.completed_id = 0  # the last completed cycle's message_id
+        self.taps = None  # the recording's taps for this arm (recording), or None
+
+    # -- questions a clock asks (and PacerQuestions') ------------------------------------------
+    @property
+    def busy(self) -> bool:
+        """Something is under way that ends by itself: a motion, a recovery, a lost client's
+        motion stopping, a Hand action."""
+        return self.core.busy or self.tool_busy
+
+    @property
+    def tool_busy(self) -> bool:
+        """A Hand action runs (a client may watch it and stop it)."""
+        hand = self.hand
+        return hand is not None and not hand.idle
+
+    @property
+    def at_rest(self) -> bool:
+        """The next cycle would change nothing but message_id: no motion or recovery under way,
+        the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
+        change nothing hands back the last measurement itself, physics "Rest")."""
+        hand = self.hand
+        return self._unchanged and self.core.settled and (hand is None or hand.idle)
+
+    # -- the cycle -------------------------------------------------------------------------------
+    def receive(self, command) -> bool:
+        """A decoded RobotCommand; True if it answered the open cycle in time."""
+        on_time = self.core.receive_command(command)
+        if self.taps is not None:
+            self.taps.command(command, on_time)
+        return on_time
+
+    def release(self) -> Released:
+        """This arm alone in its world (tests): drive, step, publish."""
+        self.physics.step(*self._drive_command())
+        return self.publish()
+
+    def drive(self) -> None:
+        self.physics.command(*self._drive_command())
+
+    def _drive_command(self) -> tuple:
+        core = self.core
+        joint_command = core.release_cycle()
+        self._q_d = core.desired_q
+        return joint_command, (None if self.hand is None else self.hand.command)
+
+    def publish(self) -> Released:
+        core, physics, q_d = self.core, self.physics, self._q_d
+        measured = physics.measure()
+        self._unchanged = measured is self._measured
+        self._measured = measured
+        kinematics = None if q_d is None else physics.flange_pose_and_jacobian(q_d)
+        try:
+            state = core.publish(measured, kinematics)
+        except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+            self._failed()
+            state = None
+        return Released(core.message_id, state, measured)
+
+    def repeat(self) -> Released:
+        """A cycle that leaves the world as it is: the last state again under the next
+        message_id, nothing stepped (complete it as any other). At rest it is the cycle that
+        stepping would give, bit for bit."""
+        core = self.core
+        state = core.republish()
+        return Released(core.message_id, state, self._measured)
+
+    def complete(self, released: Released) -> Replies:
+        """After the state has left: the Hand, the rest of the step, the log-only checks. A
+        cycle whose state could not be packed leaves its replies for the next one's state."""
+        core, hand = self.core, self.hand
+        robot_replies, tools = [], ()
+        if released.state is not None:
+            robot_replies = core.take_replies()
+            if hand is not None:
+                try:
+                    hand.advance(released.message_id, released.measured.fingers)
+                    hand_replies, hand_state = hand.take_replies(), None
+                    if hand.state_due(released.message_id) and self.hand_state_wanted():
+                        hand_state = hand.pack_state(released.message_id)
+                    if hand_replies or hand_state is not None:
+                        tools = ((hand_replies, hand_state),)
+                except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
+                    self._failed()
+        self.physics.finish_step()
+        core.run_deferred_checks()
+        self.completed_id = released.message_id
+        if robot_replies or tools:
+            return Replies(robot_replies, tools)
+        return NO_REPLIES
+
+    def _failed(self) -> None:
+        self._failures += 1
+        if worth_logging(self._failures):
+            log.exception("cycle %d failed (%d so far)", self.core.message_id, self._failures)

@@ -1,0 +1,244 @@
+"""When each cycle of a world goes, and what it is: the clock policy, sans-IO.
+
+The cycle itself is robot/world_cycle.py's; this decides *when* (`realtime` deadlines or
+lockstep's answers: pacing.py) and *which*: a step, lockstep's repeat of a world left as it is,
+or a hold while a motion awaits its client's first command. It reads no clock and touches no
+thread or socket: `tick` is told whether its deadline came and whether the answer it waited for
+arrived, hands the states it releases to `send` (which answers when they left: the time the
+next deadline counts from), tells `post` after each tick's last state which state that was and
+what the cycles left to write (a request's replies wait for it too), and returns the next
+deadline. server/cycle_driver.py runs it in the cycle thread.
+
+While the world is idle the next cycle's command is known at once (the hold), so in realtime a
+tick releases the next cycle right after completing the current one (`_prepared`), and the next
+tick only sends it: idle states leave on their deadline to within the thread's wake-up. During a
+motion the cycle is released when its deadline comes (realtime) or when the answer arrives
+(lockstep), and its state leaves as soon as it is packed.
+
+In lockstep, idle time is not wall time: while no client motion runs, the cycles follow the
+client's events (a TCP request to a robot or a tool, a disconnect: `client_event`; a change
+through the control API: `world_changed`), so a program of motions, Hand actions and pauses
+reproduces to the bit however long the client takes between them:
+- a world that is not at rest (an arm settling onto its hold after a motion or a Hand action, a
+  recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick, until it
+  is at rest (WorldCycle.at_rest); no request is taken meanwhile (the driver holds the lock),
+  only the tick's first state and the last are sent, and the replies of all those cycles go out
+  after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
+  grasped object's contacts tremble for ever) is taken as it is. A tool's action runs on the
+  wall clock, a cycle each ms as in realtime: a client may watch the Hand's states and stop it;
+- then the world is left as it is (`_frozen`) and the clock holds: the client's next event
+  releases the next cycle at once, and only after LOCKSTEP_WINDOW without one does a state go
+  out each ms of wall time, the last one again under the next message_id, nothing stepped
+  (`repeat`). They keep a client that reads states while idle served: libfranka takes only a
+  newer message_id;
+- a motion's first state goes one period after its request's (libfranka never answers it), and
+  until the client's first command the world is held (`hold`): however many states the client's
+  start-motion handshake read, its first command meets the same world.
+So every state a client can see after an event is the same bits in every run; only message_id
+counts wall time, and only the wall time a client spends longer than the window between events.
+
+The clock pauses while nobody is connected and the world has settled (PAUSE_AFTER cycles after
+the last client left): nothing can observe it, and an idle fleet of simulators then costs no
+CPU. The next client resumes it at once; message_id carries on from where it stopped.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from franka_sim.robot.cycle import Cycle
+from franka_sim.server.pacing import Pacer
+
+PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the world settles first)
+# Lockstep, idle: the cycles the world gets to come to rest after a motion or a request when
+# nothing is under way (an arm settles onto its hold in ~650); one that still has not (a
+# grasped object's contacts tremble for ever at ~1e-6 rad/s) is left as it is. And the most
+# cycles one tick runs: work under way that takes longer goes on in the next tick.
+TREMBLE_CYCLES = 2000
+MAX_SETTLE_CYCLES = 20_000
+
+
+class ClockWatcher:
+    """What the clock tells whoever keeps count of it (the network faults key their fates on
+    message_id less the cycles lockstep only repeated while a client lingered)."""
+
+    def repeated(self) -> None:
+        """A lockstep idle cycle only repeated a state, a client connected."""
+
+    def motion_started(self) -> None:
+        """The state on which a motion's modes flipped was released."""
+
+    def window_ran_out(self) -> None:
+        """A lockstep cycle went without the answer it waited for."""
+
+
+class Clock:
+    def __init__(self, cycle: Cycle, *, lockstep: bool, send: Callable[[tuple], float],
+                 post: Callable[[int, object], None], has_client: Callable[[], bool],
+                 pacer: Pacer | None = None) -> None:
+        self.cycle = cycle
+        self.lockstep = lockstep
+        self.send = send  # send(states) -> the time they left
+        self.post = post  # post(message_id, replies): once that state left, write them
+        self.has_client = has_client
+        self.pacer = pacer or Pacer()
+        self.watcher = ClockWatcher()
+        self.paused = False
+        self.deadline: float | None = None
+        self.prepared = None  # an idle cycle released ahead (realtime)
+        self._unwatched = 0  # cycles since a client was last connected
+        # Client events and the count the last released cycle followed: in lockstep, an idle
+        # cycle goes at once when they differ.
+        self._events = 0
+        self._served = 0
+        self._frozen = False  # lockstep, idle: the world is left as it is until a client event
+        self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
+
+    # -- events ------------------------------------------------------------------------------------
+    def client_event(self) -> None:
+        """A TCP request (to a robot or a tool) or a client's disconnect."""
+        self._events += 1
+
+    def world_changed(self) -> None:
+        """The world was changed from outside (the control API): the clock runs on, or again,
+        for PAUSE_AFTER cycles, so the change plays out with no client; in lockstep it is an
+        event as a client's request is."""
+        self._unwatched = 0
+        if self.lockstep:
+            self._events += 1
+
+    def withdraw_prepared(self) -> int | None:
+        """Before a reset: forget the idle cycle released ahead, whose state has not left; the
+        next tick releases one anew. The message_id of the last state that left (None: nothing
+        was prepared)."""
+        prepared, self.prepared = self.prepared, None
+        return None if prepared is None else prepared.message_id - 1
+
+    # -- questions the driver asks -----------------------------------------------------------------
+    @property
+    def answer_awaited(self) -> bool:
+        """Lockstep: an answer to the open state releases the next cycle at once. Also for a
+        motion's first state, which nothing waits for beyond a period: libfranka never answers
+        it, but a client that does has its answer taken at once all the same."""
+        cycle = self.cycle
+        return self.lockstep and (cycle.lockstep_applies or cycle.first_motion_state)
+
+    # -- the tick ----------------------------------------------------------------------------------
+    def tick(self, due: bool, answered: bool, awaited: bool) -> float | None:
+        """Release what is due now; the next deadline (None: only when woken). `due`: the
+        deadline came (False: woken early); `answered`: every answer the open state waited for
+        came; `awaited`: `answer_awaited` as it was before those answers were taken (an answer
+        may end the motion)."""
+        cycle = self.cycle
+        lockstep = self.lockstep
+        moving = cycle.in_motion
+        requested = self._events != self._served and lockstep and not cycle.client_driven
+        if not due and not self.paused and not (answered and awaited) and not requested:
+            return self.deadline  # woken, but nothing to release
+        self.paused = False
+        if due and lockstep and cycle.lockstep_applies and not answered:
+            self.watcher.window_ran_out()
+        self._served = self._events
+        released, self.prepared = self.prepared, None
+        # A motion's cycle (or its last): the client may start its next motion at once, so the
+        # cycle after it is decided when it goes, not ahead of it.
+        moved = released is None and moving
+        if released is None:
+            released = self._release(requested)
+        sent_at = self.send(released.states)
+        replies = cycle.complete(released)
+        if lockstep and not cycle.client_driven:
+            if moved or requested:
+                self._trembling = 0  # what a motion or a request disturbed gets to settle
+            return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
+        self.post(released.message_id, replies)
+        if self._count_unwatched():
+            return self._pause()
+        if not cycle.in_motion and not moved:  # idle: the next command is the hold
+            self.prepared = cycle.release()
+        if lockstep and cycle.first_motion_state:
+            # Nothing answers a motion's first state (libfranka's handshake reads it): the next
+            # goes one period after it, not a lockstep window. A period, not less, so that the
+            # handshake has read the first state alone before the second arrives.
+            self.deadline = sent_at + self.pacer.period
+        else:
+            self.deadline = self.pacer.next_deadline(
+                sent_at, lockstep=lockstep and cycle.lockstep_applies)
+        return self.deadline
+
+    def _release(self, requested: bool):
+        """The cycle that goes now: lockstep's repeat or hold where they apply, else a step."""
+        cycle = self.cycle
+        if self.lockstep:
+            if self._frozen and not requested:  # lockstep's idle time, the client away
+                if self.has_client():  # (before a client comes their count is fixed)
+                    self.watcher.repeated()
+                return cycle.repeat()
+            if cycle.holds_start:
+                held = cycle.hold()
+                if held is not None:
+                    return held
+        self._frozen = False
+        released = cycle.release()
+        if cycle.first_motion_state:
+            self.watcher.motion_started()
+        return released
+
+    def _idle_in_lockstep(self, released, sent_at: float, replies, event: bool) -> float | None:
+        """Lockstep, no client motion: idle time is not wall time (see the module docstring).
+
+        The world settles in this one tick, cycle after cycle, while the driver's lock keeps
+        every request out: so it reaches rest the same number of cycles after the client's
+        event however fast this machine is. Of the cycles run here only the last state is sent
+        (hundreds of states in a few ms would overflow the client's socket, and a read would
+        then find one of them, a different one each run), and every reply of the way waits for
+        it. Then the world is left as it is (`_frozen`) until the client's next event."""
+        cycle = self.cycle
+        settled, more = 0, False
+        paused = self._count_unwatched()
+        while not paused and not cycle.at_rest:
+            if cycle.tool_busy:
+                break  # a tool's action takes its time (a client may watch it and stop it)
+            if cycle.busy:
+                self._trembling = 0
+            elif self._trembling == TREMBLE_CYCLES:
+                break  # nothing under way, yet it does not come to rest: left as it is
+            else:
+                self._trembling += 1
+            if settled == MAX_SETTLE_CYCLES:
+                more = True  # work this long goes on in the next tick (requests may come between)
+                break
+            released = cycle.release()
+            replies = replies.then(cycle.complete(released))
+            settled += 1
+            paused = self._count_unwatched()
+        if settled:
+            sent_at = self.send(released.states)
+        # Tool states of cycles on the way to rest would reach a client late: only the last.
+        self.post(released.message_id, replies)
+        if paused:
+            return self._pause()
+        if more:
+            self.deadline = sent_at  # at once
+            return self.deadline
+        if cycle.tool_busy:  # its cycles go on the wall clock, the world stepped and sent
+            self._frozen = False
+            self.deadline = self.pacer.next_deadline(sent_at, lockstep=False)
+            return self.deadline
+        if cycle.at_rest:
+            self._trembling = 0
+        self._frozen = True
+        # After the client's event, or the world it disturbed come to rest: hold for its next
+        # one (LOCKSTEP_WINDOW). Once that ran out: the world as it is each ms, on the wall clock.
+        self.deadline = self.pacer.next_deadline(sent_at, lockstep=bool(event or settled))
+        return self.deadline
+
+    def _count_unwatched(self) -> bool:
+        """Count a cycle nobody was connected for; True once PAUSE_AFTER of them passed."""
+        self._unwatched = 0 if self.has_client() else self._unwatched + 1
+        return self._unwatched >= PAUSE_AFTER and not self.cycle.in_motion
+
+    def _pause(self) -> None:
+        self.paused = True
+        self.deadline = None
+        return None
