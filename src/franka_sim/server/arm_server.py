@@ -12,9 +12,9 @@ import logging
 import threading
 
 from franka_sim.assembly import ArmParts
+from franka_sim.operations.arm import ControlOps
 from franka_sim.robot.cycle import Replies
 from franka_sim.robot.session import Session
-from franka_sim.server.control_ops import ControlOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.gripper_endpoint import GripperEndpoint

@@ -1,7 +1,8 @@
 """The mobile base, served on its own address as a robot of its own (as on a real mobile duo).
 
 Its FCI endpoints (TCP 1337 + UDP) are an arm's, with the base's core behind them
-(robot/mobile_base.py); it has no Hand, and its control API answers /health and /state only.
+(robot/mobile_base.py); it has no Hand, and its control API serves the rows of
+operations/table.py the base has (/health, /state, /faults; operations/base.py).
 What it shares with the arms (the cycle thread, the lock, the driver) is FrankaSim's.
 """
 
@@ -10,11 +11,10 @@ from __future__ import annotations
 import logging
 import threading
 
-from franka_sim.control.errors import NotFound
+from franka_sim.operations.base import BaseOps
 from franka_sim.robot.cycle import Replies
 from franka_sim.robot.mobile_base import BaseCore
 from franka_sim.robot.session import Session, robot_session
-from franka_sim.server.control_ops import mode_name, refuse_if_failed
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.robot_endpoint import RobotEndpoint
@@ -26,40 +26,12 @@ log = logging.getLogger(__name__)
 __all__ = ["AddressInUse", "BaseServer"]
 
 
-class BaseOps:
-    """The base's control operations: what it is doing, nothing that changes the world."""
-
-    def __init__(self, core: BaseCore, lock: threading.Lock, clock: str, client_connected,
-                 worker: CycleThread) -> None:
-        self.core, self.lock, self.clock = core, lock, clock
-        self.client_connected, self.worker = client_connected, worker
-
-    def health(self) -> dict:
-        refuse_if_failed(self.worker)
-        core = self.core
-        return {"ready": True, "mobile_base": True, "clock": self.clock,
-                "cycle": core.message_id, "client_connected": self.client_connected(),
-                "robot_mode": mode_name(core.robot_mode)}
-
-    async def state(self) -> dict:
-        with self.lock:
-            core, drive = self.core, self.core.drive
-            return {"q": list(drive.q), "dq": list(drive.dq),
-                    "pose": {"x": drive.x, "y": drive.y, "yaw": drive.yaw},
-                    "twist": {"vx": drive.vx, "vy": drive.vy, "wz": drive.wz},
-                    "robot_mode": mode_name(core.robot_mode), "cycle": core.message_id}
-
-    async def _none(self, *args, **kwargs):
-        raise NotFound("the mobile base's control API serves /health and /state only")
-
-    reset = bodies = pose = set_pose = push = _none
-
-
 class BaseServer(RobotServer):
-    """The base's endpoints on `host`; `on_command(command)` hands the driver its commands."""
+    """The base's endpoints on `host`, robot `index` of the world; `on_command(command)` hands
+    the driver its commands; `faults`: the world's NetworkFaults (its API sets the base's)."""
 
-    def __init__(self, core: BaseCore, host: str, config, *, driver: CycleDriver,
-                 worker: CycleThread, lock: threading.Lock, on_command) -> None:
+    def __init__(self, core: BaseCore, host: str, config, *, index: int, driver: CycleDriver,
+                 worker: CycleThread, lock: threading.Lock, on_command, faults=None) -> None:
         self.core, self.host, self.config = core, host, config
         self.driver, self.lock = driver, lock
         self.name = self.label = "mobile base"
@@ -69,7 +41,8 @@ class BaseServer(RobotServer):
                                    replaceable=self._client_silent,
                                    on_request=driver.client_event)
         self.control = BaseOps(core, lock, config.clock.value,
-                               lambda: self.robot.active is not None, worker)
+                               lambda: self.robot.active is not None, worker,
+                               robot_index=index, faults=faults)
         self._control_api = None
         self.gripper = None
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from franka_sim.server.faults.link import ArmLink
 from franka_sim.server.faults.plan import FaultPlan, check_seed
-from franka_sim.server.faults.spec import FaultSpec
+from franka_sim.server.faults.spec import FaultSpec, spec_from_fields
 
 
 class NetworkFaults:
@@ -33,6 +33,14 @@ class NetworkFaults:
         offset = lambda: self.driver.key_offset  # noqa: E731
         self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
         self.seeds = [None] * len(self.links)
+
+    def check(self, fields: dict) -> tuple[FaultSpec, int | None]:
+        """POST /faults's fields (the spec's, or "spec"; "seed" optional) as (spec, seed; None:
+        the server's), to `set` later; ValueError (FaultSpecError, a bad seed) says why not."""
+        fields = dict(fields)
+        seed = fields.pop("seed", None)
+        seed = None if seed is None else check_seed(seed)
+        return spec_from_fields(fields), seed
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
         """Arm `arm`'s faults from the next datagram on (None: none)."""
