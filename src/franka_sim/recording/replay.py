@@ -25,12 +25,13 @@ import numpy as np
 
 from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
+from franka_sim.operations.arm import ControlOps
+from franka_sim.operations.table import BY_NAME, Effect
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.recording.live import START_FRESH, START_RESET
 from franka_sim.recording.metadata import Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
 from franka_sim.robot.session import SessionError
-from franka_sim.server.control_ops import ControlOps
 
 
 @dataclass
@@ -176,6 +177,9 @@ class Replayer:
     def _control(self, call: dict) -> None:
         self.advance(call["cycle"], call["completed"])
         operation, args = call["operation"], call["arguments"]
+        if operation not in BY_NAME or BY_NAME[operation].effect is not Effect.CHANGE:
+            raise Incompatible(f"a recorded control call {operation!r} is not an operation "
+                               "that changes the world (operations/table.py)")
         coroutine = getattr(self.ops, operation)(**args)
         try:
             coroutine.send(None)  # the fake worker never suspends: it ends here

@@ -1,9 +1,12 @@
 """The control API over HTTP + JSON (aiohttp), served on the simulator's own event loop.
 
-A thin adapter: it checks the request (a bearer token when one is set, a JSON object with
-known fields) and calls the operation (server/control_ops.py), which checks the values. A
-refusal is an HTTP error with `{"error": "..."}` and one log line saying what was wrong; nothing
-changed, and the robot's stream goes on. docs/control_api.md documents every resource.
+A thin adapter made from the table of operations (operations/table.py): one route per row, at
+its method and path. It checks the request (a bearer token when one is set, a JSON object with
+the row's fields) and calls the robot's implementation of that row (operations/arm.py,
+operations/base.py), which checks the values; a row the robot's kind does not have answers 404
+saying so. A refusal is an HTTP error with `{"error": "..."}` and one log line saying what was
+wrong; nothing changed, and the robot's stream goes on. docs/control_api.md documents every
+resource.
 
 aiohttp because it is a well-kept asyncio HTTP server that runs on the loop the simulator
 already has (uvloop under `franka-sim serve`): no thread of its own, and a request costs the
@@ -13,20 +16,19 @@ already has (uvloop under `franka-sim serve`): no thread of its own, and a reque
 from __future__ import annotations
 
 import hmac
+import inspect
 import json
 import logging
-from typing import Any
+import re
 
 from aiohttp import web
 
-from franka_sim.control.errors import BadRequest, ControlError, Unauthorized
-from franka_sim.server.control_ops import ControlOps
-from franka_sim.server.faults.spec import KEYS as FAULT_KEYS
+from franka_sim.control.errors import BadRequest, ControlError, NotFound, Unauthorized
+from franka_sim.operations.table import OPERATIONS, Operation, served_by
 
 log = logging.getLogger(__name__)
 
 MAX_BODY = 64 * 1024  # bytes: the largest request is a few hundred
-FAULT_FIELDS = ("spec", *FAULT_KEYS, "seed")  # POST /faults
 
 
 def _no_constants(name: str) -> float:
@@ -55,31 +57,30 @@ def parse_object(raw: bytes, allowed: dict[str, bool], *, optional_body: bool = 
     return value
 
 
-def _answer(result: Any) -> web.Response:
-    return web.json_response(result)
+def route_path(operation: Operation) -> str:
+    """aiohttp's pattern of the row's path: a path argument takes the rest of the path, `/`
+    included (a body's name: `/bodies/scene/cube`)."""
+    return re.sub(r"\{(\w+)\}", r"{\1:.+}", operation.path)
 
 
 class ControlApi:
-    """The HTTP server of one simulator's control API."""
+    """The HTTP server of one robot's control API: `ops` is its implementation (its `kind`
+    says which rows it has)."""
 
-    def __init__(self, ops: ControlOps, token: str | None = None) -> None:
+    def __init__(self, ops, token: str | None = None) -> None:
         self.ops = ops
         self._expected = None if token is None else f"Bearer {token}".encode()
         self._runner: web.AppRunner | None = None
         self._said_failed = False  # "stopped simulating" refusals are logged once
         app = web.Application(middlewares=[self._refusals], client_max_size=MAX_BODY)
-        app.router.add_get("/health", self._health)
-        app.router.add_get("/state", self._state)
-        app.router.add_post("/reset", self._reset)
-        app.router.add_get("/bodies", self._bodies)
-        app.router.add_get("/bodies/{name:.+}", self._pose)
-        app.router.add_put("/bodies/{name:.+}", self._set_pose)
-        app.router.add_post("/push", self._push)
-        app.router.add_post("/recording", self._start_recording)
-        app.router.add_delete("/recording", self._finish_recording)
-        app.router.add_get("/faults", self._faults)
-        app.router.add_post("/faults", self._set_faults)
-        app.router.add_delete("/faults", self._clear_faults)
+        served = served_by(ops.kind)
+        for operation in OPERATIONS:
+            handler = (self._serve(operation) if operation in served
+                       else self._absent(operation, served))
+            if operation.method == "GET":  # (add_get: HEAD too)
+                app.router.add_get(route_path(operation), handler)
+            else:
+                app.router.add_route(operation.method, route_path(operation), handler)
         self.app = app
 
     async def start(self, host: str, port: int) -> None:
@@ -130,45 +131,35 @@ class ControlApi:
         return web.json_response({"error": message}, status=status, headers=headers)
 
     # -- resources ---------------------------------------------------------------------------------
-    async def _health(self, request: web.Request) -> web.Response:
-        return _answer(self.ops.health())
+    def _serve(self, operation: Operation):
+        """The handler of a row: its path's arguments and its body's fields, handed to the
+        implementation's method of the row's name."""
+        implementation = getattr(self.ops, operation.name)
+        takes_body = bool(operation.body)
 
-    async def _state(self, request: web.Request) -> web.Response:
-        return _answer(await self.ops.state())
+        async def handle(request: web.Request) -> web.Response:
+            arguments = {name: request.match_info[name] for name in operation.path_args}
+            if takes_body:
+                fields = parse_object(await request.read(), operation.fields,
+                                      optional_body=operation.body_optional)
+                if operation.collect is not None:
+                    arguments[operation.collect] = fields
+                else:
+                    arguments.update(fields)
+            result = implementation(**arguments)
+            if inspect.isawaitable(result):
+                result = await result
+            if operation.answer_key is not None:
+                result = {operation.answer_key: result}
+            return web.json_response(result)
+        return handle
 
-    async def _reset(self, request: web.Request) -> web.Response:
-        fields = parse_object(await request.read(), {"q": False, "gripper_width": False},
-                              optional_body=True)
-        return _answer(await self.ops.reset(**fields))
+    def _absent(self, operation: Operation, served: tuple[Operation, ...]):
+        """The handler of a row this robot's kind does not have: 404, saying what it has."""
+        paths = list(dict.fromkeys(row.path for row in served))
+        message = (f"the {self.ops.kind.value} has no {operation.method} {operation.path} "
+                   f"(its control API serves {', '.join(paths)})")
 
-    async def _bodies(self, request: web.Request) -> web.Response:
-        return _answer({"bodies": await self.ops.bodies()})
-
-    async def _pose(self, request: web.Request) -> web.Response:
-        return _answer(await self.ops.pose(request.match_info["name"]))
-
-    async def _set_pose(self, request: web.Request) -> web.Response:
-        fields = parse_object(await request.read(), {"position": True, "quaternion": False})
-        return _answer(await self.ops.set_pose(request.match_info["name"], **fields))
-
-    async def _push(self, request: web.Request) -> web.Response:
-        fields = parse_object(await request.read(), {"body": True, "force": True,
-                                                     "torque": False, "duration": False})
-        return _answer(await self.ops.push(**fields))
-
-    async def _start_recording(self, request: web.Request) -> web.Response:
-        fields = parse_object(await request.read(), {"path": True})
-        return _answer(await self.ops.start_recording(**fields))
-
-    async def _finish_recording(self, request: web.Request) -> web.Response:
-        return _answer(await self.ops.finish_recording())
-
-    async def _faults(self, request: web.Request) -> web.Response:
-        return _answer(await self.ops.faults())
-
-    async def _set_faults(self, request: web.Request) -> web.Response:
-        fields = parse_object(await request.read(), dict.fromkeys(FAULT_FIELDS, False))
-        return _answer(await self.ops.set_faults(fields))
-
-    async def _clear_faults(self, request: web.Request) -> web.Response:
-        return _answer(await self.ops.clear_faults())
+        async def handle(request: web.Request) -> web.Response:
+            raise NotFound(message)
+        return handle

@@ -15,7 +15,8 @@ import logging
 import threading
 
 from franka_sim.robot.session import Session
-from franka_sim.server.control_ops import BaseOps, ControlOps
+from franka_sim.operations.arm import ControlOps
+from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.gripper_endpoint import GripperEndpoint
@@ -56,7 +57,8 @@ class RobotServer:
                 description=parts.description, q0=parts.q0, clock=config.clock.value,
                 client_connected=connected, arm=self.name, arm_index=index, faults=faults)
         else:
-            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker)
+            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
+                                   robot_index=index, faults=faults)
         self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
 
     def describe(self) -> str:

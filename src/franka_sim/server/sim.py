@@ -16,6 +16,7 @@ import threading
 
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
+from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.faults import NetworkFaults, parse_spec
@@ -26,7 +27,10 @@ __all__ = ["AddressInUse", "FrankaSim"]
 log = logging.getLogger(__name__)
 
 
-class FrankaSim:
+class FrankaSim(EmbeddedOperations):
+    """The control operations are its async methods, on the first arm (operations/table.py:
+    `health`, `state`, `reset`, ...; operations/embedded.py)."""
+
     def __init__(self, config: Config | None = None, **overrides) -> None:
         config = config or Config()
         for key, value in overrides.items():
@@ -165,37 +169,6 @@ class FrankaSim:
             if arm.name == name:
                 return arm
         raise KeyError(f"no arm named {name!r} ({', '.join(a.name for a in self.arms)})")
-
-    # -- the control API's operations on the first arm (docs/control_api.md) ----------------------
-    async def health(self) -> dict:
-        return self.control.health()
-
-    async def state(self) -> dict:
-        return await self.control.state()
-
-    async def reset(self, q=None, gripper_width: float | None = None) -> dict:
-        return await self.control.reset(q, gripper_width)
-
-    async def bodies(self) -> list[dict]:
-        return await self.control.bodies()
-
-    async def pose(self, name: str) -> dict:
-        return await self.control.pose(name)
-
-    async def set_pose(self, name: str, position, quaternion=None) -> dict:
-        return await self.control.set_pose(name, position, quaternion)
-
-    async def push(self, body: str, force, torque=None, duration: float = 0.1) -> dict:
-        return await self.control.push(body, force, torque, duration)
-
-    async def faults(self) -> dict:
-        return await self.control.faults()
-
-    async def set_faults(self, fields: dict) -> dict:
-        return await self.control.set_faults(fields)
-
-    async def clear_faults(self) -> dict:
-        return await self.control.clear_faults()
 
     # -- the world's cycle -------------------------------------------------------------------------
     def _make_cycle(self, physics: list):

@@ -13,7 +13,7 @@ from __future__ import annotations
 from franka_sim.server.clock import ClockWatcher
 from franka_sim.server.faults.link import ArmLink
 from franka_sim.server.faults.plan import FaultPlan, check_seed
-from franka_sim.server.faults.spec import FaultSpec
+from franka_sim.server.faults.spec import FaultSpec, spec_from_fields
 
 
 class NetworkFaults(ClockWatcher):
@@ -55,6 +55,14 @@ class NetworkFaults(ClockWatcher):
 
     def window_ran_out(self) -> None:
         self.windows_run_out += 1
+
+    def check(self, fields: dict) -> tuple[FaultSpec, int | None]:
+        """POST /faults's fields (the spec's, or "spec"; "seed" optional) as (spec, seed; None:
+        the server's), to `set` later; ValueError (FaultSpecError, a bad seed) says why not."""
+        fields = dict(fields)
+        seed = fields.pop("seed", None)
+        seed = None if seed is None else check_seed(seed)
+        return spec_from_fields(fields), seed
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
         """Arm `arm`'s faults from the next datagram on (None: none)."""

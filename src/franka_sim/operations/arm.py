@@ -1,79 +1,37 @@
-"""What the control API does: read the ground truth, reset, move and push bodies, record.
+"""What an arm's control API does: read the ground truth, reset, move and push bodies, record
+(and its network faults: operations/faults.py). Each method is a row of operations/table.py.
 
-Shared by the HTTP adapter (server/control_api.py) and an embedded `FrankaSim`. Each operation
-checks its arguments first and refuses (franka_sim.control.errors) before anything changes;
-then it runs as one job of the cycle thread, between two cycles, so every change takes effect at
-a cycle boundary and in lockstep the same calls at the same cycles give the same bits. Jobs that
-touch the robot core or the Hand hold the simulator's lock, as a TCP request does.
+Shared by the HTTP adapter (server/control_api.py), an embedded `FrankaSim` and replay. Each
+operation checks its arguments first and refuses (franka_sim.control.errors) before anything
+changes; then it runs as one job of the cycle thread, between two cycles, so every change takes
+effect at a cycle boundary and in lockstep the same calls at the same cycles give the same bits.
+Jobs that touch the robot core or the Hand hold the simulator's lock, as a TCP request does.
 """
 
 from __future__ import annotations
 
 import asyncio
-import math
 import threading
-from numbers import Real
 from typing import Any, Callable
 
 import numpy as np
 
-from franka_sim.control.errors import BadRequest, Conflict, ControlError, Failed, NotFound
+from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.operations.faults import FaultOps
+from franka_sim.operations.ports import Jobs, Pacer
+from franka_sim.operations.table import Kind
+from franka_sim.operations.values import (body_name, mode_name, number, numbers,
+                                          refuse_if_failed)
 from franka_sim.physics.bodies import NotFree, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.gripper import NOMINAL_MAX_WIDTH, Gripper
-from franka_sim.server.cycle_driver import CycleDriver
-from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.faults import FaultSpecError, check_seed, spec_from_fields
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
-
-
-def mode_name(mode: RobotMode) -> str:
-    """libfranka's name of a robot mode ("Idle", "Move", "Reflex", ...)."""
-    return mode.name[1:]
-
-
-def numbers(name: str, value: Any, n: int) -> np.ndarray:
-    """`value` as n finite numbers, or BadRequest saying what is wrong with it."""
-    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__len__"):
-        raise BadRequest(f"{name} must be a list of {n} numbers, not {value!r}")
-    if len(value) != n:
-        raise BadRequest(f"{name} must have {n} numbers, not {len(value)}")
-    if not all(isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, bool)
-               for v in value):
-        raise BadRequest(f"{name} must be {n} numbers, not {list(value)!r}")
-    array = np.array(value, dtype=float)
-    if not np.all(np.isfinite(array)):
-        raise BadRequest(f"{name} must be finite, not {array.tolist()}")
-    return array
-
-
-def number(name: str, value: Any) -> float:
-    """`value` as one finite number, or BadRequest."""
-    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
-        raise BadRequest(f"{name} must be a number, not {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise BadRequest(f"{name} must be finite, not {value}")
-    return value
-
-
-def refuse_if_failed(worker: CycleThread) -> None:
-    """Failed (503, with the reason) once the cycle thread stopped stepping the world: a probe
-    must not keep a dead simulator in service."""
-    if worker.failure is not None:
-        raise Failed(f"the simulator stopped simulating: {worker.failure}")
-
-
-def body_name(value: Any) -> str:
-    if not isinstance(value, str) or not value:
-        raise BadRequest(f"body must be a body's name, not {value!r}")
-    return value
 
 
 def _pose(state) -> dict:
@@ -82,12 +40,14 @@ def _pose(state) -> dict:
             "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
 
 
-class ControlOps:
+class ControlOps(FaultOps):
     """The control operations on one simulated arm, its Hand (None: none) and its world (whose
-    bodies every arm's API sees alike)."""
+    bodies every arm's API sees alike). Arm `arm_index` is robot `arm_index` of the world."""
 
-    def __init__(self, *, core: ArmCore, gripper: Gripper | None, driver: CycleDriver,
-                 worker: CycleThread, lock: threading.Lock, description: ArmDescription,
+    kind = Kind.ARM
+
+    def __init__(self, *, core: ArmCore, gripper: Gripper | None, driver: Pacer,
+                 worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None) -> None:
         self.core, self.gripper, self.driver = core, gripper, driver
@@ -95,12 +55,14 @@ class ControlOps:
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
         self.client_connected = client_connected
-        self.arm, self.arm_index = arm, arm_index  # the worker's physics: one backend per arm
+        # the worker's physics: one backend per arm; the arms come first among the robots
+        self.arm = arm
+        self.arm_index = self.robot_index = arm_index
         self.recorder = None  # recording.Recorder: the operations that change the world
         # recording.live.LiveRecordings: recordings started and finished through this API
         # (None: a world of several arms, which is not recorded).
         self.recordings = None
-        self.network_faults = faults  # server/faults.NetworkFaults (None: none can be injected)
+        self.network_faults = faults  # the world's NetworkFaults (None: none can be injected)
 
     async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
         """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
@@ -317,69 +279,3 @@ class ControlOps:
         return await self._job(push, ("push", {
             "body": body, "force": force.tolist(), "torque": torque.tolist(),
             "duration": duration}))
-
-    # -- network faults (this arm's UDP path) ----------------------------------------------------
-    async def faults(self) -> dict:
-        """What is injected on this arm's path, and what it did so far."""
-        network = self._network()
-        return await self._job(lambda physics: network.report(self.arm_index))
-
-    async def set_faults(self, fields: dict) -> dict:
-        """Inject `fields` (the spec's fields, or {"spec": "..."}; "seed" optional: the
-        server's --seed) on this arm's path from the next datagram on, in place of what was."""
-        network = self._network()
-        fields = dict(fields)
-        seed = fields.pop("seed", None)
-        try:
-            seed = None if seed is None else check_seed(seed)
-            spec = spec_from_fields(fields)
-        except (FaultSpecError, ValueError) as exc:
-            raise BadRequest(str(exc)) from None
-
-        def inject(physics) -> dict:
-            network.set(self.arm_index, spec, seed)
-            return network.report(self.arm_index)
-        return await self._job(inject)
-
-    async def clear_faults(self) -> dict:
-        """No more faults on this arm's path; what they did is still reported."""
-        network = self._network()
-
-        def clear(physics) -> dict:
-            network.set(self.arm_index, None)
-            return network.report(self.arm_index)
-        return await self._job(clear)
-
-    def _network(self):
-        if self.network_faults is None:
-            raise NotFound("this simulator cannot inject network faults")
-        return self.network_faults
-
-
-class BaseOps:
-    """The base's control operations: what it is doing, nothing that changes the world."""
-
-    def __init__(self, core, lock: threading.Lock, clock: str, client_connected,
-                 worker: CycleThread) -> None:
-        self.core, self.lock, self.clock = core, lock, clock
-        self.client_connected, self.worker = client_connected, worker
-
-    def health(self) -> dict:
-        refuse_if_failed(self.worker)
-        core = self.core
-        return {"ready": True, "mobile_base": True, "clock": self.clock,
-                "cycle": core.message_id, "client_connected": self.client_connected(),
-                "robot_mode": mode_name(core.robot_mode)}
-
-    async def state(self) -> dict:
-        with self.lock:
-            core, drive = self.core, self.core.drive
-            return {"q": list(drive.q), "dq": list(drive.dq),
-                    "pose": {"x": drive.x, "y": drive.y, "yaw": drive.yaw},
-                    "twist": {"vx": drive.vx, "vy": drive.vy, "wz": drive.wz},
-                    "robot_mode": mode_name(core.robot_mode), "cycle": core.message_id}
-
-    async def _none(self, *args, **kwargs):
-        raise NotFound("the mobile base's control API serves /health and /state only")
-
-    reset = bodies = pose = set_pose = push = _none

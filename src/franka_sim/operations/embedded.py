@@ -1,0 +1,48 @@
+"""The operations as an embedding program calls them: `await sim.push(...)` on a FrankaSim.
+
+`EmbeddedOperations` has one async method per row an arm has (operations/table.py), each
+handing its arguments to the first arm's operations (the embedder's `control`) and raising
+the same refusals the HTTP client does. Made from the table, so a new row needs nothing here.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+from franka_sim.operations.table import OPERATIONS, Kind, Operation
+
+
+def _signature(operation: Operation) -> inspect.Signature:
+    """The implementation's parameters, as the table gives them."""
+    parameters = [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    for arg in operation.parameters:
+        default = inspect.Parameter.empty if arg.required else arg.default
+        parameters.append(inspect.Parameter(
+            arg.name, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=default))
+    return inspect.Signature(parameters)
+
+
+def _delegate(operation: Operation):
+    name = operation.name
+
+    async def method(self, *args, **kwargs):
+        result = getattr(self.control, name)(*args, **kwargs)
+        return await result if inspect.isawaitable(result) else result  # (health: no job)
+
+    method.__name__ = name
+    method.__qualname__ = f"EmbeddedOperations.{name}"
+    method.__doc__ = operation.doc
+    method.__signature__ = _signature(operation)
+    return method
+
+
+class EmbeddedOperations:
+    """Mixed into FrankaSim, whose `control` is its first arm's ControlOps."""
+
+    control = None
+
+
+for _operation in OPERATIONS:
+    if Kind.ARM in _operation.kinds:
+        setattr(EmbeddedOperations, _operation.name, _delegate(_operation))
+del _operation

@@ -1,0 +1,56 @@
+"""An operation's arguments checked before anything changes (BadRequest says what is wrong),
+and the few readings every robot's operations give alike."""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+from typing import Any
+
+import numpy as np
+
+from franka_sim.control.errors import BadRequest, Failed
+from franka_sim.protocol.enums import RobotMode
+
+
+def mode_name(mode: RobotMode) -> str:
+    """libfranka's name of a robot mode ("Idle", "Move", "Reflex", ...)."""
+    return mode.name[1:]
+
+
+def numbers(name: str, value: Any, n: int) -> np.ndarray:
+    """`value` as n finite numbers, or BadRequest saying what is wrong with it."""
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__len__"):
+        raise BadRequest(f"{name} must be a list of {n} numbers, not {value!r}")
+    if len(value) != n:
+        raise BadRequest(f"{name} must have {n} numbers, not {len(value)}")
+    if not all(isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, bool)
+               for v in value):
+        raise BadRequest(f"{name} must be {n} numbers, not {list(value)!r}")
+    array = np.array(value, dtype=float)
+    if not np.all(np.isfinite(array)):
+        raise BadRequest(f"{name} must be finite, not {array.tolist()}")
+    return array
+
+
+def number(name: str, value: Any) -> float:
+    """`value` as one finite number, or BadRequest."""
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise BadRequest(f"{name} must be a number, not {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise BadRequest(f"{name} must be finite, not {value}")
+    return value
+
+
+def body_name(value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise BadRequest(f"body must be a body's name, not {value!r}")
+    return value
+
+
+def refuse_if_failed(worker) -> None:
+    """Failed (503, with the reason) once the cycle thread (its `failure`) stopped stepping
+    the world: a probe must not keep a dead simulator in service."""
+    if worker.failure is not None:
+        raise Failed(f"the simulator stopped simulating: {worker.failure}")
