@@ -38,11 +38,19 @@ def run(host: str, twist, seconds: float) -> dict:
     state, _ = control.readOnce()
     x, y, yaw = before
     t, rates, steer, error, k = 0.0, [], [0.0, 0.0], "", 0
+    vx = vy = wz = 0.0
     try:
         while True:
             state, period = control.readOnce()
             dt = period.to_sec()
             t += dt
+            # What the base should have done: the body twist last commanded, integrated in the
+            # start frame over the time until this state (more than 1 ms when a state was lost:
+            # the robot went on with that command meanwhile).
+            heading = yaw + 0.5 * wz * dt
+            x += (math.cos(heading) * vx - math.sin(heading) * vy) * dt
+            y += (math.sin(heading) * vx + math.cos(heading) * vy) * dt
+            yaw += wz * dt
             k += 1
             if k > 3:
                 rates.append(state.control_command_success_rate)
@@ -51,11 +59,6 @@ def run(host: str, twist, seconds: float) -> dict:
                     steer[i] = state.q[2 * i]
             s = profile(t, seconds)
             vx, vy, wz = (s * v for v in twist)
-            # What the base should do with it: the body twist, integrated in the start frame.
-            heading = yaw + 0.5 * wz * 1e-3
-            x += (math.cos(heading) * vx - math.sin(heading) * vy) * 1e-3
-            y += (math.sin(heading) * vx + math.cos(heading) * vy) * 1e-3
-            yaw += wz * 1e-3
             command = pylibfranka.CartesianVelocities([vx, vy, 0.0, 0.0, 0.0, wz])
             command.motion_finished = t >= seconds
             control.writeOnce(command)
