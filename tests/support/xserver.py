@@ -8,34 +8,28 @@ import os
 import shutil
 import subprocess
 import time
-from pathlib import Path
 
 import pytest
 
 
-def _free_display() -> int:
-    for number in range(90 + os.getpid() % 300, 1000):
-        if not Path(f"/tmp/.X11-unix/X{number}").exists() and \
-                not Path(f"/tmp/.X{number}-lock").exists():
-            return number
-    raise RuntimeError("no free X display number")
-
-
 @contextlib.contextmanager
 def xvfb(size: str = "1024x768x24"):
-    """DISPLAY of an Xvfb started for the block (skips where Xvfb is not installed)."""
+    """DISPLAY of an Xvfb started for the block, on a display number it picks itself
+    (-displayfd), so concurrent sessions and workers never collide. Skips where Xvfb is not
+    installed (.ci/run installs Debian's xvfb)."""
     if shutil.which("Xvfb") is None:
-        pytest.skip("Xvfb is not installed (.ci/run installs Debian's xvfb)")
-    number = _free_display()
-    proc = subprocess.Popen(["Xvfb", f":{number}", "-screen", "0", size, "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        pytest.skip("an X server is needed and Xvfb is not installed (apt-get install xvfb)")
+    read, write = os.pipe()
+    proc = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", size,
+                             "-nolisten", "tcp"], pass_fds=(write,),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    os.close(write)
+    with os.fdopen(read) as told:
+        number = told.readline().strip()  # written once it accepts clients; "" if it died
+    if not number:
+        proc.kill()
+        raise RuntimeError(f"Xvfb did not start: {proc.communicate(timeout=10)[1]}")
     try:
-        socket_path = Path(f"/tmp/.X11-unix/X{number}")
-        deadline = time.monotonic() + 30
-        while not socket_path.exists():
-            if proc.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"Xvfb :{number} did not start")
-            time.sleep(0.05)
         yield f":{number}"
     finally:
         proc.terminate()
