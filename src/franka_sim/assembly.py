@@ -24,6 +24,7 @@ from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.base_cycle import BaseCycle
+from franka_sim.robot.events import NO_ROBOT_EVENTS, NO_WORLD_EVENTS, RobotEvents, WorldEvents
 from franka_sim.robot.gripper import Gripper
 from franka_sim.robot.session import Session, gripper_session, robot_session
 from franka_sim.robot.world_cycle import WorldCycle
@@ -35,7 +36,7 @@ class ArmParts:
     kind = "arm"
 
     def __init__(self, config: Config, spec: ArmSpec, description: ArmDescription,
-                 urdf_text: str) -> None:
+                 urdf_text: str, events: RobotEvents = NO_ROBOT_EVENTS) -> None:
         self.config, self.spec = config, spec
         self.name, self.host, self.label = spec.name, spec.host, f"arm {spec.name}"
         self.description, self.urdf_text = description, urdf_text
@@ -43,7 +44,7 @@ class ArmParts:
         self.core = ArmCore(
             description, self.q0, urdf=urdf_text.encode(), enforce_comm_constraints=config.enforce_comm_constraints,
             enforce_motion_limits=config.enforce_motion_limits,
-            joint_discontinuity_scale=config.joint_discontinuity_scale,
+            joint_discontinuity_scale=config.joint_discontinuity_scale, events=events,
         )
         # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
         self.gripper = Gripper() if config.gripper else None
@@ -68,9 +69,9 @@ class BaseParts:
     name, label = "base", "mobile base"
     gripper = None
 
-    def __init__(self, host: str) -> None:
+    def __init__(self, host: str, events: RobotEvents = NO_ROBOT_EVENTS) -> None:
         self.host = host
-        self.core = BaseCore(base_urdf_text().encode())
+        self.core = BaseCore(base_urdf_text().encode(), events=events)
 
     def make_part(self, physics, hand_state_wanted) -> BaseCycle:
         return BaseCycle(self.core, physics)
@@ -80,21 +81,29 @@ class BaseParts:
 
 
 class WorldParts:
-    """The scene, where each arm stands, and each arm's parts (SceneError: they cannot)."""
+    """The scene, where each arm stands, and each robot's parts (SceneError: they cannot).
 
-    def __init__(self, config: Config) -> None:
+    `events`: who hears what the world and each robot emit (robot/events.py; a recording's
+    taps), with one RobotEvents per robot (`events.robots`); None: nobody."""
+
+    def __init__(self, config: Config, events: WorldEvents | None = None) -> None:
         self.config = config
+        self.events = events if events is not None else NO_WORLD_EVENTS
+        specs = config.arm_specs()
+        robot_events = (events.robots if events is not None else
+                        [NO_ROBOT_EVENTS] * (len(specs) + (config.mobile_base is not None)))
         self.urdf_text = (
             config.urdf.read_text() if config.urdf is not None else default_urdf_text()
         )
         self.description = load_arm_description(self.urdf_text)
         self.scene = resolve_scene(config.scene) if config.scene is not None \
             else default_scene_path()
-        specs = config.arm_specs()
         self.placements = self._place(specs)
         self._check()
-        self.arms = [ArmParts(config, spec, self.description, self.urdf_text) for spec in specs]
-        self.base = None if config.mobile_base is None else BaseParts(config.mobile_base)
+        self.arms = [ArmParts(config, spec, self.description, self.urdf_text, robot_events[i])
+                     for i, spec in enumerate(specs)]
+        self.base = None if config.mobile_base is None else BaseParts(
+            config.mobile_base, robot_events[len(specs)])
         # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
         self.robots = [*self.arms, *([self.base] if self.base is not None else [])]
 
@@ -143,4 +152,4 @@ class WorldParts:
         `hand_state_wanted[i]`: whether robot i's Hand client takes GripperStates."""
         parts = [robot.make_part(physics[i], hand_state_wanted[i])
                  for i, robot in enumerate(self.robots)]
-        return WorldCycle(parts, physics[0].world.step)
+        return WorldCycle(parts, physics[0].world.step, self.events)

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 
+from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.plot import DPI, PANEL_HEIGHT, WIDTH
 from franka_sim.recording.reader import open_recording
 from franka_sim.recording.render import HEIGHT, WIDTH as VIDEO_WIDTH, frame_cycles
@@ -92,7 +93,8 @@ def test_truncated_foreign_and_incompatible_files(lockstep_run, tmp_path, comman
         writer = Writer(f)
         writer.start()
         writer.finish()
-    (tmp_path / "future.mcap").write_bytes(data.replace(b"format_version\x01\x00\x00\x001",
+    version = str(FORMAT_VERSION).encode()
+    (tmp_path / "future.mcap").write_bytes(data.replace(b"format_version\x01\x00\x00\x00" + version,
                                                         b"format_version\x01\x00\x00\x009"))
     extra = {"replay": [], "plot": ["-o", str(tmp_path / "p.png")],
              "render": ["-o", str(tmp_path / "r.mp4")]}[command]

@@ -10,6 +10,7 @@ import pytest
 from mcap.reader import make_reader
 
 from franka_sim.protocol.codec import COMMAND_DTYPE
+from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.channels import COMMAND_PREFIX
 from franka_sim.recording.reader import open_recording
 
@@ -34,7 +35,7 @@ def test_the_file_opens_with_mcaps_reader_and_holds_every_channel(run, request):
     assert counts["/fr3/tcp"] >= 8 and counts["/fr3/reply"] >= 6
     assert counts["/fr3/gripper_state"] > 0 and counts["/fr3/control"] == 2  # place, push
     assert counts["/world/bodies"] > 100 and counts["/log"] > 0
-    assert metadata["franka-sim"]["format_version"] == "1"
+    assert metadata["franka-sim"]["format_version"] == str(FORMAT_VERSION)
     assert len(metadata["franka-sim"]["urdf_sha256"]) == 64
 
 

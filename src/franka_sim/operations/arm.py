@@ -49,7 +49,7 @@ class ControlOps(FaultOps):
     def __init__(self, *, core: ArmCore, gripper: Gripper | None, driver: Pacer,
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
-                 arm_index: int = 0, faults=None) -> None:
+                 arm_index: int = 0, faults=None, taps=None, recordings=None) -> None:
         self.core, self.gripper, self.driver = core, gripper, driver
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
@@ -58,10 +58,12 @@ class ControlOps(FaultOps):
         # the worker's physics: one backend per arm; the arms come first among the robots
         self.arm = arm
         self.arm_index = self.robot_index = arm_index
-        self.recorder = None  # recording.Recorder: the operations that change the world
-        # recording.live.LiveRecordings: recordings started and finished through this API
-        # (None: a world of several arms, which is not recorded).
-        self.recordings = None
+        # The recording's taps (server/recorder/taps.py): the operations that change the world
+        # are recorded with where they ran (None: nothing listens, as in replay).
+        self.taps = taps
+        # Recordings started and finished through this API (server/recorder/live.py; None:
+        # this world cannot be, see start_recording).
+        self.recordings = recordings
         self.network_faults = faults  # the world's NetworkFaults (None: none can be injected)
 
     async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
@@ -71,16 +73,16 @@ class ControlOps(FaultOps):
         index = self.arm_index
 
         def job(arms):
-            recorder = self.recorder if call is not None else None
-            at = recorder.position() if recorder is not None else None
+            taps = self.taps if call is not None else None
+            at = taps.position() if taps is not None else None
             try:
                 result = fn(arms[index])
             except ControlError as refusal:
                 result = refusal
-            if recorder is not None:
+            if taps is not None:
                 refused = isinstance(result, ControlError)
-                recorder.control(*call, at, result.status if refused else 200,
-                                 result.message if refused else result)
+                taps.control(self.robot_index, *call, at, result.status if refused else 200,
+                             result.message if refused else result)
             return result
         return await self.worker.call(job)
 
@@ -186,16 +188,19 @@ class ControlOps(FaultOps):
         Conflict while a recording runs, a client is connected or a reset would be refused."""
         recordings = self.recordings
         if recordings is None:
-            raise Conflict("this simulator cannot record through the control API (a world of "
-                           "several arms is not recorded)")
+            raise Conflict("this simulator cannot record through the control API: a recording "
+                           "starts from a reset world, and a reset of one robot of several "
+                           "leaves the others as they are (record the whole run with "
+                           "`serve --record`)")
         if not isinstance(path, str) or not path:
             raise BadRequest(f"path must be the recording's file path, not {path!r}")
         from franka_sim.recording import mcap_missing
 
         if missing := mcap_missing():
             raise BadRequest(missing)
-        if self.recorder is not None:  # checked before the file is opened: it may be this one
-            raise Conflict(f"already recording to {self.recorder.path}")
+        taps = self.taps
+        if taps.recorder is not None:  # checked before the file is opened: it may be this one
+            raise Conflict(f"already recording to {taps.recorder.path}")
         q, _ = self._reset_arguments(None, None)
         try:
             recorder = recordings.open(path)  # here, not in the cycle thread: file I/O
@@ -204,14 +209,14 @@ class ControlOps(FaultOps):
 
         def start(physics) -> dict:
             with self.lock:
-                if self.recorder is not None:
-                    raise Conflict(f"already recording to {self.recorder.path}")
+                if taps.recorder is not None:
+                    raise Conflict(f"already recording to {taps.recorder.path}")
                 self._refuse_busy()
-                recordings.attach(recorder, physics)  # Conflict: a client is connected
-                at = recorder.position()
+                recordings.attach(recorder, physics.world)  # Conflict: a client is connected
+                at = taps.position()
                 result = self._reset_now(physics, q, None)
-                recorder.control("reset", {"q": q.tolist(), "gripper_width": None}, at, 200,
-                                 result)
+                taps.control(self.robot_index, "reset", {"q": q.tolist(), "gripper_width": None},
+                             at, 200, result)
                 return {"path": str(recorder.path), "cycle": result["cycle"]}
         try:
             return await self._job(start)

@@ -61,6 +61,12 @@ class Bodies:
     def is_free(self, name: str) -> bool:
         return self._ids[name] in self._free
 
+    def free_qpos(self) -> list[tuple[str, int]]:
+        """(name, address of its 7 numbers in qpos: position, quaternion) of each free body."""
+        m = self._model
+        return [(self.names[i - 1], int(m.jnt_qposadr[m.body_jntadr[i]]))
+                for i in sorted(self._free)]
+
     def find(self, name: str) -> str:
         """The body's own name for `name` (see the module docstring); UnknownBody if none."""
         for candidate in (name, SCENE_PREFIX + name, name.removeprefix(ROBOT_PREFIX)):

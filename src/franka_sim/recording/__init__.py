@@ -5,7 +5,7 @@
 encoded; `reader.py` opens a recording and says in one line why it cannot.
 """
 
-FORMAT_VERSION = 1  # bumped when a reader of the previous format would misread a new file
+FORMAT_VERSION = 2  # bumped when a reader of the previous format would misread a new file
 
 MCAP_HINT = "recording needs the mcap package: pip install 'franka-sim[record]'"
 

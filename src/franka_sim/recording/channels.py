@@ -7,8 +7,9 @@ serialization, so a `ros1msg` schema generated from the codec's dtype names ever
 recording a state costs no encoding. Rare events (TCP requests, control calls, poses, log
 lines) are JSON with a JSON schema.
 
-Topics carry the arm's name (`/fr3/robot_state`) so a world of several arms records each under
-its own prefix.
+Topics carry the robot's name (`/fr3/robot_state`; `/left/...`, `/right/...`, `/base/...` in a
+world of several robots), so each robot's traffic is under its own prefix; what belongs to the
+world (its free bodies' poses, the cycles that repeated without a step, log lines) is not.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ import numpy as np
 
 from franka_sim.protocol.codec import COMMAND_DTYPE, GRIPPER_STATE_DTYPE, STATE_DTYPE
 
-ARM = "fr3"
 METADATA_NAME = "franka-sim"
 
 _ROS1_TYPES = {"f8": "float64", "f4": "float32", "u1": "uint8", "u2": "uint16", "u4": "uint32",
@@ -73,9 +73,14 @@ def _json(topic: str, name: str, schema: bytes) -> Channel:
     return Channel(topic, name, "jsonschema", schema, "json")
 
 
-def channels(arm: str = ARM) -> dict[str, Channel]:
-    """Every channel of one arm's recording, by key."""
-    p = f"/{arm}"
+ROBOT_KEYS = ("robot_state", "command", "gripper_state", "command_rejected", "lost_cycle", "tcp",
+              "reply", "control")
+WORLD_KEYS = ("bodies", "repeated", "log")
+
+
+def robot_channels(robot: str) -> dict[str, Channel]:
+    """Every channel of one robot of a recording, by key."""
+    p = f"/{robot}"
     return {
         "robot_state": _ros1(f"{p}/robot_state", "franka/RobotState", ros1_definition(STATE_DTYPE)),
         "command": _ros1(f"{p}/command", "franka/RecordedCommand",
@@ -94,8 +99,18 @@ def channels(arm: str = ARM) -> dict[str, Channel]:
         "control": _json(f"{p}/control", "franka_sim/ControlCall", _object(
             cycle=_INT, completed=_BOOL, operation=_STR, arguments=_ANY, status=_INT,
             result=_ANY)),
+    }
+
+
+def world_channels() -> dict[str, Channel]:
+    """The channels of the world a recording's robots share, by key."""
+    return {
         "bodies": _json("/world/bodies", "franka_sim/BodyPoses", _object(
             cycle=_INT, qpos={"type": "array", "items": _NUM}, bodies={"type": "array"})),
+        # Cycles that left the world as it was (lockstep's idle time, a motion's start held
+        # for its client's first command): replay repeats them instead of stepping.
+        "repeated": _json("/world/repeated", "franka_sim/RepeatedCycles", _object(
+            first=_INT, last=_INT)),
         "log": _json("/log", "franka_sim/LogLine", _object(
             level=_STR, logger=_STR, message=_STR)),
     }

@@ -1,4 +1,10 @@
-"""The recording's configuration record: what replay needs to build the same robot again."""
+"""The recording's configuration record: what replay needs to build the same world again.
+
+A world is its robots (each arm's name and base, and whether a mobile base carries them), the
+clock, the start pose, the flags that change a robot's behaviour, the served description and the
+scene (their text when they are not the packaged ones). Addresses are not recorded: replay
+serves nothing.
+"""
 
 from __future__ import annotations
 
@@ -7,9 +13,10 @@ import json
 import tempfile
 from pathlib import Path
 
-from franka_sim.config import DEFAULT_ARM, ArmSpec, ClockMode, Config
+from franka_sim.config import ArmSpec, ClockMode, Config
 from franka_sim.recording import FORMAT_VERSION
 
+START_FRESH, START_RESET = "fresh", "reset"  # `start`: from a fresh world, or from a reset
 _FLAGS = ("enforce_comm_constraints", "enforce_motion_limits", "joint_discontinuity_scale",
           "gripper")
 
@@ -18,16 +25,18 @@ def sha256(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def describe(config: Config, urdf_text: str, scene: Path) -> dict:
-    """The metadata of a recording of a robot built from `config`."""
+def describe(config: Config, urdf_text: str, scene: Path, robots) -> dict:
+    """The metadata of a recording of the world built from `config`; `robots`: its parts
+    (assembly.py), in the world's order."""
     import franka_sim
 
     scene_text = Path(scene).read_text()
-    spec = config.arm_specs()[0]
     return {
         "franka_sim_version": franka_sim.__version__,
-        "arm": spec.name,
-        "base": None if spec.base is None else list(spec.base),
+        "robots": [{"name": robot.name, "kind": robot.kind,
+                    "base": None if getattr(robot, "spec", None) is None
+                    or robot.spec.base is None else list(robot.spec.base)}
+                   for robot in robots],
         "clock": config.clock.value,
         "q0": list(config.q0),
         "flags": {name: getattr(config, name) for name in _FLAGS},
@@ -36,6 +45,7 @@ def describe(config: Config, urdf_text: str, scene: Path) -> dict:
         "scene_name": str(scene),
         "scene_sha256": sha256(scene_text),
         "scene": scene_text,
+        "start": START_FRESH,
     }
 
 
@@ -43,8 +53,13 @@ class Incompatible(Exception):
     """The recording cannot be replayed by this franka-sim (the message says why)."""
 
 
+def robot_names(meta: dict) -> list[str]:
+    """The recorded robots' names, in the world's order (their channels' prefixes)."""
+    return [robot["name"] for robot in json.loads(meta["robots"])]
+
+
 def replay_config(meta: dict, workdir: str | None = None) -> Config:
-    """A Config that builds the recorded robot (a custom URDF or scene is written to a
+    """A Config that builds the recorded world (a custom URDF or scene is written to a
     temporary file when its recorded path is gone or changed)."""
     version = int(meta.get("format_version", "0"))
     if version != FORMAT_VERSION:
@@ -52,9 +67,13 @@ def replay_config(meta: dict, workdir: str | None = None) -> Config:
                            f"v{FORMAT_VERSION}")
     flags = json.loads(meta["flags"])
     config = Config(clock=ClockMode(meta["clock"]), q0=tuple(json.loads(meta["q0"])), **flags)
-    base = json.loads(meta.get("base", "null"))
-    config.arms = (ArmSpec(meta.get("arm", DEFAULT_ARM), config.host,
-                           None if base is None else tuple(base)),)
+    robots = json.loads(meta["robots"])
+    # Addresses only tell robots apart here: replay opens no socket.
+    config.arms = tuple(ArmSpec(robot["name"], f"replay-{i}",
+                                None if robot["base"] is None else tuple(robot["base"]))
+                        for i, robot in enumerate(robots) if robot["kind"] == "arm")
+    if any(robot["kind"] == "base" for robot in robots):
+        config.mobile_base = "replay-base"
     workdir = workdir or tempfile.mkdtemp(prefix="franka-sim-replay-")
     if meta["urdf"]:
         path = Path(workdir, "robot.urdf")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import json
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,7 +13,8 @@ import numpy as np
 
 from franka_sim.protocol.codec import STATE_DTYPE, decode_command
 from franka_sim.recording import FORMAT_VERSION
-from franka_sim.recording.channels import COMMAND_PREFIX, METADATA_NAME, channels
+from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, WORLD_KEYS,
+                                           robot_channels, world_channels)
 
 
 class RecordingError(Exception):
@@ -21,9 +23,11 @@ class RecordingError(Exception):
 
 @dataclass(frozen=True, slots=True)
 class Entry:
-    """One recorded message: its channel's key, wall time (ns), sequence and bytes."""
+    """One recorded message: its channel's key, its robot's index (None: the world's), wall time
+    (ns), sequence and bytes."""
 
     key: str
+    robot: int | None
     wall: int
     sequence: int
     data: bytes
@@ -33,19 +37,34 @@ class Entry:
 
 
 class Recording:
-    def __init__(self, path: Path, metadata: dict, entries: list[Entry]) -> None:
-        self.path, self.metadata, self.entries = path, metadata, entries
+    """A recording's metadata and messages; `robots`: its robots' names, by index."""
 
-    def of(self, key: str) -> list[Entry]:
-        return [e for e in self.entries if e.key == key]
+    def __init__(self, path: Path, metadata: dict, robots: list[str],
+                 entries: list[Entry]) -> None:
+        self.path, self.metadata, self.robots, self.entries = path, metadata, robots, entries
 
-    def states(self) -> np.ndarray:
-        """Every RobotState sent, in order, as one structured array (fields by name)."""
-        states = [e.data for e in self.entries if e.key == "robot_state"]
-        return np.frombuffer(b"".join(states), STATE_DTYPE)
+    def robot(self, name: str | None) -> int:
+        """A robot's index by name (None: the first, the lone arm's); RecordingError: none."""
+        if name is None:
+            return 0
+        if name not in self.robots:
+            raise RecordingError(f"{self.path}: no robot {name!r} (it holds "
+                                 f"{', '.join(self.robots)})")
+        return self.robots.index(name)
 
-    def state_times(self) -> np.ndarray:
-        return np.array([e.wall for e in self.entries if e.key == "robot_state"], dtype=np.int64)
+    def of(self, key: str, robot: str | None = None) -> list[Entry]:
+        """The messages of one channel: the world's, or one robot's (None: the first)."""
+        index = None if key in WORLD_KEYS else self.robot(robot)
+        return [e for e in self.entries if e.key == key and e.robot == index]
+
+    def states(self, robot: str | None = None) -> np.ndarray:
+        """Every RobotState a robot (None: the first) sent, in order, as one structured array
+        (fields by name)."""
+        return np.frombuffer(b"".join(e.data for e in self.of("robot_state", robot)),
+                             STATE_DTYPE)
+
+    def state_times(self, robot: str | None = None) -> np.ndarray:
+        return np.array([e.wall for e in self.of("robot_state", robot)], dtype=np.int64)
 
 
 def command_of(entry: Entry):
@@ -68,29 +87,27 @@ def open_recording(path: str | Path) -> Recording:
         stream = open(path, "rb")
     except OSError as exc:
         raise RecordingError(f"{path}: {exc.strerror or exc}") from None
-    keys = {c.topic: k for k, c in channels().items()}
-    topics: dict[int, str] = {}
-    metadata, entries = None, []
+    topics: dict[int, tuple[str, int | None]] = {}  # channel id: (key, robot index)
+    channel_topics: dict[int, str] = {}
+    metadata, entries, pending = None, [], []
     with stream:
         try:
             for record in StreamReader(stream, skip_magic=False).records:
                 if isinstance(record, Message):
-                    key = topics.get(record.channel_id)
-                    if key is not None:
-                        entries.append(Entry(key, record.log_time, record.sequence, record.data))
+                    pending.append(record)
                 elif isinstance(record, Channel):
-                    if record.topic in keys:
-                        topics[record.id] = keys[record.topic]
+                    channel_topics[record.id] = record.topic
                 elif isinstance(record, Metadata) and record.name == METADATA_NAME:
                     metadata = dict(record.metadata)
         except InvalidMagic:
             raise RecordingError(f"{path}: not an MCAP file") from None
-        except EndOfFile:
-            if metadata is None and not entries:
+        except (EndOfFile, struct.error):  # (a record cut inside its header: struct's error)
+            if metadata is None and not pending:
                 raise RecordingError(f"{path}: empty or not an MCAP file") from None
             raise RecordingError(
                 f"{path}: truncated (the recording stops without its end; "
-                f"{sum(e.key == 'robot_state' for e in entries)} states are readable: "
+                f"{sum(channel_topics.get(r.channel_id, '').endswith('/robot_state') for r in pending)}"
+                " states are readable: "
                 "`mcap recover` rewrites what is there as a complete file)") from None
         except McapError as exc:
             raise RecordingError(f"{path}: damaged MCAP ({exc})") from None
@@ -100,4 +117,17 @@ def open_recording(path: str | Path) -> Recording:
     if version != str(FORMAT_VERSION):
         raise RecordingError(f"{path}: recording format v{version}; this franka-sim reads "
                              f"v{FORMAT_VERSION}")
-    return Recording(path, metadata, entries)
+    robots = [robot["name"] for robot in json.loads(metadata["robots"])]
+    keys = {channel.topic: (key, None) for key, channel in world_channels().items()}
+    for index, name in enumerate(robots):
+        keys.update({channel.topic: (key, index)
+                     for key, channel in robot_channels(name).items()})
+    for channel_id, topic in channel_topics.items():
+        if topic in keys:
+            topics[channel_id] = keys[topic]
+    for record in pending:
+        where = topics.get(record.channel_id)
+        if where is not None:
+            entries.append(Entry(where[0], where[1], record.log_time, record.sequence,
+                                 record.data))
+    return Recording(path, metadata, robots, entries)

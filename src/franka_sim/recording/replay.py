@@ -1,23 +1,26 @@
 """Replay: the recorded run again, in a fresh simulator without sockets, compared bit for bit.
 
-The robot is built from the recording's configuration exactly as `franka-sim serve` builds it
-(assembly.WorldParts). Then every recorded event that could change it (a RobotCommand handed to
-the core, TCP bytes from a client, its connect and disconnect, a control operation) is applied
-at the point of the cycle sequence where it was recorded: after the release of cycle n, before
-or after that cycle's completion. The cycles between are released and completed as the server
-does (RobotCycle); each state the server sent is compared with the replayed one. Cycles whose
-states were not sent (no client yet, lockstep's settling) are released all the same; lockstep's
-idle repeats are released as steps, which at rest give the same bits.
+The world is built from the recording's configuration exactly as `franka-sim serve` builds it
+(assembly.WorldParts): every robot of it, arms and mobile base. Then every recorded event that
+could change it (a RobotCommand handed to a robot, TCP bytes from a client, its connect and
+disconnect, a control operation) is applied at the point of the cycle sequence where it was
+recorded: after the release of cycle n, before or after that cycle's completion. The cycles
+between are released and completed as the server does (robot/world_cycle.py): stepped, or, where
+the recording says the server left the world as it was (lockstep's idle time, a motion's start
+held for its client's first command), repeated. Each state the server sent is compared with the
+replayed one. Cycles whose states were not sent (no client yet, lockstep's settling) are
+released all the same.
 
-A recording started on a running server (the control API's `/recording`, recording/live.py)
-begins with the reset it started from, at cycle n: the fresh simulator's clock is moved to n
-and that reset is replayed there. A reset world is a fresh one at a later message_id (the
-reset puts back every state the robot, the Hand and the physics keep), so from then on the run
-is replayed as any other.
+A recording started on a running server (the control API's `/recording`) begins with the reset
+it started from, at cycle n: the fresh simulator's clock is moved to n and that reset is
+replayed there. A reset world is a fresh one at a later message_id (the reset puts back every
+state the robot, the Hand and the physics keep), so from then on the run is replayed as any
+other.
 """
 
 from __future__ import annotations
 
+import bisect
 import threading
 from dataclasses import dataclass, field
 
@@ -28,8 +31,7 @@ from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ControlOps
 from franka_sim.operations.table import BY_NAME, Effect
 from franka_sim.protocol.codec import STATE_DTYPE
-from franka_sim.recording.live import START_FRESH, START_RESET
-from franka_sim.recording.metadata import Incompatible, replay_config
+from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
 from franka_sim.robot.session import SessionError
 
@@ -71,35 +73,46 @@ class Replayer:
     def __init__(self, recording: Recording) -> None:
         self.config = replay_config(recording.metadata)
         self.recording = recording
-        self.world_parts = WorldParts(self.config)
-        self.parts = parts = self.world_parts.arms[0]
-        self.physics = self.world_parts.make_physics()  # one backend per arm (here: one)
-        self.hand_listens = False  # a Hand client took its state stream (its handshake)
-        self.cycle = self.world_parts.make_cycle(self.physics, [lambda: self.hand_listens])
-        self.core = parts.core
+        self.world_parts = parts = WorldParts(self.config)
+        self.physics = parts.make_physics()  # each robot's body, by index
+        self.listening = [False] * len(parts.robots)  # a Hand client took its state stream
+        self.cycle = parts.make_cycle(
+            self.physics, [lambda i=i: self.listening[i] for i in range(len(parts.robots))])
         self.released = None  # the cycle released and not completed, if any
-        self.sessions: dict = {}
-        self.ops = ControlOps(
-            core=parts.core, gripper=parts.gripper, driver=_Driver(self), worker=_Worker(self),
-            lock=threading.Lock(), description=parts.description, q0=parts.q0,
-            clock=self.config.clock.value, client_connected=lambda: "robot" in self.sessions)
+        self.sessions: dict = {}  # (robot, service): the client's session
+        runs = sorted((e.json()["first"], e.json()["last"]) for e in recording.of("repeated"))
+        self._repeat_firsts = [first for first, _ in runs]
+        self._repeat_runs = runs
+        self.ops = {i: ControlOps(
+            core=arm.core, gripper=arm.gripper, driver=_Driver(self), worker=_Worker(self),
+            lock=threading.Lock(), description=arm.description, q0=arm.q0,
+            clock=self.config.clock.value, arm=arm.name, arm_index=i,
+            client_connected=lambda i=i: (i, "robot") in self.sessions)
+            for i, arm in enumerate(parts.robots) if arm.kind == "arm"}
 
     # -- the cycle sequence ------------------------------------------------------------------------
     def advance(self, n: int, completed: bool) -> None:
         """Release and complete cycles until cycle n is released (and completed, if asked)."""
-        core, cycle = self.core, self.cycle
+        cycle = self.cycle
         while True:
-            here = core.message_id
+            here = cycle.message_id
             done = self.released is None
             if (here, done) == (n, completed):
                 return
             if (here, done) > (n, completed):
                 raise _Diverged(f"an event recorded at cycle {n} comes after cycle {here}")
-            if done:
-                self.released = cycle.release()
-            else:
+            if not done:
                 cycle.complete(self.released)
                 self.released = None
+            elif self._repeated(here + 1):
+                self.released = (cycle.hold() if cycle.holds_start else None) or cycle.repeat()
+            else:
+                self.released = cycle.release()
+
+    def _repeated(self, n: int) -> bool:
+        """The server left the world as it was in cycle n (its recorded runs)."""
+        k = bisect.bisect_right(self._repeat_firsts, n) - 1
+        return k >= 0 and self._repeat_runs[k][1] >= n
 
     # -- the events ----------------------------------------------------------------------------------
     def start_where_recorded(self) -> None:
@@ -113,56 +126,61 @@ class Replayer:
                                "reset, and this one does not")
         # Where the server was: cycle n released, and completed or (idle, released ahead) not.
         start = call["cycle"] - (0 if call["completed"] else 1)
-        self.core.message_id = self.cycle.completed_id = start
+        for part in self.cycle.parts:
+            part.core.message_id = part.completed_id = start
 
     def run(self, until: int | None = None) -> Outcome:
         self.start_where_recorded()
         outcome = Outcome()
         try:
             for entry in self.recording.entries:
-                key = entry.key
+                key, robot = entry.key, entry.robot
                 if key == "robot_state":
                     n = int.from_bytes(entry.data[:8], "little")  # its message_id
                     if until is not None and n > until:
                         break
                     self.advance(n, False)
-                    if self.released.state != entry.data:
+                    replayed = self.released.robots[robot].state
+                    if replayed != entry.data:
                         outcome.divergence = n
-                        outcome.fields = differing_fields(entry.data, self.released.state)
+                        outcome.fields = differing_fields(entry.data, replayed)
+                        if len(self.recording.robots) > 1:
+                            outcome.note = f"robot {self.recording.robots[robot]}"
                         return outcome
                     outcome.cycles += 1
                 elif key == "command":
                     n, completed, on_time, command = command_of(entry)
                     self.advance(n, completed)
-                    if self.cycle.receive(command) != on_time:
+                    if self.cycle.parts[robot].receive(command) != on_time:
                         outcome.divergence, outcome.fields = n, ["command fate"]
                         outcome.note = "a command recorded " + (
                             "on time came late" if on_time else "late came on time")
                         return outcome
                 elif key == "tcp":
-                    self._tcp(entry.json())
+                    self._tcp(robot, entry.json())
                 elif key == "control":
-                    self._control(entry.json())
+                    self._control(robot, entry.json())
         except _Diverged as exc:
-            outcome.divergence = self.core.message_id
+            outcome.divergence = self.cycle.message_id
             outcome.fields, outcome.note = ["event order"], str(exc)
         return outcome
 
-    def _tcp(self, event: dict) -> None:
+    def _tcp(self, robot: int, event: dict) -> None:
         self.advance(event["cycle"], event["completed"])
         service, kind = event["service"], event["event"]
+        parts = self.world_parts.robots[robot]
         if kind == "open":
-            self.sessions[service] = (self.parts.robot_session() if service == "robot"
-                                      else self.parts.gripper_session())
+            self.sessions[robot, service] = (parts.robot_session() if service == "robot"
+                                             else parts.gripper_session())
         elif kind == "close":
-            self.sessions.pop(service, None)
+            self.sessions.pop((robot, service), None)
             if service == "robot":
-                self.core.client_gone()
+                parts.core.client_gone()
             else:
-                self.hand_listens = False
-                self.parts.gripper.client_gone()
+                self.listening[robot] = False
+                parts.gripper.client_gone()
         else:
-            session = self.sessions[service]
+            session = self.sessions[robot, service]
             had_handshake = session.handshake is not None
             try:
                 session.receive(tcp_data(event))
@@ -170,27 +188,31 @@ class Replayer:
                 pass  # the server closed that connection: its close follows
             if not had_handshake and session.handshake is not None:
                 if service == "robot":
-                    self.core.client_connected()
+                    parts.core.client_connected()
                 else:
-                    self.hand_listens = True
+                    self.listening[robot] = True
 
-    def _control(self, call: dict) -> None:
+    def _control(self, robot: int, call: dict) -> None:
         self.advance(call["cycle"], call["completed"])
         operation, args = call["operation"], call["arguments"]
         if operation not in BY_NAME or BY_NAME[operation].effect is not Effect.CHANGE:
             raise Incompatible(f"a recorded control call {operation!r} is not an operation "
                                "that changes the world (operations/table.py)")
-        coroutine = getattr(self.ops, operation)(**args)
-        try:
-            coroutine.send(None)  # the fake worker never suspends: it ends here
-        except StopIteration:
-            status = 200
-        except ControlError as refusal:
-            status = refusal.status
-        else:
-            raise RuntimeError(f"control operation {operation} suspended in replay")
+        status = _run_now(getattr(self.ops[robot], operation)(**args))
         if status != call["status"]:
             raise _Diverged(f"control {operation} answered {status}, recorded {call['status']}")
+
+
+def _run_now(coroutine) -> int:
+    """An operation's status, run to its end at once: the replayed worker runs each job in
+    line, so an operation never waits on anything."""
+    try:
+        coroutine.send(None)
+    except StopIteration:
+        return 200
+    except ControlError as refusal:
+        return refusal.status
+    raise RuntimeError("a control operation suspended in replay")
 
 
 class _Worker:
@@ -207,7 +229,7 @@ class _Worker:
 
 
 class _Driver:
-    """What the control operations ask of the cycle driver."""
+    """What the control operations ask of the world's clock."""
 
     def __init__(self, replayer: Replayer) -> None:
         self.replayer = replayer
@@ -217,7 +239,7 @@ class _Driver:
         if replayer.released is None:
             return None
         replayer.released = None  # released ahead, never sent: taken back
-        return replayer.core.message_id - 1
+        return replayer.cycle.message_id - 1
 
     def keep_running(self) -> None:
         pass

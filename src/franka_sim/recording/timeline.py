@@ -44,7 +44,7 @@ def motion_ends(recording: Recording) -> list[Mark]:
 
 def lost_cycles(recording: Recording) -> list[Mark]:
     """Each motion cycle that closed without an on-time command, labelled with how the robot
-    filled it (`extrapolated`, `held`, `braked`, ...: recording/recorder.py)."""
+    filled it (`extrapolated`, `held`, `braked`, ...: robot/events.py)."""
     return [Mark(event["cycle"], event["filled"])
             for event in (entry.json() for entry in recording.of("lost_cycle"))]
 

@@ -32,6 +32,7 @@ from franka_sim.robot.admission import admit_move
 from franka_sim.robot.checks import LimitPolicy, MotionGuard
 from franka_sim.robot.command_window import CommandWindow
 from franka_sim.robot.drive import Drives
+from franka_sim.robot.events import NO_ROBOT_EVENTS, RobotEvents
 from franka_sim.robot.external_forces import ExternalForces
 from franka_sim.robot.fci import FciRobot
 from franka_sim.robot.motion import MAX_EXTRAPOLATED_CYCLES, Motion
@@ -49,8 +50,9 @@ class ArmCore(FciRobot):
 
     def __init__(self, desc: ArmDescription, q0: np.ndarray, *, urdf: bytes = b"",
                  enforce_comm_constraints: bool = False, enforce_motion_limits: bool = False,
-                 joint_discontinuity_scale: float = 1.0, first_message_id: int = 1) -> None:
-        super().__init__(urdf, first_message_id)
+                 joint_discontinuity_scale: float = 1.0, first_message_id: int = 1,
+                 events: RobotEvents = NO_ROBOT_EVENTS) -> None:
+        super().__init__(urdf, first_message_id, events)
         self.desc = desc
         self.enforce_comm_constraints = enforce_comm_constraints
         self.joint_discontinuity_scale = joint_discontinuity_scale

@@ -36,7 +36,6 @@ class ArmCycle(PacerQuestions):
         self._unchanged = False  # the last step handed back the one before (physics at rest)
         self._q_d = None  # the desired q of the cycle being released (None: no generator)
         self.completed_id = 0  # the last completed cycle's message_id
-        self.taps = None  # the recording's taps for this arm (recording), or None
 
     # -- questions a clock asks (and PacerQuestions') ------------------------------------------
     @property
@@ -62,10 +61,7 @@ class ArmCycle(PacerQuestions):
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
         """A decoded RobotCommand; True if it answered the open cycle in time."""
-        on_time = self.core.receive_command(command)
-        if self.taps is not None:
-            self.taps.command(command, on_time)
-        return on_time
+        return self.core.receive_command(command)
 
     def release(self) -> Released:
         """This arm alone in its world (tests): drive, step, publish."""

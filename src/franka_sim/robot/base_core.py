@@ -27,6 +27,7 @@ from franka_sim.protocol.enums import (AutomaticErrorRecoveryStatus, Command,
                                        MoveMotionGeneratorMode, MoveStatus, RobotMode)
 from franka_sim.protocol.robot_messages import build_response
 from franka_sim.robot.base_state import BaseStatePublisher
+from franka_sim.robot.events import NO_ROBOT_EVENTS, RobotEvents
 from franka_sim.robot.fci import FciRobot
 from franka_sim.robot.motion import MAX_EXTRAPOLATED_CYCLES, MoveRejected, MoveSpec, parse_move
 from franka_sim.robot.swerve import SwerveDrive
@@ -40,7 +41,8 @@ PLANAR_REFLEX = "cartesian_motion_generator_velocity_limits_violation"
 class BaseMotion:
     """A running base motion: its Move's id and modes, and the client's last command."""
 
-    __slots__ = ("command_id", "spec", "running", "first_state", "last_command", "twist_c")
+    __slots__ = ("command_id", "spec", "running", "first_state", "last_command", "twist_c",
+                 "braking")
 
     def __init__(self, command_id: int, spec: MoveSpec) -> None:
         self.command_id, self.spec = command_id, spec
@@ -48,6 +50,7 @@ class BaseMotion:
         self.first_state = -1
         self.last_command = None  # None until the client's first command
         self.twist_c: tuple | None = None  # its twist
+        self.braking = False  # its client fell silent: the base brakes until it is heard
 
 
 class BaseCore(FciRobot):
@@ -55,8 +58,9 @@ class BaseCore(FciRobot):
 
     label = "base "
 
-    def __init__(self, urdf: bytes, first_message_id: int = 1) -> None:
-        super().__init__(urdf, first_message_id)
+    def __init__(self, urdf: bytes, first_message_id: int = 1,
+                 events: RobotEvents = NO_ROBOT_EVENTS) -> None:
+        super().__init__(urdf, first_message_id, events)
         self.drive = SwerveDrive()
         self.publisher = BaseStatePublisher()
         self.motion: BaseMotion | None = None
@@ -92,8 +96,10 @@ class BaseCore(FciRobot):
 
     def _close_window(self, motion: BaseMotion) -> None:
         command = self.window.close()
+        motion.braking = command is None and (
+            self.window.consecutive_lost >= MAX_EXTRAPOLATED_CYCLES)
         if command is None:
-            if self.window.consecutive_lost >= MAX_EXTRAPOLATED_CYCLES:
+            if motion.braking:
                 if self.window.consecutive_lost == MAX_EXTRAPOLATED_CYCLES:
                     log.warning("base client silent for %d cycles: braking to rest",
                                 MAX_EXTRAPOLATED_CYCLES)

@@ -27,7 +27,6 @@ class BaseCycle(PacerQuestions):
         self.core = core
         self.physics = physics if physics is not None else StandingStill()
         self.completed_id = 0
-        self.taps = None  # the recording's taps for the base (recording), or None
 
     @property
     def busy(self) -> bool:
@@ -38,10 +37,7 @@ class BaseCycle(PacerQuestions):
         return not self.core.busy
 
     def receive(self, command) -> bool:
-        on_time = self.core.receive_command(command)
-        if self.taps is not None:
-            self.taps.command(command, on_time)
-        return on_time
+        return self.core.receive_command(command)
 
     def drive(self) -> None:
         self.physics.command(*self.core.release_cycle())

@@ -36,6 +36,8 @@ from franka_sim.protocol.enums import (
 )
 from franka_sim.protocol.robot_messages import build_response
 from franka_sim.robot.command_window import CommandWindow
+from franka_sim.robot.events import (BRAKED, EXTRAPOLATED, GENERATED, HELD, MOTION_ENDED,
+                                     NEWER_COMMAND, NO_ROBOT_EVENTS, RobotEvents)
 from franka_sim.robot.motion import MoveRejected
 from franka_sim.robot.status import RobotStatus
 from franka_sim.thinned_log import worth_logging
@@ -50,12 +52,15 @@ SETTERS = (Command.SetCollisionBehavior, Command.SetJointImpedance,
 class FciRobot:
     """The shared lifecycle; a robot kind subclasses it (see the module docstring).
 
-    `urdf`: what GetRobotModel answers; `label`: the robot in log lines ("", "base ")."""
+    `urdf`: what GetRobotModel answers; `events`: who hears the commands it takes and the
+    cycles it loses (robot/events.py); `label`: the robot in log lines ("", "base ")."""
 
     label = ""
 
-    def __init__(self, urdf: bytes, first_message_id: int = 1) -> None:
+    def __init__(self, urdf: bytes, first_message_id: int = 1,
+                 events: RobotEvents = NO_ROBOT_EVENTS) -> None:
         self.urdf = urdf
+        self.events = events
         self.status = RobotStatus()
         self.window = CommandWindow()
         self.motion = None  # the running Move (a kind's motion: command_id, spec, running,
@@ -108,10 +113,28 @@ class FciRobot:
             self._window_closed = True
             motion = self.motion
             if motion is not None and motion.running:
+                before = motion.last_command
                 self._close_window(motion)
+                if self.window.consecutive_lost:  # this cycle's answer did not come in time
+                    self.events.lost(self.message_id, self._filled(motion, before))
             else:
                 self._idle_release()
         return self._drive()
+
+    def _filled(self, motion, before) -> str:
+        """What the robot made of a lost cycle, as its motion shows once the window closed
+        (robot/events.py LOST_FILLS); `before`: its last command before the close."""
+        if self.motion is not motion:
+            return MOTION_ENDED
+        if motion.last_command is not before:
+            return NEWER_COMMAND
+        if motion.braking:
+            return BRAKED
+        if motion.spec.use_async:
+            return GENERATED
+        if motion.last_command is None:
+            return HELD
+        return EXTRAPOLATED
 
     def _published(self):
         """The clock advances to a newly published state: a Move's modes flip on the first
@@ -141,6 +164,11 @@ class FciRobot:
     # -- UDP commands ----------------------------------------------------------------------------
     def receive_command(self, command) -> bool:
         """A RobotCommand datagram from the client. True if it answered the open cycle in time."""
+        on_time = self._take_command(command)
+        self.events.command(command, on_time)
+        return on_time
+
+    def _take_command(self, command) -> bool:
         motion = self.motion
         message_id = int(command["message_id"])
         if motion is None or not motion.running:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Callable, Sequence
 
 from franka_sim.robot.cycle import NO_REPLIES, Released, Replies, RobotPart
+from franka_sim.robot.events import NO_WORLD_EVENTS, WorldEvents
 
 
 class WorldReleased:
@@ -51,13 +52,16 @@ class WorldReplies:
 
 class WorldCycle:
     """The robots' parts (in a fixed order: a world cycle runs them in it, so the same command
-    streams give the same bits) and `step`, the world's one physics step."""
+    streams give the same bits), `step`, the world's one physics step, and `events`, who hears
+    each cycle released or repeated (robot/events.py)."""
 
-    def __init__(self, parts: Sequence[RobotPart], step: Callable[[], None]) -> None:
+    def __init__(self, parts: Sequence[RobotPart], step: Callable[[], None],
+                 events: WorldEvents = NO_WORLD_EVENTS) -> None:
         if not parts:
             raise ValueError("a world cycle needs a robot")
         self.parts = tuple(parts)
         self.step = step
+        self.events = events
         # Whom the open state waits for (lockstep), by robot index: `waits_for` as released,
         # `_awaited` those of them that have not answered yet.
         self.waits_for: frozenset[int] = frozenset()
@@ -130,11 +134,13 @@ class WorldCycle:
         self.step()
         released = WorldReleased(tuple(part.publish() for part in self.parts))
         self._await()
+        self.events.released(released.message_id)
         return released
 
     def repeat(self) -> WorldReleased:
         released = WorldReleased(tuple(part.repeat() for part in self.parts))
         self._await()
+        self.events.repeated(released.message_id)
         return released
 
     def hold(self) -> WorldReleased | None:

@@ -20,9 +20,9 @@ class GripperEndpoint(SingleClientEndpoint):
     def __init__(self, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None],
                  lock: AbstractContextManager | None = None,
-                 on_request: Callable[[], None] = lambda: None) -> None:
+                 on_request: Callable[[], None] = lambda: None, taps=None) -> None:
         super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect,
-                         lock=lock, on_request=on_request)
+                         lock=lock, on_request=on_request, taps=taps)
         self._client_gone = on_disconnect
         self.state_target: tuple[str, int] | None = None
         self.udp: asyncio.DatagramTransport | None = None
@@ -43,8 +43,8 @@ class GripperEndpoint(SingleClientEndpoint):
     def send_state(self, data: bytes) -> None:
         if self.state_target is not None and self.udp is not None:
             self.udp.sendto(data, self.state_target)
-            if self.recorder is not None:
-                self.recorder.gripper_state(data)
+            if self.taps is not None:
+                self.taps.tool_state(data)
 
     async def stop(self) -> None:
         await super().stop()

@@ -32,30 +32,34 @@ class AddressInUse(OSError):
 
 class RobotServer:
     """Robot `index` of the world (its `parts`); `driver`, `worker`, `lock`: the world's;
-    `faults`: the world's NetworkFaults (its control API sets this robot's)."""
+    `faults`: the world's NetworkFaults (its control API sets this robot's); `taps`: the
+    world's recording taps (server/recorder/taps.py); `recordings`: the control API's
+    (server/recorder/live.py; None: this world cannot be recorded that way)."""
 
     def __init__(self, parts, index: int, *, config, driver: CycleDriver, worker: CycleThread,
-                 lock: threading.Lock, faults=None) -> None:
+                 lock: threading.Lock, faults, taps, recordings) -> None:
         self.parts, self.index, self.config = parts, index, config
         self.name, self.host, self.label = parts.name, parts.host, parts.label
         self.driver, self.lock = driver, lock
         self.core, self.gripper = parts.core, parts.gripper
-        self.udp = UdpEndpoint()
+        robot_taps = taps.robots[index]
+        self.udp = UdpEndpoint(robot_taps)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
                                    defer_replies=driver.after_next_state, lock=lock,
                                    replaceable=self._client_silent,
-                                   on_request=driver.client_event)
+                                   on_request=driver.client_event, taps=robot_taps)
         self.gripper_endpoint = None
         if self.gripper is not None:
             self.gripper_endpoint = GripperEndpoint(
                 self._make_gripper_session, self._on_gripper_disconnect, lock=lock,
-                on_request=driver.client_event)
+                on_request=driver.client_event, taps=robot_taps)
         connected = lambda: self.robot.active is not None  # noqa: E731
         if parts.kind == "arm":
             self.control = ControlOps(
                 core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
                 description=parts.description, q0=parts.q0, clock=config.clock.value,
-                client_connected=connected, arm=self.name, arm_index=index, faults=faults)
+                client_connected=connected, arm=self.name, arm_index=index, faults=faults,
+                taps=taps, recordings=recordings)
         else:
             self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
                                    robot_index=index, faults=faults)

@@ -20,6 +20,9 @@ from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.faults import NetworkFaults, parse_spec
+from franka_sim.recording.metadata import START_FRESH
+from franka_sim.server.recorder.live import Recordings
+from franka_sim.server.recorder.taps import Taps
 from franka_sim.server.robot_server import AddressInUse, RobotServer
 
 __all__ = ["AddressInUse", "FrankaSim"]
@@ -36,8 +39,11 @@ class FrankaSim(EmbeddedOperations):
         for key, value in overrides.items():
             setattr(config, key, value)
         self.config = config
+        # What a recording hears, from everyone who has something to record (inert until a
+        # recording is attached: server/recorder/live.py).
+        self.taps = Taps(len(config.arm_specs()) + (config.mobile_base is not None))
         # SceneError / DescriptionError: said now, before anything is served.
-        self.parts = parts = WorldParts(config)
+        self.parts = parts = WorldParts(config, self.taps)
         self.urdf_text, self.description, self.scene = (
             parts.urdf_text, parts.description, parts.scene)
         # The arms and the Hands are shared by the cycle thread (each cycle) and the loop (each
@@ -49,10 +55,14 @@ class FrankaSim(EmbeddedOperations):
             self._make_cycle, self.worker, self.lock, deliver=self._deliver,
             lockstep=config.clock is ClockMode.lockstep, has_client=self._has_client,
             watcher=self.network_faults)
+        self.recordings = Recordings(self)
         # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
+        # The control API records through a world's only arm (server/recorder/live.py).
+        recordings = self.recordings if len(parts.robots) == 1 else None
         self.robots = [
             RobotServer(robot_parts, i, config=config, driver=self.driver, worker=self.worker,
-                        lock=self.lock, faults=self.network_faults)
+                        lock=self.lock, faults=self.network_faults, taps=self.taps,
+                        recordings=recordings)
             for i, robot_parts in enumerate(parts.robots)]
         self.arms = [robot for robot in self.robots if robot.parts.kind == "arm"]
         self.base = next((robot for robot in self.robots if robot.parts.kind == "base"), None)
@@ -61,19 +71,9 @@ class FrankaSim(EmbeddedOperations):
             spec = parse_spec(config.inject)
             for i in range(len(self.robots)):
                 self.network_faults.set(i, spec)
-        self.recorder = None
-        if config.record is not None:  # OSError: the target cannot be written
-            if len(self.robots) > 1:
-                raise ValueError("--record records a world of one arm (several, or a mobile "
-                                 "base: not supported)")
-            from franka_sim.recording.taps import install_recorder
-
-            self.recorder = install_recorder(self)
-        self.recordings = None  # the control API's (recording/live.py): a world of one arm
-        if len(self.robots) == 1:
-            from franka_sim.recording.live import LiveRecordings
-
-            self.recordings = self.control.recordings = LiveRecordings(self)
+        # --record: the whole run, from the world's first cycle (OSError: cannot be written).
+        self.recorder = None if config.record is None else self.recordings.open(
+            config.record, start=START_FRESH)
         self._started = False
         self.failed = asyncio.Event()  # set once the world stopped simulating (`failure`)
 
@@ -116,10 +116,7 @@ class FrankaSim(EmbeddedOperations):
         for robot in self.robots:
             robot.udp.close()
         await self.worker.stop()
-        if self.recorder is not None:
-            self.recorder.stop()
-        if self.recordings is not None:
-            self.recordings.close()
+        self.recordings.close()
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()
@@ -174,7 +171,7 @@ class FrankaSim(EmbeddedOperations):
     def _make_cycle(self, physics: list):
         cycle = self.parts.make_cycle(physics, [robot.hand_state_wanted for robot in self.robots])
         if self.recorder is not None:
-            self.recorder.attach(cycle, physics[0])
+            self.recordings.attach(self.recorder, physics[0].world, cycle=cycle, fresh=True)
         return cycle
 
     def _deliver(self, replies) -> None:

@@ -96,8 +96,8 @@ class ClientConnection(asyncio.Protocol):
         owner.refused = 0
         owner.active = self
         self.session = owner.make_session()
-        if owner.recorder is not None:
-            owner.recorder.tcp(owner.what, "open")
+        if owner.taps is not None:
+            owner.taps.tcp(owner.what, "open")
         if owner.keepalive is not None:
             _keep_alive(transport, *owner.keepalive)
         self._watch(restart=True)  # Connect is owed from now on
@@ -107,8 +107,8 @@ class ClientConnection(asyncio.Protocol):
         if self.session is None:
             return
         with self.owner.lock:  # the robot's physics thread shares what the session changes
-            if self.owner.recorder is not None:
-                self.owner.recorder.tcp(self.owner.what, "data", data)
+            if self.owner.taps is not None:
+                self.owner.taps.tcp(self.owner.what, "data", data)
             self._receive(data)
 
     def _receive(self, data: bytes) -> None:
@@ -165,8 +165,8 @@ class ClientConnection(asyncio.Protocol):
         transport = self.transport
         if transport is not None and not transport.is_closing():
             transport.write(data)
-            if self.owner.recorder is not None:
-                self.owner.recorder.reply(self.owner.what, data)
+            if self.owner.taps is not None:
+                self.owner.taps.reply(self.owner.what, data)
             unsent = transport.get_write_buffer_size()
             if unsent > self.owner.max_unsent:
                 log.warning("closing %s connection from %s:%s: %d reply bytes left unread",
@@ -181,8 +181,8 @@ class ClientConnection(asyncio.Protocol):
             self.owner.active = None
             log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
             with self.owner.lock:
-                if self.owner.recorder is not None:
-                    self.owner.recorder.tcp(self.owner.what, "close")
+                if self.owner.taps is not None:
+                    self.owner.taps.tcp(self.owner.what, "close")
                 self.owner.on_disconnect()
 
 
@@ -202,6 +202,7 @@ class SingleClientEndpoint:
         keepalive: tuple[int, int, int] | None = KEEPALIVE,
         message_deadline: float = MESSAGE_DEADLINE,
         max_unsent: int = MAX_UNSENT,
+        taps=None,
     ) -> None:
         self.what = what  # "FCI", "gripper": names the service in log lines
         self.make_session = make_session
@@ -223,7 +224,7 @@ class SingleClientEndpoint:
         self.max_unsent = max_unsent
         self.active: ClientConnection | None = None
         self.refused = 0  # newcomers turned away while the active client is connected
-        self.recorder = None  # recording.Recorder: the active client's traffic
+        self.taps = taps  # the robot's recording taps (server/recorder/taps.py): its traffic
         self.server: asyncio.AbstractServer | None = None
 
     async def start(self, host: str, port: int) -> None:

@@ -31,12 +31,12 @@ MAX_READ = 64  # datagrams one poll takes at most (a flood is read over several 
 
 
 class UdpEndpoint:
-    def __init__(self) -> None:
+    def __init__(self, taps=None) -> None:
         self.target: tuple[str, int] | None = None
         self.sock: socket.socket | None = None
         self.dropped_foreign = 0
         self.dropped_malformed = 0
-        self.recorder = None  # recording.Recorder: every state sent, every datagram dropped
+        self.taps = taps  # the robot's recording taps: every state sent, every datagram dropped
         self.faults = None  # faults.link.ArmLink while faults are injected (cycle thread only)
         self.late: list = []  # commands faults held when they were cleared: the next read's
 
@@ -73,8 +73,8 @@ class UdpEndpoint:
                 sock.sendto(data, target)
             except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
                 log.debug("state not sent: %s", exc)
-        if self.recorder is not None:
-            self.recorder.sent(data)  # what the robot sent, whatever the network made of it
+        if self.taps is not None:
+            self.taps.sent(data)  # what the robot sent, whatever the network made of it
 
     def _send_through_faults(self, data: bytes, target, sock) -> None:
         link = self.faults
@@ -120,8 +120,8 @@ class UdpEndpoint:
         counted and logged)."""
         if self.target is None or tuple(addr[:2]) != self.target:
             self.dropped_foreign += 1
-            if self.recorder is not None:
-                self.recorder.rejected("not the connected client", addr, data)
+            if self.taps is not None:
+                self.taps.rejected("not the connected client", addr, data)
             if worth_logging(self.dropped_foreign):
                 log.warning(
                     "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
@@ -132,7 +132,7 @@ class UdpEndpoint:
             return decode_command(data)
         except ProtocolError as exc:
             self.dropped_malformed += 1
-            if self.recorder is not None:
-                self.recorder.rejected(str(exc), addr, data)
+            if self.taps is not None:
+                self.taps.rejected(str(exc), addr, data)
             log.warning("dropped UDP datagram from the client: %s", exc)
             return None

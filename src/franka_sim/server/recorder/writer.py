@@ -1,8 +1,10 @@
-"""The recorder's thread: drains the taps' queue, encodes, and writes MCAP.
+"""The recorder's thread: drains the taps' queue, encodes, and writes MCAP
+(recording/channels.py says what each channel holds).
 
 Chunked and zstd-compressed; every FLUSH_PERIOD the open chunk is closed and the file flushed,
 so a process that dies loses at most that much. The last cycle's stop writes the summary, which
-makes the file seekable (readers without it fall back to reading it through).
+makes the file seekable (readers without it fall back to reading it through). Cycles repeated
+one after another are written as one run (first, last), before whatever came after them.
 """
 
 from __future__ import annotations
@@ -14,12 +16,14 @@ import threading
 import time
 from pathlib import Path
 
-import mujoco
 from mcap.writer import CompressionType, Writer
 
-from franka_sim.recording import FORMAT_VERSION, recorder as ev
-from franka_sim.recording.channels import COMMAND_PREFIX, METADATA_NAME, channels
+from franka_sim.recording import FORMAT_VERSION
+from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, robot_channels,
+                                           world_channels)
 from franka_sim.recording.wire_json import SERVICES, RequestDecoder, decode_reply
+from franka_sim.robot.events import EXTRAPOLATED
+from franka_sim.server.recorder import events as ev
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -28,11 +32,8 @@ FLUSH_PERIOD = 1.0  # s: what a crash may lose at most
 DRAIN_PERIOD = 0.05  # s between two looks at the queue
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes of messages before a chunk closes by itself
 
-_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
-
-
 class RecordingWriter:
-    def __init__(self, path: Path, metadata: dict, queue, owner) -> None:
+    def __init__(self, path: Path, metadata: dict, robots: list[str], queue, owner) -> None:
         self._file = open(path, "wb")  # OSError here: the caller says the target is unwritable
         self._queue, self._owner = queue, owner
         self._mcap = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
@@ -40,25 +41,27 @@ class RecordingWriter:
         self._mcap.add_metadata(METADATA_NAME, {
             "format_version": str(FORMAT_VERSION),
             **{k: v if isinstance(v, str) else json.dumps(v) for k, v in metadata.items()}})
-        self._ids = {}
-        for key, channel in channels().items():
-            schema = self._mcap.register_schema(channel.schema_name, channel.schema_encoding,
-                                                channel.schema)
-            self._ids[key] = self._mcap.register_channel(channel.topic, channel.message_encoding,
-                                                         schema)
-        self._decoders: dict[str, RequestDecoder] = {}
-        self._free_bodies: list[tuple[str, int]] = []  # (name, qpos address)
+        schemas: dict[str, int] = {}
+        self._ids: dict = {}  # key, or (robot index, key): its channel id
+        for key, channel in world_channels().items():
+            self._ids[key] = self._register(channel, schemas)
+        for robot, name in enumerate(robots):
+            for key, channel in robot_channels(name).items():
+                self._ids[robot, key] = self._register(channel, schemas)
+        self._decoders: dict[tuple[int, str], RequestDecoder] = {}
+        self.free_bodies: list[tuple[str, int]] = []  # (name, qpos address)
+        self._repeats: list[int] | None = None  # [first, last, wall] of a run being kept
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="fsim-recorder", daemon=True)
         self._reported_drops = 0
         self._unflushed = False
 
-    def describe_world(self, model) -> None:
-        """The free bodies whose poses the qpos records hold (cycle thread, before any)."""
-        for body in range(1, model.nbody):
-            joint = model.body_jntadr[body]
-            if model.body_jntnum[body] == 1 and model.jnt_type[joint] == _FREE:
-                self._free_bodies.append((model.body(body).name, int(model.jnt_qposadr[joint])))
+    def _register(self, channel, schemas: dict[str, int]) -> int:
+        schema = schemas.get(channel.schema_name)
+        if schema is None:
+            schema = schemas[channel.schema_name] = self._mcap.register_schema(
+                channel.schema_name, channel.schema_encoding, channel.schema)
+        return self._mcap.register_channel(channel.topic, channel.message_encoding, schema)
 
     def start(self) -> None:
         self._thread.start()
@@ -68,6 +71,7 @@ class RecordingWriter:
         if self._thread.ident is not None:  # (a recording discarded before it started)
             self._thread.join()
         self._drain()
+        self._write_repeats()
         self._mcap.finish()
         self._file.close()
 
@@ -108,60 +112,77 @@ class RecordingWriter:
     def _write(self, event: tuple) -> None:
         kind = event[0]
         self._unflushed = True
+        if kind == ev.REPEATED:
+            _, n, wall = event
+            runs = self._repeats
+            if runs is not None and runs[1] == n - 1:
+                runs[1] = n
+                return
+            self._write_repeats()
+            self._repeats = [n, n, wall]
+            return
+        if self._repeats is not None:
+            self._write_repeats()  # before what came after them
         if kind == ev.SENT:
-            _, data, wall = event
-            self._add("robot_state", wall, data, int.from_bytes(data[:8], "little"))
+            _, robot, data, wall = event
+            self._add((robot, "robot_state"), wall, data, int.from_bytes(data[:8], "little"))
         elif kind == ev.COMMAND:
-            _, command, on_time, n, completed, wall = event
-            self._add("command", wall, COMMAND_PREFIX.pack(n, completed, on_time)
+            _, robot, command, on_time, n, completed, wall = event
+            self._add((robot, "command"), wall, COMMAND_PREFIX.pack(n, completed, on_time)
                       + command.tobytes(), n)
-        elif kind == ev.GRIPPER_STATE:
-            _, data, wall = event
-            self._add("gripper_state", wall, data, 0)
+        elif kind == ev.TOOL_STATE:
+            _, robot, data, wall = event
+            self._add((robot, "gripper_state"), wall, data, 0)
         elif kind == ev.POSES:
             _, n, qpos, wall = event
             bodies = [{"name": name, "position": qpos[a:a + 3].tolist(),
                        "quaternion": qpos[a + 3:a + 7].tolist()}
-                      for name, a in self._free_bodies]
+                      for name, a in self.free_bodies]
             self._json("bodies", wall, {"cycle": n, "qpos": qpos.tolist(), "bodies": bodies}, n)
         elif kind == ev.TCP:
-            _, what, event_name, data, n, completed, wall = event
+            _, robot, what, event_name, data, n, completed, wall = event
             service = SERVICES.get(what, what)
             if event_name == "open":
-                self._decoders[service] = RequestDecoder(service)
-            decoder = self._decoders.get(service)
+                self._decoders[robot, service] = RequestDecoder(service)
+            decoder = self._decoders.get((robot, service))
             requests = decoder.feed(data) if data and decoder is not None else []
-            self._json("tcp", wall, {
+            self._json((robot, "tcp"), wall, {
                 "cycle": n, "completed": completed, "service": service, "event": event_name,
                 "data": base64.b64encode(data).decode(), "requests": requests}, n)
         elif kind == ev.REPLY:
-            _, what, data, n, wall = event
+            _, robot, what, data, n, wall = event
             service = SERVICES.get(what, what)
-            self._json("reply", wall, {"cycle": n, "service": service,
-                                       "replies": [decode_reply(service, data)]}, n)
+            self._json((robot, "reply"), wall, {"cycle": n, "service": service,
+                                                "replies": [decode_reply(service, data)]}, n)
         elif kind == ev.CONTROL:
-            _, operation, arguments, status, result, n, completed, wall = event
-            self._json("control", wall, {
+            _, robot, operation, arguments, status, result, n, completed, wall = event
+            self._json((robot, "control"), wall, {
                 "cycle": n, "completed": completed, "operation": operation,
                 "arguments": arguments, "status": status, "result": result}, n)
         elif kind == ev.LOST:
-            _, n, filled, wall = event
-            self._json("lost_cycle", wall, {
-                "cycle": n, "extrapolated": filled == ev.EXTRAPOLATED, "filled": filled}, n)
+            _, robot, n, filled, wall = event
+            self._json((robot, "lost_cycle"), wall, {
+                "cycle": n, "extrapolated": filled == EXTRAPOLATED, "filled": filled}, n)
         elif kind == ev.REJECTED:
-            _, reason, source, data, wall = event
-            self._json("command_rejected", wall, {
+            _, robot, reason, source, data, wall = event
+            self._json((robot, "command_rejected"), wall, {
                 "reason": reason, "source": source, "size": len(data),
                 "data": base64.b64encode(data[:4096]).decode()}, 0)
         elif kind == ev.LOG:
             _, wall, level, name, message = event
             self._json("log", wall, {"level": level, "logger": name, "message": message}, 0)
 
-    def _add(self, key: str, wall: int, data: bytes, sequence: int) -> None:
+    def _write_repeats(self) -> None:
+        runs, self._repeats = self._repeats, None
+        if runs is not None:
+            first, last, wall = runs
+            self._json("repeated", wall, {"first": first, "last": last}, first)
+
+    def _add(self, key, wall: int, data: bytes, sequence: int) -> None:
         self._mcap.add_message(self._ids[key], log_time=wall, data=data, publish_time=wall,
                                sequence=sequence & 0xFFFFFFFF)
 
-    def _json(self, key: str, wall: int, value: dict, sequence: int) -> None:
+    def _json(self, key, wall: int, value: dict, sequence: int) -> None:
         self._add(key, wall, json.dumps(value, default=_default).encode(), sequence)
 
 

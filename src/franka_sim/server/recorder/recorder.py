@@ -1,0 +1,51 @@
+"""A recording under way: the queue the taps fill and the writer thread that drains it.
+
+Every tap appends one small tuple to a bounded deque and returns; nothing is encoded, compressed
+or written on the cycle thread (writer.py does that on a thread of its own). When the writer
+falls behind and the queue is full, events are dropped and counted (the writer logs the count),
+never waited for: the 1 kHz cycle keeps its deadline.
+"""
+
+from __future__ import annotations
+
+import collections
+from pathlib import Path
+
+from franka_sim.server.recorder.writer import RecordingWriter
+
+QUEUE_LIMIT = 200_000  # events held at most (~4 s of a 1 kHz motion's traffic and more)
+
+
+class Recorder:
+    """Writes what the taps hand it to `path` (OSError at once if it cannot be written);
+    `robots`: the robots' names by index (their channels' prefixes)."""
+
+    def __init__(self, path: str | Path, metadata: dict, robots: list[str],
+                 limit: int = QUEUE_LIMIT) -> None:
+        self.path = Path(path)
+        self._queue: collections.deque = collections.deque()
+        self._limit = limit
+        self.dropped = 0
+        self._stopped = False
+        # Opening the file now: a target that cannot be written stops the server at start.
+        self._writer = RecordingWriter(self.path, metadata, robots, self._queue, self)
+
+    def describe_world(self, free_bodies: list[tuple[str, int]]) -> None:
+        """(name, qpos address) of the world's free bodies, whose poses the records of qpos
+        hold (before the first is written)."""
+        self._writer.free_bodies = free_bodies
+
+    def start(self) -> None:
+        self._writer.start()
+
+    def stop(self) -> None:
+        """Write what is queued and close the file (a valid MCAP with its summary); once."""
+        if not self._stopped:
+            self._stopped = True
+            self._writer.stop()
+
+    def put(self, event: tuple) -> None:
+        if len(self._queue) < self._limit:
+            self._queue.append(event)
+        else:
+            self.dropped += 1
