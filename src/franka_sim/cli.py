@@ -13,7 +13,6 @@ import typer  # noqa: E402 - after the handler: importing it takes the first ~0.
 
 from franka_sim.config import ArmSpec, ClockMode, Config
 
-RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
 app = typer.Typer(
     help="A simulated Franka FR3 (with Franka Hand) that speaks libfranka's wire protocol.\n\n"
@@ -136,56 +135,10 @@ def serve(
     if log_level.lower() not in ("debug", "info", "warning", "error"):
         raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
                                  param_hint="--log-level")
-    if control_port in RESERVED_PORTS:
-        raise typer.BadParameter(
-            f"{control_port} is the FCI's, the Hand's or the vacuum gripper's port "
-            f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)",
-            param_hint="--control-port")
-    if control_token is not None and not control_token.strip():
-        raise typer.BadParameter("an empty token protects nothing", param_hint="--control-token")
     try:
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--arm") from None
-    if mobile_base is not None:
-        import ipaddress
-
-        try:
-            ipaddress.ip_address(mobile_base)
-        except ValueError:
-            raise typer.BadParameter(f"{mobile_base!r} is not an IP address",
-                                     param_hint="--mobile-base") from None
-        if not arms:
-            raise typer.BadParameter("a mobile base carries the arms named with --arm",
-                                     param_hint="--mobile-base")
-        if record is not None:
-            raise typer.BadParameter("a world with a mobile base cannot be recorded yet",
-                                     param_hint="--record")
-    if record is not None:
-        from franka_sim.recording import mcap_missing
-
-        if missing := mcap_missing():
-            raise typer.BadParameter(missing, param_hint="--record")
-    if record is not None and len(arms) > 1:
-        raise typer.BadParameter("records a world of one arm; several arms cannot be recorded "
-                                 "yet", param_hint="--record")
-    if inject is not None and not inject.strip():
-        inject = None  # an empty FRANKA_SIM_INJECT: no faults
-    if inject is not None:
-        from franka_sim.server.faults.spec import FaultSpecError, parse_spec
-
-        try:
-            inject = parse_spec(inject).text()
-        except FaultSpecError as exc:
-            raise typer.BadParameter(str(exc), param_hint="--inject") from None
-    scene_path = None
-    if scene is not None:
-        from franka_sim.physics.scene import SceneError, resolve_scene
-
-        try:
-            scene_path = resolve_scene(scene)
-        except SceneError as exc:
-            raise typer.BadParameter(str(exc), param_hint="--scene") from None
     if viewer:
         from franka_sim.server.viewer import NoDisplay, check_display
 
@@ -194,14 +147,19 @@ def serve(
         except NoDisplay as exc:
             typer.echo(f"franka-sim: {exc}", err=True)
             raise typer.Exit(1) from None
-    config = Config(
-        host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
-        enforce_motion_limits=enforce_motion_limits,
-        joint_discontinuity_scale=joint_discontinuity_scale,
-        scene=scene_path, gripper=not no_gripper, control_port=control_port,
-        control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
-        inject=inject, seed=seed,
-    )
+    from franka_sim.config_rules import ConfigError, checked
+
+    try:
+        config = checked(Config(
+            host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
+            enforce_motion_limits=enforce_motion_limits,
+            joint_discontinuity_scale=joint_discontinuity_scale,
+            scene=scene, gripper=not no_gripper, control_port=control_port,
+            control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
+            inject=inject, seed=seed,
+        ))
+    except ConfigError as exc:
+        raise typer.BadParameter(str(exc), param_hint=exc.flag) from None
     exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
 
 

@@ -163,21 +163,26 @@ def _release_unused_heap() -> None:
 async def _serve(config: Config, viewer: bool = False) -> None:
     import asyncio
 
+    from franka_sim.config_rules import ConfigError
     from franka_sim.description.urdf import DescriptionError
+    from franka_sim.faults import FaultSpecError
     from franka_sim.physics.scene import SceneError
-    from franka_sim.server.faults import FaultSpecError
     from franka_sim.server.sim import FrankaSim
 
     try:
         sim = FrankaSim(config)
+    except ConfigError as exc:
+        raise _Failed(f"{exc.flag}: {exc}") from None
     except DescriptionError as exc:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
         raise _Failed(str(exc)) from None
     except FaultSpecError as exc:
         raise _Failed(f"--inject: {exc}") from None
-    except OSError as exc:  # only the recording's target is opened here
-        raise _Failed(f"cannot record to {config.record}: {exc.strerror or exc}") from None
+    except OSError as exc:  # the recording's target, or a file the world is built from
+        what = f"cannot record to {config.record}" if config.record is not None else \
+            "cannot build the world"
+        raise _Failed(f"{what}: {exc.strerror or exc}") from None
     # Everything built so far lives as long as the server: keep it out of the collector's
     # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
     gc.collect()

@@ -14,7 +14,7 @@ import pylibfranka
 import pytest
 
 from franka_sim.control import Control
-from franka_sim.server.faults import COMMANDS, FaultPlan, parse_spec
+from franka_sim.faults import COMMANDS, FaultPlan, parse_spec
 from franka_sim.testing import ServerProcess, fresh_loopback_address, running_sim
 from support.clients import connect
 

@@ -19,7 +19,7 @@ from franka_sim.operations.arm import ControlOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.operations.table import BY_NAME, OPERATIONS, Effect, Kind, served_by
 from franka_sim.server.control_api import ControlApi, route_path
-from franka_sim.server.faults.spec import KEYS as FAULT_KEYS
+from franka_sim.faults.spec import KEYS as FAULT_KEYS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "control_api.md"
 IMPLEMENTATIONS = {Kind.ARM: ControlOps, Kind.BASE: BaseOps}

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from franka_sim.protocol.codec import COMMAND_DTYPE
-from franka_sim.server.faults import (COMMANDS, STATES, Burst, FaultPlan, FaultSpec,
+from franka_sim.faults import (COMMANDS, STATES, Burst, FaultPlan, FaultSpec,
                                       FaultSpecError, parse_spec, spec_from_fields)
-from franka_sim.server.faults.link import ArmLink
+from franka_sim.faults.link import ArmLink
 
 
 def _command(message_id: int):

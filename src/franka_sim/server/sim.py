@@ -16,16 +16,18 @@ import threading
 
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
+from franka_sim.config_rules import ConfigError, checked
 from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.faults import NetworkFaults, parse_spec
+from franka_sim.faults import parse_spec
+from franka_sim.server.network_faults import NetworkFaults
 from franka_sim.recording.metadata import START_FRESH
 from franka_sim.server.recorder.live import Recordings
 from franka_sim.server.recorder.taps import Taps
 from franka_sim.server.robot_server import AddressInUse, RobotServer
 
-__all__ = ["AddressInUse", "FrankaSim"]
+__all__ = ["AddressInUse", "ConfigError", "FrankaSim"]
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +40,7 @@ class FrankaSim(EmbeddedOperations):
         config = config or Config()
         for key, value in overrides.items():
             setattr(config, key, value)
-        self.config = config
+        self.config = config = checked(config)  # ConfigError: said now, nothing served
         # What a recording hears, from everyone who has something to record (inert until a
         # recording is attached: server/recorder/live.py).
         self.taps = Taps(len(config.arm_specs()) + (config.mobile_base is not None))

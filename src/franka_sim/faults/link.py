@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import itertools
 
-from franka_sim.server.faults.plan import COMMANDS, DIRECTION_NAMES, STATES, FaultPlan
+from franka_sim.faults.plan import COMMANDS, DIRECTION_NAMES, STATES, FaultPlan
 
 REORDER_WAIT = 2  # cycles a reordered command waits for the client's next datagram
 

@@ -11,9 +11,9 @@ control API job) or before the server starts, so a cycle never sees half a chang
 from __future__ import annotations
 
 from franka_sim.server.clock import ClockWatcher
-from franka_sim.server.faults.link import ArmLink
-from franka_sim.server.faults.plan import FaultPlan, check_seed
-from franka_sim.server.faults.spec import FaultSpec, spec_from_fields
+from franka_sim.faults.link import ArmLink
+from franka_sim.faults.plan import FaultPlan, check_seed
+from franka_sim.faults.spec import FaultSpec, spec_from_fields
 
 
 class NetworkFaults(ClockWatcher):

@@ -15,7 +15,7 @@ import hashlib
 import struct
 from statistics import NormalDist
 
-from franka_sim.server.faults.spec import FaultSpec
+from franka_sim.faults.spec import FaultSpec
 
 STATES, COMMANDS = 0, 1
 DIRECTION_NAMES = ("states", "commands")

@@ -1,0 +1,73 @@
+"""The rules a Config must follow that span its fields, checked in one place: `franka-sim serve`
+says a broken one on its command line, an embedded FrankaSim (and replay) refuse it the same
+way, with the flag it concerns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import ipaddress
+
+from franka_sim.config import Config
+
+RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
+
+
+class ConfigError(ValueError):
+    """A setting cannot be served; `flag` names it as the command line does."""
+
+    def __init__(self, flag: str, message: str) -> None:
+        super().__init__(message)
+        self.flag = flag
+
+
+def checked(config: Config) -> Config:
+    """`config`, its fault spec normalised and its scene resolved; ConfigError if it breaks a
+    rule."""
+    if config.control_port in RESERVED_PORTS:
+        raise ConfigError("--control-port", (
+            f"{config.control_port} is the FCI's, the Hand's or the vacuum gripper's port "
+            f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)"))
+    if config.control_token is not None and not config.control_token.strip():
+        raise ConfigError("--control-token", "an empty token protects nothing")
+    if config.mobile_base is not None:
+        _address("--mobile-base", config.mobile_base)
+        if not config.arms:
+            raise ConfigError("--mobile-base", "a mobile base carries the arms named with --arm")
+    for arm in config.arms:
+        _address("--arm", arm.host, f"arm {arm.name}: ")
+    changes: dict = {}
+    if config.record is not None:
+        from franka_sim.recording import mcap_missing
+
+        if missing := mcap_missing():
+            raise ConfigError("--record", missing)
+    if config.inject is not None:
+        changes["inject"] = _fault_spec(config.inject)
+    if config.scene is not None:
+        from franka_sim.physics.scene import SceneError, resolve_scene
+
+        try:
+            changes["scene"] = resolve_scene(config.scene)
+        except SceneError as exc:
+            raise ConfigError("--scene", str(exc)) from None
+    return dataclasses.replace(config, **changes) if changes else config
+
+
+def _address(flag: str, text: str, who: str = "") -> None:
+    try:
+        ipaddress.ip_address(text)
+    except ValueError:
+        raise ConfigError(flag, f"{who}{text!r} is not an IP address") from None
+
+
+def _fault_spec(text: str) -> str | None:
+    """The spec as its own text (an empty one: no faults)."""
+    if not text.strip():
+        return None
+    from franka_sim.faults import FaultSpecError, parse_spec
+
+    try:
+        return parse_spec(text).text()
+    except FaultSpecError as exc:
+        raise ConfigError("--inject", str(exc)) from None
