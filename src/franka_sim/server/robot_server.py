@@ -81,7 +81,7 @@ class RobotServer:
 
     # -- the FCI endpoint's callbacks -------------------------------------------------------------
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.target = (peer_ip, udp_port)
+        self.udp.connect(peer_ip, udp_port)
         self.core.client_connected()
 
     def _client_silent(self) -> bool:
@@ -89,6 +89,6 @@ class RobotServer:
             return self.core.client_silent
 
     def _on_disconnect(self) -> None:
-        self.udp.target = None
+        self.udp.disconnect()
         self.core.client_gone()
         self.driver.client_event()

@@ -1,7 +1,16 @@
 """The UDP side: RobotState out to the connected client, RobotCommand in from it.
 
-States go to (client IP, the port it announced in Connect); libfranka answers from that same
-socket, so a datagram from any other address is not the client's and is dropped and counted.
+States go to (the address the TCP connection came from, the port the client announced in
+Connect). libfranka answers each state to wherever it came from, from whatever source address
+its route to the robot gives it: the TCP peer's, unless an address translation lies between
+them. Docker's userland proxy with a client on the host connecting to the host's own address is
+one: the TCP connection arrives from that address, the commands from the bridge's gateway.
+So commands are taken from one address at a time (`source`), at first the TCP peer's; a
+datagram from another address moves `source` there when it is this connection's answer: a
+well-formed RobotCommand echoing the message_id of a state sent to this connection (one log
+line the first time in a connection, counted in `sources_moved`). Anything else from another
+address is dropped and counted. The price: a stranger that echoes a plausible message_id is
+taken for the client (docs/robustness.md). The normal case costs one comparison per datagram.
 
 The event loop opens and closes the socket; the physics thread sends every state on it and reads
 the commands (`poll`) when a cycle needs them: at its deadline, and in lockstep as soon as the
@@ -24,6 +33,7 @@ from typing import Callable
 
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
+from franka_sim.protocol.robot_command import ROBOT_COMMAND_SIZE
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -34,8 +44,15 @@ MAX_READ = 64  # datagrams one poll takes at most (a flood is read over several 
 class UdpEndpoint:
     def __init__(self, on_command: Callable[[object], None]) -> None:
         self.on_command = on_command
-        self.target: tuple[str, int] | None = None
+        self.target: tuple[str, int] | None = None  # where states go (connect/disconnect)
+        self.source: tuple[str, int] | None = None  # where commands are taken from
         self.sock: socket.socket | None = None
+        # The first and the newest state sent to this connection: the message_ids between them
+        # are the ones its answers may echo.
+        self._first_sent: bytes | None = None
+        self._last_sent: bytes | None = None
+        self._moves = 0  # times `source` moved in this connection (its first move is logged)
+        self.sources_moved = 0
         self.dropped_foreign = 0
         self.dropped_malformed = 0
         self.recorder = None  # recording.Recorder: every state sent, every datagram dropped
@@ -62,6 +79,17 @@ class UdpEndpoint:
     def address(self) -> tuple[str, int]:
         return self.sock.getsockname()[:2]
 
+    def connect(self, peer_ip: str, udp_port: int) -> None:
+        """A client's handshake: its states go to `udp_port` at the address its TCP
+        connection came from, and its commands are expected from there."""
+        self._first_sent = self._last_sent = None
+        self._moves = 0
+        self.source = self.target = (peer_ip, udp_port)
+
+    def disconnect(self) -> None:
+        self.source = self.target = None
+        self._first_sent = self._last_sent = None
+
     def send_state(self, data: bytes) -> None:
         """A RobotState to the client, from any thread (the physics thread sends them)."""
         target, sock = self.target, self.sock
@@ -74,6 +102,9 @@ class UdpEndpoint:
                 sock.sendto(data, target)
             except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
                 log.debug("state not sent: %s", exc)
+        if self._first_sent is None:
+            self._first_sent = data
+        self._last_sent = data
         if self.recorder is not None:
             self.recorder.sent(data)  # what the robot sent, whatever the network made of it
 
@@ -106,15 +137,8 @@ class UdpEndpoint:
             self.datagram_received(data, addr)
 
     def datagram_received(self, data: bytes, addr) -> None:
-        if self.target is None or tuple(addr[:2]) != self.target:
-            self.dropped_foreign += 1
-            if self.recorder is not None:
-                self.recorder.rejected("not the connected client", addr, data)
-            if worth_logging(self.dropped_foreign):
-                log.warning(
-                    "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
-                    addr[0], addr[1], self.dropped_foreign,
-                )
+        if addr[:2] != self.source:  # (None while no client is connected)
+            self._from_elsewhere(data, addr)
             return
         try:
             command = decode_command(data)
@@ -124,8 +148,55 @@ class UdpEndpoint:
                 self.recorder.rejected(str(exc), addr, data)
             log.warning("dropped UDP datagram from the client: %s", exc)
             return
+        self._take(command)
+
+    def _take(self, command) -> None:
         if self.faults is not None:
             for command in self.faults.command_in(command):
                 self.on_command(command)
             return
         self.on_command(command)
+
+    def _from_elsewhere(self, data: bytes, addr) -> None:
+        """Not from `source`: this connection's answer coming through an address translation
+        moves `source` and is taken; anything else is dropped."""
+        command = self._answer(data)
+        target = self.target
+        if command is None or target is None:
+            self.dropped_foreign += 1
+            if self.recorder is not None:
+                self.recorder.rejected("not the connected client", addr, data)
+            if worth_logging(self.dropped_foreign):
+                log.warning(
+                    "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
+                    addr[0], addr[1], self.dropped_foreign,
+                )
+            return
+        self.source = addr[:2]
+        self.sources_moved += 1
+        self._moves += 1
+        if worth_logging(self._moves):
+            log.info(
+                "UDP commands of the client at %s come from %s:%s (an address translation "
+                "between them?): taken from there; its states still go to %s:%s (moved %d times)",
+                target[0], addr[0], addr[1], target[0], target[1], self._moves,
+            )
+        self._take(command)
+
+    def _answer(self, data: bytes):
+        """The RobotCommand in `data` if it is well-formed and echoes the message_id of a state
+        sent to this connection; else None."""
+        first, last = self._first_sent, self._last_sent
+        if first is None or last is None or len(data) != ROBOT_COMMAND_SIZE:
+            return None
+        echoed = int.from_bytes(data[:8], "little")
+        if not _message_id(first) <= echoed <= _message_id(last):
+            return None
+        try:
+            return decode_command(data)
+        except ProtocolError:
+            return None
+
+
+def _message_id(state: bytes) -> int:
+    return int.from_bytes(state[:8], "little")  # a RobotState's first field
