@@ -178,7 +178,8 @@ class UdpEndpoint:
         if worth_logging(self._moves):
             log.info(
                 "UDP commands of the client at %s come from %s:%s (an address translation "
-                "between them?): taken from there; its states still go to %s:%s (moved %d times)",
+                "between them?): taken from there; its states still go to %s:%s (move %d of this "
+                "connection)",
                 target[0], addr[0], addr[1], target[0], target[1], self._moves,
             )
         self._take(command)
