@@ -105,6 +105,8 @@ def run(docker: Docker, image: str, name: str, *network: str, timeout: float = 6
             return time.monotonic() - start
         if docker.inspect("run", name, "{{.State.Status}}") == "exited":
             code = docker.inspect("run", name, "{{.State.ExitCode}}")
+            # read again: the logs above may have been read before its last words
+            logs = docker.run("run", "logs", name).stderr
             raise StepFailed("run", f"the container exited ({code}): {last_line(logs)}")
         time.sleep(0.2)
     raise StepFailed("run", f"not serving after {timeout:.0f} s")
