@@ -1,6 +1,7 @@
 # A simulated Franka FR3 + Hand, served as `franka-sim serve` (docs/deployment.md).
 #
 #   docker build -t franka-sim .
+#   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1338:1338 -p 127.0.0.1:1340:1340 franka-sim
 #   docker run --rm --network host -e FRANKA_SIM_HOST=127.0.0.2 franka-sim
 #
 # Build arguments:
@@ -41,10 +42,12 @@ ENV PATH=/opt/franka-sim/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     FRANKA_SIM_HOST=0.0.0.0
 
-# The robot (libfranka protocol v10), the Franka Hand and the control API. The 1 kHz robot state
-# stream is UDP from the server to the port the client announced during the handshake, sent to
-# the address the server sees the client at: it needs no EXPOSE, and it breaks under NAT port
-# publishing (-p). Run with --network host, or put the clients on the container's network.
+# The robot (libfranka protocol v10), the Franka Hand and the control API: publish these. The
+# 1 kHz robot state stream is UDP from the server to the port the client announced during the
+# handshake, at the address the server sees the client at, and the client answers to wherever
+# the states came from: it needs no EXPOSE and no publishing, and passes Docker's NAT. A client
+# on the host connecting to the host's own address answers from the bridge's gateway instead;
+# the server follows its answers there (docs/deployment.md).
 EXPOSE 1337/tcp 1338/tcp 1340/tcp
 
 # Ready once the control API answers /health; the server binds every address (0.0.0.0) unless

@@ -1,6 +1,6 @@
 """Build the image offline from Debian's packages, run it on the host network, drive it.
 
-    python tests/container/build_and_run.py [--host 127.0.0.77] [--docker-host URL]
+    python tests/container/build_and_run.py [--host 127.0.0.77] [--docker-host URL] [--bridge]
 
 Each step names itself when it fails, in one line on stderr ("container test: STEP failed:
 why") with exit status 1, and whatever the run started is stopped and removed first:
@@ -12,6 +12,11 @@ why") with exit status 1, and whatever the run started is stopped and removed fi
   health  its HEALTHCHECK (`franka-sim check`) turns healthy
   drive   pylibfranka from this host: connect, a short joint motion, the Hand's homing
   stop    `docker stop` (SIGTERM to PID 1) ends it at once and cleanly (exit status 0)
+With --bridge, run, health and drive are instead (published.py):
+  publish the container on the daemon's default bridge, ports 1337, 1338 and 1340 published on
+          --host, an address of the host's own and a link to another network namespace
+          (`network`: made for the run, needs root and iproute2)
+  drive (WAY, ADDRESS)   pylibfranka through each of them, and the control API
 On success it prints what each step took and the image's size (--report FILE: as JSON).
 """
 
@@ -19,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -37,6 +41,9 @@ sys.path.insert(0, str(HERE))
 from debian_base import base_image, default_cache  # noqa: E402
 from docker_cli import Docker, StepFailed, last_line  # noqa: E402
 from docker_daemon import PrivateDaemon  # noqa: E402
+from drive import drive  # noqa: E402
+
+import published  # noqa: E402
 
 ROOT = HERE.parents[1]
 NOT_IN_CONTEXT = (".git", ".venv", "wheelhouse", "__pycache__", "*.pyc", ".pytest_cache",
@@ -86,18 +93,20 @@ def build(docker: Docker, context: Path, base: str, image: str, logs: Path) -> N
                timeout=900, log=logs / "build.log")
 
 
-def run(docker: Docker, image: str, name: str, host: str, timeout: float = 60.0) -> float:
-    """Start the container; seconds until it serves. A container that exits instead (a taken
+def run(docker: Docker, image: str, name: str, *network: str, timeout: float = 60.0) -> float:
+    """Start the container with `network`'s options (e.g. `--network host --env
+    FRANKA_SIM_HOST=...`); seconds until it serves. A container that exits instead (a taken
     port, a bad flag) fails this step with its last line."""
     start = time.monotonic()
-    docker.run("run", "run", "--detach", "--pull", "never", "--name", name, "--network", "host",
-               "--env", f"FRANKA_SIM_HOST={host}", image)
+    docker.run("run", "run", "--detach", "--pull", "never", "--name", name, *network, image)
     while time.monotonic() - start < timeout:
         logs = docker.run("run", "logs", name).stderr
         if "serving on" in logs:
             return time.monotonic() - start
         if docker.inspect("run", name, "{{.State.Status}}") == "exited":
             code = docker.inspect("run", name, "{{.State.ExitCode}}")
+            # read again: the logs above may have been read before its last words
+            logs = docker.run("run", "logs", name).stderr
             raise StepFailed("run", f"the container exited ({code}): {last_line(logs)}")
         time.sleep(0.2)
     raise StepFailed("run", f"not serving after {timeout:.0f} s")
@@ -118,47 +127,6 @@ def healthy(docker: Docker, name: str, timeout: float = 90.0) -> float:
             raise StepFailed("health", "the container stopped before it was healthy")
         time.sleep(0.5)
     raise StepFailed("health", f"not healthy after {timeout:.0f} s")
-
-
-def drive(host: str) -> float:
-    """Seconds taken by a pylibfranka session: read a state, a 0.5 s joint motion on the
-    last joint, the Hand's homing."""
-    try:
-        import pylibfranka
-    except ImportError:
-        raise StepFailed("drive", "pylibfranka is not installed (the test extra)") from None
-    start = time.monotonic()
-    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
-    try:
-        robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-        if robot.read_once().robot_mode != pylibfranka.RobotMode.Idle:
-            raise StepFailed("drive", "the robot is not Idle after connecting")
-        control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
-        state, _ = control.readOnce()
-        q0, t, duration = list(state.q_d), 0.0, 0.5
-        while True:
-            state, period = control.readOnce()
-            t += period.to_sec()
-            q = list(q0)
-            q[6] += 0.05 * (1 - math.cos(math.pi * min(t / duration, 1.0))) / 2
-            command = pylibfranka.JointPositions(q)
-            command.motion_finished = t >= duration
-            control.writeOnce(command)
-            if command.motion_finished:
-                break
-        moved = robot.read_once().q[6] - q0[6]
-        if abs(moved - 0.05) > 0.01:
-            raise StepFailed("drive", f"joint 7 moved {moved:.4f} rad, not 0.05")
-        gripper = pylibfranka.Gripper(host)
-        if not gripper.homing():
-            raise StepFailed("drive", "the Hand's homing reported failure")
-    except StepFailed:
-        raise
-    except Exception as exc:  # noqa: BLE001 - whatever libfranka raised, in one line
-        raise StepFailed("drive", f"{type(exc).__name__}: {exc}") from None
-    finally:  # libfranka left this thread under SCHED_FIFO 99: not what docker runs under
-        os.sched_setscheduler(0, policy, param)
-    return time.monotonic() - start
 
 
 def stop(docker: Docker, name: str, limit: float = 3.0) -> float:
@@ -188,6 +156,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="where the base's root file system is kept between runs")
     parser.add_argument("--logs", type=Path, help="keep the build log here")
     parser.add_argument("--report", type=Path, help="write the measurements here as JSON")
+    parser.add_argument("--bridge", action="store_true",
+                        help="run on the daemon's default bridge with the ports published on "
+                        "--host, an address of the host's own and a link to another network "
+                        "namespace, and drive it through each (published.py)")
     args = parser.parse_args(argv)
     # Nothing here is real-time: pip, debootstrap and docker run under the normal policy even
     # when started from a test process that pylibfranka left under SCHED_FIFO.
@@ -243,7 +215,11 @@ def _steps(args, cleanup: ExitStack) -> dict:
     report["image_mb"] = round(int(docker.inspect("build", args.image, "{{.Size}}")) / 1e6)
     name = f"franka-sim-selftest-{int(time.time() * 1000) % 10**8}"
     cleanup.callback(docker.run, "stop", "rm", "--force", name, check=False)
-    run(docker, args.image, name, args.host)
+    if args.bridge:
+        report.update(published.run_and_drive(docker, args.image, name, args.host, cleanup, run))
+        report["stop_s"] = round(stop(docker, name), 2)
+        return report
+    run(docker, args.image, name, "--network", "host", "--env", f"FRANKA_SIM_HOST={args.host}")
     took("run")
     healthy(docker, name)
     took("health")

@@ -47,6 +47,7 @@ def daemon():
     except StepFailed as exc:
         daemon.stop()
         pytest.skip(f"docker cannot run on this machine: {exc}")
+    docker.no_bridge = daemon.no_bridge  # why containers cannot have a bridge (None: they can)
     yield docker
     daemon.stop()
 
@@ -66,6 +67,36 @@ def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built,
     assert built["image_mb"] < 350
     assert built["stop_s"] < 3.0  # docker stop's kill timeout is 10 s
     assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()  # nothing left
+
+
+def test_published_ports_on_the_default_bridge_serve_pylibfranka_every_way_in(built, daemon,
+                                                                            tmp_path):
+    """`docker run -p`: through the published loopback address (the userland proxy), an
+    address of the host's own (NAT: the answers come from the bridge's gateway, and the server
+    follows them) and from another network namespace (NAT both ways)."""
+    if daemon.no_bridge:
+        pytest.skip(f"the private daemon has no bridge here: {daemon.no_bridge}")
+    report = tmp_path / "bridge.json"
+    done = _script("--docker-host", daemon.url, "--image", IMAGE, "--skip-build", "--bridge",
+                   "--host", "127.0.0.79", "--report", str(report), timeout=300)
+    print(done.stdout)
+    assert done.returncode == 0, f"{done.stdout}\n{done.stderr}"
+    ways = json.loads(report.read_text())
+    loopback, own, namespace, gateway = (ways[k] for k in ("loopback", "own", "namespace",
+                                                           "gateway"))
+    # the proxy connects from the gateway, and the answers come from there too
+    assert loopback["tcp_peer"] == gateway and loopback["answers_moved"] is None
+    # NAT both ways: the client's own address, for the connection and the answers alike
+    assert namespace["tcp_peer"] == ways["namespace_client"]
+    assert namespace["answers_moved"] is None
+    # NAT, no proxy: the connection from the host's own address, the answers from the gateway
+    assert own["tcp_peer"] == own["address"]
+    assert f"client at {own['address']} come from {gateway}:" in own["answers_moved"]
+    assert ways["stop_s"] < 3.0
+    assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()
+    links = subprocess.run(["ip", "-o", "link"], capture_output=True, text=True).stdout
+    assert "fsimown" not in links and "fsimva" not in links  # the run's devices are gone
+    assert "fsimns" not in subprocess.run(["ip", "netns"], capture_output=True, text=True).stdout
 
 
 def test_a_taken_port_fails_the_run_step_in_one_line(built, daemon):

@@ -160,7 +160,7 @@ class RobotServer:
         return self.parts.gripper_session()
 
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.target = (peer_ip, udp_port)
+        self.udp.connect(peer_ip, udp_port)
         self.core.client_connected()
 
     def _client_silent(self) -> bool:
@@ -168,7 +168,7 @@ class RobotServer:
             return self.core.client_silent
 
     def _on_disconnect(self) -> None:
-        self.udp.target = None
+        self.udp.disconnect()
         self.core.client_gone()
         self.driver.client_event()
 

@@ -1,17 +1,26 @@
 """The UDP side: RobotState out to the connected client, RobotCommand in from it.
 
-States go to (client IP, the port it announced in Connect); libfranka answers from that same
-socket, so a datagram from any other address is not the client's and is dropped and counted.
+States go to (the address the TCP connection came from, the port the client announced in
+Connect). libfranka answers each state to wherever it came from, from whatever source address
+its route to the robot gives it: the TCP peer's, unless an address translation lies between
+them. Docker's userland proxy with a client on the host connecting to the host's own address is
+one: the TCP connection arrives from that address, the commands from the bridge's gateway.
+So commands are taken from one address at a time (`source`), at first the TCP peer's; a
+datagram from another address moves `source` there when it is this connection's answer: a
+well-formed RobotCommand echoing the message_id of a state sent to this connection (one log
+line the first time in a connection, counted in `sources_moved`). Anything else from another
+address is dropped and counted. The price: a stranger that echoes a plausible message_id is
+taken for the client (docs/robustness.md). The normal case costs one comparison per datagram.
 
 The event loop opens and closes the socket; the cycle thread sends every state on it and reads
 the commands (`read`: the datagrams, decoded and checked, as commands the driver hands to the
 cycle) when a cycle needs them: at its deadline, and in lockstep as soon as the answer is there
-(the cycle thread watches the socket then). The loop never reads it: a datagram wakes one
-thread, the one that runs the cycle, and on a 2-core VM every further wake-up (a reader in the
-loop) cost more than a cycle's own work and, in lockstep, ~10 % of the speed, taking the
-interpreter from the thread that runs the cycle.
+(the cycle thread watches the socket then). The loop never reads it: a
+datagram wakes one thread, the one that runs the cycle, and on a 2-core VM every further
+wake-up (a reader in the loop) cost more than a cycle's own work and, in lockstep, ~10 % of
+the speed, taking the interpreter from the thread that runs the cycle.
 
-With faults injected (server/faults/), `faults` is this robot's link: every state and every
+With faults injected (server/network_faults.py), `faults` is this robot's link: every state and every
 command from the client passes through it, which drops, holds or lets it through; held
 commands reach the robot at the first read after their cycle came. Without, it is None and
 the path is as it was.
@@ -21,19 +30,28 @@ from __future__ import annotations
 
 import logging
 import socket
+
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
+from franka_sim.protocol.robot_command import ROBOT_COMMAND_SIZE
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
-MAX_READ = 64  # datagrams one poll takes at most (a flood is read over several cycles)
+MAX_READ = 64  # datagrams one read takes at most (a flood is read over several cycles)
 
 
 class UdpEndpoint:
     def __init__(self, taps=None) -> None:
-        self.target: tuple[str, int] | None = None
+        self.target: tuple[str, int] | None = None  # where states go (connect/disconnect)
+        self.source: tuple[str, int] | None = None  # where commands are taken from
         self.sock: socket.socket | None = None
+        # The first and the newest state sent to this connection: the message_ids between them
+        # are the ones its answers may echo.
+        self._first_sent: bytes | None = None
+        self._last_sent: bytes | None = None
+        self._moves = 0  # times `source` moved in this connection (its first move is logged)
+        self.sources_moved = 0
         self.dropped_foreign = 0
         self.dropped_malformed = 0
         self.taps = taps  # the robot's recording taps: every state sent, every datagram dropped
@@ -61,6 +79,17 @@ class UdpEndpoint:
     def address(self) -> tuple[str, int]:
         return self.sock.getsockname()[:2]
 
+    def connect(self, peer_ip: str, udp_port: int) -> None:
+        """A client's handshake: its states go to `udp_port` at the address its TCP
+        connection came from, and its commands are expected from there."""
+        self._first_sent = self._last_sent = None
+        self._moves = 0
+        self.source = self.target = (peer_ip, udp_port)
+
+    def disconnect(self) -> None:
+        self.source = self.target = None
+        self._first_sent = self._last_sent = None
+
     def send_state(self, data: bytes) -> None:
         """A RobotState to the client, from any thread (the physics thread sends them)."""
         target, sock = self.target, self.sock
@@ -73,6 +102,9 @@ class UdpEndpoint:
                 sock.sendto(data, target)
             except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
                 log.debug("state not sent: %s", exc)
+        if self._first_sent is None:
+            self._first_sent = data
+        self._last_sent = data
         if self.taps is not None:
             self.taps.sent(data)  # what the robot sent, whatever the network made of it
 
@@ -118,7 +150,23 @@ class UdpEndpoint:
     def accept(self, data: bytes, addr):
         """The RobotCommand in a datagram, or None: not the client's, or malformed (dropped,
         counted and logged)."""
-        if self.target is None or tuple(addr[:2]) != self.target:
+        if addr[:2] != self.source:  # (None while no client is connected)
+            return self._from_elsewhere(data, addr)
+        try:
+            return decode_command(data)
+        except ProtocolError as exc:
+            self.dropped_malformed += 1
+            if self.taps is not None:
+                self.taps.rejected(str(exc), addr, data)
+            log.warning("dropped UDP datagram from the client: %s", exc)
+            return None
+
+    def _from_elsewhere(self, data: bytes, addr):
+        """Not from `source`: this connection's answer coming through an address translation
+        moves `source` and is taken; anything else is dropped (None)."""
+        command = self._answer(data)
+        target = self.target
+        if command is None or target is None:
             self.dropped_foreign += 1
             if self.taps is not None:
                 self.taps.rejected("not the connected client", addr, data)
@@ -128,11 +176,32 @@ class UdpEndpoint:
                     addr[0], addr[1], self.dropped_foreign,
                 )
             return None
+        self.source = addr[:2]
+        self.sources_moved += 1
+        self._moves += 1
+        if worth_logging(self._moves):
+            log.info(
+                "UDP commands of the client at %s come from %s:%s (an address translation "
+                "between them?): taken from there; its states still go to %s:%s (move %d of this "
+                "connection)",
+                target[0], addr[0], addr[1], target[0], target[1], self._moves,
+            )
+        return command
+
+    def _answer(self, data: bytes):
+        """The RobotCommand in `data` if it is well-formed and echoes the message_id of a state
+        sent to this connection; else None."""
+        first, last = self._first_sent, self._last_sent
+        if first is None or last is None or len(data) != ROBOT_COMMAND_SIZE:
+            return None
+        echoed = int.from_bytes(data[:8], "little")
+        if not _message_id(first) <= echoed <= _message_id(last):
+            return None
         try:
             return decode_command(data)
-        except ProtocolError as exc:
-            self.dropped_malformed += 1
-            if self.taps is not None:
-                self.taps.rejected(str(exc), addr, data)
-            log.warning("dropped UDP datagram from the client: %s", exc)
+        except ProtocolError:
             return None
+
+
+def _message_id(state: bytes) -> int:
+    return int.from_bytes(state[:8], "little")  # a RobotState's first field
