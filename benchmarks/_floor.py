@@ -15,6 +15,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.arm_model import FLANGE_SITE
@@ -25,7 +26,7 @@ from franka_sim.protocol.codec import StateBuffer
 class StrippedCycle:
     def __init__(self) -> None:
         desc = load_arm_description(default_urdf_text())
-        self.m = m = build_model(desc, scene_xml=default_scene_path(), fingers=True)
+        self.m = m = build_model(desc, scene_xml=default_scene_path(), tool=FINGERS)
         self.d, self.s = mujoco.MjData(m), mujoco.MjData(m)
         d = self.d
         d.qpos[:7] = READY_POSE

@@ -31,6 +31,7 @@ import numpy as np
 
 from _common import idle_behaviour
 from _floor import StrippedCycle
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
@@ -83,7 +84,7 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     """franka-sim's motion cycle, by section (see _time_cycles)."""
     desc = load_arm_description(default_urdf_text())
     q0 = np.array(READY_POSE)
-    backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), fingers=True)
+    backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), tool=FINGERS)
     core = ArmCore(desc, q0)
     cycle = ArmCycle(core, backend)
     cycle.complete(cycle.release())

@@ -25,13 +25,14 @@ from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.base_cycle import BaseCycle
 from franka_sim.robot.events import NO_ROBOT_EVENTS, NO_WORLD_EVENTS, RobotEvents, WorldEvents
-from franka_sim.robot.gripper import Gripper
-from franka_sim.robot.session import Session, gripper_session, robot_session
+from franka_sim.robot.session import Session, robot_session, tool_session
+from franka_sim.tools import tool_kind
 from franka_sim.robot.world_cycle import WorldCycle
 
 
 class ArmParts:
-    """One arm's description, core and Hand (None: --no-gripper), and its sessions."""
+    """One arm's description, core and tool (franka_sim/tools/; None: `--tool none`), and its
+    sessions."""
 
     kind = "arm"
 
@@ -46,19 +47,21 @@ class ArmParts:
             enforce_motion_limits=config.enforce_motion_limits,
             joint_discontinuity_scale=config.joint_discontinuity_scale, events=events,
         )
-        # The Hand: without it (--no-gripper) nothing listens on 1338 and the hand is rigid.
-        self.gripper = Gripper() if config.gripper else None
+        # Its tool: without one (--tool none) nothing listens on the tool's port and the Hand's
+        # body is rigid.
+        self.tool_kind = tool_kind(config.tool)
+        self.tool = None if self.tool_kind is None else self.tool_kind.make_device()
 
-    def make_part(self, physics, hand_state_wanted) -> ArmCycle:
-        """Its part of the world cycle, on its body in the world; `hand_state_wanted()`: a
-        Hand client takes GripperStates."""
-        return ArmCycle(self.core, physics, self.gripper, hand_state_wanted=hand_state_wanted)
+    def make_part(self, physics, tool_state_wanted) -> ArmCycle:
+        """Its part of the world cycle, on its body in the world; `tool_state_wanted()`: its
+        tool's client takes its state datagrams."""
+        return ArmCycle(self.core, physics, self.tool, tool_state_wanted=tool_state_wanted)
 
     def robot_session(self) -> Session:
         return robot_session(self.core)
 
-    def gripper_session(self) -> Session:
-        return gripper_session(self.gripper)
+    def tool_session(self) -> Session:
+        return tool_session(self.tool_kind.service, self.tool)
 
 
 class BaseParts:
@@ -67,13 +70,13 @@ class BaseParts:
 
     kind = "base"
     name, label = "base", "mobile base"
-    gripper = None
+    tool = tool_kind = None
 
     def __init__(self, host: str, events: RobotEvents = NO_ROBOT_EVENTS) -> None:
         self.host = host
         self.core = BaseCore(base_urdf_text().encode(), events=events)
 
-    def make_part(self, physics, hand_state_wanted) -> BaseCycle:
+    def make_part(self, physics, tool_state_wanted) -> BaseCycle:
         return BaseCycle(self.core, physics)
 
     def robot_session(self) -> Session:
@@ -121,10 +124,10 @@ class WorldParts:
                 raise SceneError(f"arm {spec.name}: {spec.host} serves the mobile base "
                                  "(one address per robot)")
         mounts = scene_mounts(self.scene)
-        fingers, rides = self.config.gripper, self.config.mobile_base is not None
+        kind, rides = tool_kind(self.config.tool), self.config.mobile_base is not None
         return [ArmPlacement(self.description, spec.name if len(specs) > 1 else "",
                              base=spec.base if spec.base is not None else mounts.get(spec.name),
-                             fingers=fingers, rides=rides)
+                             tool=None if kind is None else kind.mount, rides=rides)
                 for spec in specs]
 
     def _check(self) -> None:
@@ -147,9 +150,9 @@ class WorldParts:
             physics.append(BaseBody(world.model, world.data))
         return physics
 
-    def make_cycle(self, physics: list, hand_state_wanted) -> WorldCycle:
+    def make_cycle(self, physics: list, tool_state_wanted) -> WorldCycle:
         """The world's cycle: every robot's part around the world's one step.
-        `hand_state_wanted[i]`: whether robot i's Hand client takes GripperStates."""
-        parts = [robot.make_part(physics[i], hand_state_wanted[i])
+        `tool_state_wanted[i]`: whether robot i's tool client takes its state datagrams."""
+        parts = [robot.make_part(physics[i], tool_state_wanted[i])
                  for i, robot in enumerate(self.robots)]
         return WorldCycle(parts, physics[0].world.step, self.events)

@@ -85,10 +85,15 @@ def serve(
         "and control API; a 'tmr' URDF, driven by Cartesian-velocity motions: "
         "docs/deviations.md). E.g. --scene mobile_duo --arm left=A --arm right=B.",
     ),
+    tool: str = typer.Option(
+        "hand", "--tool", envvar="FRANKA_SIM_TOOL", metavar="hand|none",
+        help="The tool on every arm's flange and the service it answers beside the FCI: hand "
+        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world) or none "
+        "(no tool service: its port refuses connections, and the Hand's body is rigid).",
+    ),
     no_gripper: bool = typer.Option(
         False, "--no-gripper", envvar="FRANKA_SIM_NO_GRIPPER",
-        help="Simulate no Franka Hand service: port 1338 is not served (connections are "
-        "refused, as on a robot without a Hand) and the hand is one rigid body.",
+        help="The same as --tool none.",
     ),
     control_port: int = typer.Option(
         1340, envvar="FRANKA_SIM_CONTROL_PORT", min=0, max=65535,
@@ -154,13 +159,23 @@ def serve(
             host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
             enforce_motion_limits=enforce_motion_limits,
             joint_discontinuity_scale=joint_discontinuity_scale,
-            scene=scene, gripper=not no_gripper, control_port=control_port,
+            scene=scene, tool=_tool(tool, no_gripper), control_port=control_port,
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
             inject=inject, seed=seed,
         ))
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint=exc.flag) from None
     exec_serving(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
+
+
+def _tool(tool: str, no_gripper: bool) -> str:
+    """--tool, with --no-gripper as `--tool none` (together only if they agree)."""
+    if no_gripper:
+        if tool not in ("hand", "none"):
+            raise typer.BadParameter(f"--no-gripper is --tool none, not --tool {tool}",
+                                     param_hint="--no-gripper")
+        return "none"
+    return tool
 
 
 def parse_arm(text: str) -> ArmSpec:

@@ -44,13 +44,13 @@ class Config:
     enforce_motion_limits: bool = False  # abort on a limit violation, as the robot does
     joint_discontinuity_scale: float = 1.0  # scales the joint envelope the IK output is held to
     q0: tuple[float, ...] = field(default=READY_POSE)
-    gripper: bool = True  # serve the Franka Hand (TCP 1338 + its state stream); False: no Hand
-    gripper_port: int = 1338  # libfranka pins it too
+    tool: str = "hand"  # the tool on every arm's flange (franka_sim/tools/); "none": none
+    tool_port: int | None = None  # its service's port; None: its own (the Hand's 1338)
     scene: Path | str | None = None  # a packaged scene's name or an MJCF file; None: the default
     control_port: int = 1340  # the control API (HTTP) on the robot's address; 0: not served
     control_token: str | None = None  # bearer token the control API requires; None: none
     record: Path | None = None  # write everything the run exchanged to this MCAP file
-    inject: str | None = None  # network faults on every arm's UDP path (server/faults/spec.py)
+    inject: str | None = None  # network faults on every robot's UDP path (faults/spec.py)
     seed: int = 0  # the faults' seed: the same seed hits the same cycles
     # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
     arms: tuple[ArmSpec, ...] = ()

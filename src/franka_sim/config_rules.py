@@ -36,6 +36,15 @@ def checked(config: Config) -> Config:
             raise ConfigError("--mobile-base", "a mobile base carries the arms named with --arm")
     for arm in config.arms:
         _address("--arm", arm.host, f"arm {arm.name}: ")
+    from franka_sim.tools import tool_names
+
+    if config.tool not in tool_names():
+        raise ConfigError("--tool", f"{config.tool!r} is not a tool (one of "
+                          f"{', '.join(tool_names())})")
+    if config.tool_port is not None and config.tool_port in (config.robot_port,
+                                                             config.control_port):
+        raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
+                          "API's port")
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing

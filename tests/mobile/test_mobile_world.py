@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
@@ -23,7 +24,7 @@ K = np.array([600.0, 600, 600, 600, 250, 150, 50])
 def duo():
     scene = resolve_scene("mobile_duo")
     mounts = scene_mounts(scene)
-    placements = [ArmPlacement(DESC, name, base=mounts[name], fingers=True, rides=True)
+    placements = [ArmPlacement(DESC, name, base=mounts[name], tool=FINGERS, rides=True)
                   for name in ("left", "right")]
     world = World(placements, {p.name: np.array(READY_POSE) for p in placements},
                   scene_xml=scene)

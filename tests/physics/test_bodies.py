@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.physics.backend import JointCommand
 from franka_sim.physics.bodies import NotFree, UnknownBody
@@ -19,7 +20,7 @@ HOLD = JointCommand.impedance(Q0, DEFAULT_K_THETA, 2 * np.sqrt(DEFAULT_K_THETA),
 
 @pytest.fixture
 def world_backend(description):
-    return MujocoBackend(description, Q0, scene_xml=default_scene_path(), fingers=True)
+    return MujocoBackend(description, Q0, scene_xml=default_scene_path(), tool=FINGERS)
 
 
 def test_names_free_bodies_and_the_names_other_descriptions_use(world_backend):
@@ -65,11 +66,11 @@ def test_a_reset_puts_the_world_back_and_ends_every_push(world_backend):
     world.push("link7", [0.0, 20.0, 0.0], [0.0, 0.0, 1.0], 1000)
     for _ in range(50):
         world_backend.step(HOLD)
-    world_backend.reset(Q0, gripper_width=0.03)
+    world_backend.reset(Q0, tool_setting=0.03)
     assert not world.data.xfrc_applied.any()
     np.testing.assert_array_equal(world.body_state("cube").position, start.position)
     m = world_backend.measure()
     np.testing.assert_array_equal(m.q, Q0)
-    assert m.fingers.width == pytest.approx(0.03) and not m.tau_ext.any()
+    assert m.tool.width == pytest.approx(0.03) and not m.tau_ext.any()
     for _ in range(20):
         assert not world_backend.step(HOLD).tau_ext.any()

@@ -9,11 +9,13 @@ import mujoco
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description import hand
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics import fingers as fg
-from franka_sim.physics.backend import FingerCommand, JointCommand
+from franka_sim.physics.backend import JointCommand
+from franka_sim.physics.fingers import FingerCommand
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
 
@@ -45,12 +47,12 @@ def rigid():
 
 
 def test_composite_is_the_reported_hand_at_every_opening(rigid):
-    backend = MujocoBackend(DESC, READY, fingers=True)
+    backend = MujocoBackend(DESC, READY, tool=FINGERS)
     hand_body = backend.model.body("hand").id
     assert backend.model.body_subtreemass[hand_body] == pytest.approx(hand.HAND_MASS, abs=1e-15)
     rng = np.random.default_rng(2)
     for width in (0.08, 0.0, 0.031, 0.081):
-        assert open_to(backend, width).fingers.width == pytest.approx(width, abs=1e-6)
+        assert open_to(backend, width).tool.width == pytest.approx(width, abs=1e-6)
         for q in poses(4):
             dq = rng.uniform(-1, 1, 7)
             assert _rel(backend.gravity(q), rigid.gravity(q)) < 1e-12
@@ -79,7 +81,7 @@ def test_palm_plus_fingers_reproduces_the_composite_exactly():
 def test_libfranka_model_equals_the_fingered_physics(robot):
     """tests/physics/test_model.py's comparison, against the physics the server runs (fingers + scene)."""
     model, state = robot.load_model(), robot.read_once()
-    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), fingers=True)
+    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), tool=FINGERS)
     for width in (0.0, 0.081):
         open_to(backend, width)
         for q in poses(5, seed=9):
@@ -91,24 +93,24 @@ def test_libfranka_model_equals_the_fingered_physics(robot):
 
 
 def test_idle_arm_and_fingers_stay_bit_exact_in_the_scene():
-    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), fingers=True)
+    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), tool=FINGERS)
     first = backend.measure()
     for _ in range(2000):
         measured = backend.step(JointCommand.impedance(READY, K, D))
     assert np.array_equal(measured.q, READY) and not measured.dq.any()
-    assert measured.fingers.width == first.fingers.width == fg.OPEN_WIDTH
+    assert measured.tool.width == first.tool.width == fg.OPEN_WIDTH
     np.testing.assert_array_equal(measured.tau_J, first.tau_J)
 
 
 def test_moving_fingers_leave_the_arm_where_it_is():
-    backend = MujocoBackend(DESC, READY, fingers=True)
+    backend = MujocoBackend(DESC, READY, tool=FINGERS)
     for width in (0.0, 0.08, 0.04):
         measured = open_to(backend, width, steps=600)
     assert np.abs(measured.q - READY).max() < 1e-9
 
 
 def test_fingers_touch_the_world_but_not_the_arm_or_each_other():
-    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), fingers=True)
+    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), tool=FINGERS)
     open_to(backend, 0.0, steps=1000)  # closed: pads face to face, inside the hand's envelope
     model, data = backend.model, backend.data
     touching = {frozenset((model.geom(c.geom1).name, model.geom(c.geom2).name))
@@ -127,7 +129,7 @@ def test_fingers_touch_the_world_but_not_the_arm_or_each_other():
 def test_a_changed_end_effector_keeps_palm_plus_fingers_exact(rigid):
     load = hand.combine_inertials(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA,
                                   0.8, [0.01, 0.02, 0.09], np.diag([0.002, 0.003, 0.001]))
-    fingered = MujocoBackend(DESC, READY, fingers=True)
+    fingered = MujocoBackend(DESC, READY, tool=FINGERS)
     heavy_rigid = MujocoBackend(DESC, READY)
     fingered.set_end_effector(*load)
     heavy_rigid.set_end_effector(*load)
@@ -138,11 +140,11 @@ def test_a_changed_end_effector_keeps_palm_plus_fingers_exact(rigid):
 
 
 def test_finger_stroke_and_mechanical_stop():
-    backend = MujocoBackend(DESC, READY, fingers=True)
+    backend = MujocoBackend(DESC, READY, tool=FINGERS)
     model = backend.model
     for name in fg.FINGER_JOINTS:
         joint = model.joint(name)
         assert joint.type[0] == mujoco.mjtJoint.mjJNT_SLIDE
         np.testing.assert_allclose(joint.range, [0.0, 0.0405])
     pushed = open_to(backend, 0.1, steps=600)  # against the stops with the full force
-    assert pushed.fingers.width == pytest.approx(0.081, abs=1e-4)
+    assert pushed.tool.width == pytest.approx(0.081, abs=1e-4)

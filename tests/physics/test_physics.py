@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose, frame_pose
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP,
@@ -300,18 +301,18 @@ def test_description_without_accelerometers_reads_zero():
 def _measured_fields(m):
     return [m.q, m.dq, m.ddq, m.tau_J, m.dtau_J, m.theta, m.dtheta, m.O_T_F,
             m.accelerometer_top, m.accelerometer_bottom, m.tau_ext, m.J_F,
-            np.array([m.fingers.width, m.fingers.speed, m.fingers.force])]
+            np.array([m.tool.width, m.tool.speed, m.tool.force])]
 
 
 def test_a_step_at_rest_is_skipped_and_bit_identical_to_stepping():
     """Rest (mujoco_backend § Rest): an arm and scene at rest are not recomputed, yet every
     reading, the data and the clock are bit-identical to a backend that steps every cycle,
     through a push (data written from outside), a new command and a finger move."""
-    from franka_sim.physics.backend import FingerCommand
+    from franka_sim.physics.fingers import FingerCommand
     from franka_sim.physics.scene import default_scene_path
 
-    lazy = MujocoBackend(DESC, HOME, scene_xml=default_scene_path(), fingers=True)
-    eager = MujocoBackend(DESC, HOME, scene_xml=default_scene_path(), fingers=True)
+    lazy = MujocoBackend(DESC, HOME, scene_xml=default_scene_path(), tool=FINGERS)
+    eager = MujocoBackend(DESC, HOME, scene_xml=default_scene_path(), tool=FINGERS)
     eager._same_inputs = lambda cmd, fingers: False  # never skips
     K = np.array([3000, 3000, 3000, 2500, 2500, 2000, 2000.0])
     hold = JointCommand.impedance(HOME, K, 0.02 * K, hold=True)
@@ -344,7 +345,7 @@ def test_finishing_a_step_after_its_readings_changes_no_bit():
     step would compute at its start. All three give the same readings and data, through torque
     and impedance motions, a push, the Hand moving, a new end effector and a hold that settles
     (the standstill puts q exactly on the hold, so g(q) moves with it)."""
-    from franka_sim.physics.backend import FingerCommand
+    from franka_sim.physics.fingers import FingerCommand
     from franka_sim.physics.scene import default_scene_path
 
     class GravityAtStart(MujocoBackend):
@@ -353,9 +354,9 @@ def test_finishing_a_step_after_its_readings_changes_no_bit():
             self._prepared_for = object()  # so g(q) is computed at the start of every step
 
     scene = default_scene_path()
-    server = MujocoBackend(DESC, HOME, scene_xml=scene, fingers=True)
-    plain = MujocoBackend(DESC, HOME, scene_xml=scene, fingers=True)
-    at_start = GravityAtStart(DESC, HOME, scene_xml=scene, fingers=True)
+    server = MujocoBackend(DESC, HOME, scene_xml=scene, tool=FINGERS)
+    plain = MujocoBackend(DESC, HOME, scene_xml=scene, tool=FINGERS)
+    at_start = GravityAtStart(DESC, HOME, scene_xml=scene, tool=FINGERS)
     backends = (server, plain, at_start)
     hand_body = server.model.body("hand").id
     rng = np.random.default_rng(3)

@@ -10,6 +10,7 @@ import numpy as np
 import pylibfranka
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description import hand
 from franka_sim.description.kinematics import flange_pose
@@ -31,7 +32,7 @@ def test_default_scene_is_packaged_data():
 
 
 def test_default_scene_has_a_table_and_a_cube_resting_within_reach():
-    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), fingers=True)
+    backend = MujocoBackend(DESC, READY, scene_xml=default_scene_path(), tool=FINGERS)
     K = np.array([3000, 3000, 3000, 2500, 2500, 2000, 2000.0])
     for _ in range(1000):
         measured = backend.step(JointCommand.impedance(READY, K, 0.02 * K))

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
 from franka_sim.physics.mujoco_backend import MujocoBackend
@@ -20,7 +21,7 @@ HOME = np.array([0, -PI / 4, 0, -3 * PI / 4, 0, PI / 2, PI / 4])
 K_IDLE = np.array([3000, 3000, 3000, 2500, 2500, 2000, 2000.0])
 D_IDLE = np.array([60, 60, 50, 50, 30, 25, 15.0])
 START = {"left": HOME, "right": HOME + np.array([0.3, 0.2, -0.1, 0.3, 0.2, -0.1, 0.4])}
-ARMS = (ArmPlacement(DESC, "left", base=(0.0, 0.5, 0.0, 0.3), fingers=True),
+ARMS = (ArmPlacement(DESC, "left", base=(0.0, 0.5, 0.0, 0.3), tool=FINGERS),
         ArmPlacement(DESC, "right", base=(0.1, -0.5, 0.0, -0.4)))
 
 

@@ -65,13 +65,13 @@ def test_realtime_commands_are_read_by_the_physics_thread_only():
         async with FrankaSim(host=host) as sim:  # realtime clock
             readers: list[str] = []
             endpoint = sim.udp
-            received = endpoint.datagram_received
+            accept = endpoint.accept
 
-            def spy(data, addr) -> None:
+            def spy(data, addr):
                 readers.append(threading.current_thread().name)
-                received(data, addr)
+                return accept(data, addr)
 
-            endpoint.datagram_received = spy
+            endpoint.accept = spy
             client = await asyncio.to_thread(RawClient, host)
             assert await asyncio.to_thread(client.move, 2, 4) == 1  # torque, kMotionStarted
 

@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
@@ -52,7 +53,7 @@ def table_harness(**kwargs) -> Harness:
     """The harness on the default scene with the Hand's fingers, as the server runs it."""
     h = Harness(**kwargs)
     h.backend = MujocoBackend(ARM, np.array(READY_POSE), scene_xml=default_scene_path(),
-                              fingers=True)
+                              tool=FINGERS)
     h.cycle()
     return h
 

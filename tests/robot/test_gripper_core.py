@@ -12,6 +12,7 @@ import struct
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
@@ -21,8 +22,9 @@ from franka_sim.protocol.codec import decode_gripper_state
 from franka_sim.protocol.enums import GRIPPER_VERSION, GripperCommand, GripperStatus
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
-from franka_sim.robot.gripper import (MAX_SPEED, NOMINAL_MAX_WIDTH, STATE_PERIOD, Gripper)
-from franka_sim.robot.session import gripper_session
+from franka_sim.robot.hand import MAX_SPEED, NOMINAL_MAX_WIDTH, STATE_PERIOD
+from franka_sim.robot.hand import Hand as HandDevice
+from franka_sim.robot.session import GRIPPER, tool_session
 from franka_sim.robot.session import SessionError
 
 DESC = load_arm_description(default_urdf_text())
@@ -47,9 +49,9 @@ class Hand:
 
     def __init__(self, q=READY_POSE, **gripper_kwargs) -> None:
         self.backend = MujocoBackend(DESC, np.array(q), scene_xml=default_scene_path(),
-                                     fingers=True)
+                                     tool=FINGERS)
         self.hold = JointCommand.impedance(np.array(q), K, D)
-        self.gripper = Gripper(**gripper_kwargs)
+        self.gripper = HandDevice(**gripper_kwargs)
         self.cycle = 0
         self.replies: list[tuple[int, tuple]] = []  # (cycle, (command, id, status))
         self.run(1)
@@ -58,7 +60,7 @@ class Hand:
         for _ in range(cycles):
             self.cycle += 1
             measured = self.backend.step(self.hold, self.gripper.command)
-            self.gripper.advance(self.cycle, measured.fingers)
+            self.gripper.advance(self.cycle, measured.tool)
             self.replies += [(self.cycle, status_of(r)) for r in self.gripper.take_replies()]
 
     def request(self, command: GripperCommand, command_id: int = 1, **fields) -> list[tuple]:
@@ -76,7 +78,7 @@ class Hand:
 
     @property
     def width(self) -> float:
-        return self.backend.measure().fingers.width
+        return self.backend.measure().tool.width
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +134,7 @@ def test_grasp_on_nothing_is_unsuccessful_and_stops_squeezing(homed):
     assert homed.width < 1e-4 and not homed.gripper.is_grasped
     assert cycles < 700  # 0.6 s of closing, then 50 ms of squeezing before the verdict
     homed.run(50)
-    assert abs(homed.backend.measure().fingers.force) < 1.0  # it let go
+    assert abs(homed.backend.measure().tool.force) < 1.0  # it let go
 
 
 def test_grasp_width_rule_is_libfranka_s(homed):
@@ -231,13 +233,13 @@ def test_grasping_the_cube_squeezes_with_the_commanded_force():
                  force=35.0)
     assert hand.until_answered()[1] == (Grasp, 8, GripperStatus.kSuccess)
     hand.run(100)
-    fingers = hand.backend.measure().fingers
+    fingers = hand.backend.measure().tool
     assert fingers.width == pytest.approx(0.05, abs=1e-4)  # stiff pads: microns of squeeze
     assert fingers.force == pytest.approx(35.0, rel=1e-6)
     assert hand.gripper.is_grasped
     hand.request(Stop)
     hand.run(100)
-    assert abs(hand.backend.measure().fingers.force) < 1.0 and not hand.gripper.is_grasped
+    assert abs(hand.backend.measure().tool.force) < 1.0 and not hand.gripper.is_grasped
 
 
 def test_state_every_100_cycles_on_the_robot_clock(homed):
@@ -266,11 +268,11 @@ def connect_bytes(version=GRIPPER_VERSION, udp_port=4242) -> bytes:
 
 
 def test_connect_checks_the_version():
-    session = gripper_session(Gripper())
+    session = tool_session(GRIPPER, HandDevice())
     (reply,) = session.receive(connect_bytes())
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 0, 3)
     assert session.handshake.udp_port == 4242 and not session.closed
-    old = gripper_session(Gripper())
+    old = tool_session(GRIPPER, HandDevice())
     (reply,) = old.receive(connect_bytes(version=2))
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 1, 3)  # kIncompatibleLibraryVersion, v3
     assert old.closed and old.handshake is None
@@ -283,7 +285,7 @@ def test_connect_checks_the_version():
     (struct.pack("<HII", 1, 1, 1 << 30), "absurd size"),
 ])
 def test_malformed_frames_end_the_session(data, why):
-    session = gripper_session(Gripper())
+    session = tool_session(GRIPPER, HandDevice())
     session.receive(connect_bytes())
     with pytest.raises(SessionError):
         session.receive(data)
@@ -292,11 +294,11 @@ def test_malformed_frames_end_the_session(data, why):
 
 def test_commands_before_connect_end_the_session():
     with pytest.raises(SessionError):
-        gripper_session(Gripper()).receive(build_gripper_request(Homing, 1))
+        tool_session(GRIPPER, HandDevice()).receive(build_gripper_request(Homing, 1))
 
 
 def test_split_and_batched_requests_are_all_answered():
-    session = gripper_session(Gripper())
+    session = tool_session(GRIPPER, HandDevice())
     data = connect_bytes() + build_gripper_request(Stop, 1) + build_gripper_request(Stop, 2)
     replies = [r for i in range(len(data)) for r in session.receive(data[i:i + 1])]
     assert [struct.unpack_from("<HI", r) for r in replies] == [(0, 0), (4, 1), (4, 2)]

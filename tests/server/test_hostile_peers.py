@@ -23,7 +23,7 @@ GENEROUS = 20.0  # s: any bound below is met long before this on a loaded machin
 
 
 def _endpoint(sim, port):
-    return sim.robot if port == ROBOT else sim.gripper_endpoint
+    return sim.robot if port == ROBOT else sim.tool_endpoint
 
 
 def _open(host: str, port: int) -> socket.socket:

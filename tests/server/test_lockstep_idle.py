@@ -12,6 +12,7 @@ import struct
 import numpy as np
 import pytest
 
+from franka_sim.physics.fingers import FINGERS
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
@@ -19,7 +20,7 @@ from franka_sim.protocol.codec import decode_command, decode_state, encode_comma
 from franka_sim.protocol.enums import Command, GripperCommand, GripperStatus, MoveStatus
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_gripper_request
-from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.hand import Hand
 from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.clock import TREMBLE_CYCLES, Clock
@@ -49,8 +50,8 @@ class Rig:
         self.harness = Harness()
         if hand:
             self.harness.backend = MujocoBackend(DESC, self.harness.core.drives.q_hold,
-                                                 scene_xml=default_scene_path(), fingers=True)
-            self.harness.robot_cycle.hand = Gripper()
+                                                 scene_xml=default_scene_path(), tool=FINGERS)
+            self.harness.robot_cycle.tool = Hand()
         self.wall = _WallTime()
         self.states: list[bytes] = []
         self.delivered: list[tuple[int, object]] = []  # (last message_id sent, replies)
@@ -175,8 +176,8 @@ def test_a_hand_action_runs_on_the_wall_clock_and_the_fingers_settle_before_its_
     rig = Rig(hand=True)
     rig.event()
     rig.wait(1.0)
-    hand = rig.cycle.hand
-    assert rig.cycle.hand.request(GripperCommand.Move, 7, _gripper_move(0.04)) == []
+    hand = rig.cycle.tool
+    assert rig.cycle.tool.request(GripperCommand.Move, 7, _gripper_move(0.04)) == []
     rig.event()
     rig.wait(0.3)  # 4 cm at 0.1 m/s: 0.4 s
     assert not hand.idle and set(rig.ticks[-250:]) == {(1, 1)}  # a state each ms
@@ -203,7 +204,7 @@ def test_after_homing_the_fingers_come_to_rest_clear_of_their_stops(then_open):
     them for ever and never come to rest; the Hand holds them a hair inside."""
     rig = Rig(hand=True)
     rig.event()
-    hand = rig.cycle.hand
+    hand = rig.cycle.tool
     hand.request(GripperCommand.Homing, 8, _gripper(GripperCommand.Homing))
     rig.event()
     rig.wait(2.0)

@@ -29,7 +29,8 @@ from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.arm_core import ArmCore
-from franka_sim.robot.gripper import NOMINAL_MAX_WIDTH, Gripper
+from franka_sim.robot.hand import NOMINAL_MAX_WIDTH, Hand
+from franka_sim.robot.tool import ToolDevice
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 
@@ -46,11 +47,13 @@ class ControlOps(FaultOps):
 
     kind = Kind.ARM
 
-    def __init__(self, *, core: ArmCore, gripper: Gripper | None, driver: Pacer,
+    def __init__(self, *, core: ArmCore, tool: ToolDevice | None, driver: Pacer,
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None, taps=None, recordings=None) -> None:
-        self.core, self.gripper, self.driver = core, gripper, driver
+        self.core, self.tool, self.driver = core, tool, driver
+        # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
+        self.hand = tool if isinstance(tool, Hand) else None
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
@@ -107,7 +110,7 @@ class ControlOps(FaultOps):
                     "O_T_EE": O_T_EE.tolist(), "robot_mode": mode_name(core.robot_mode),
                     "errors": [ERROR_NAMES[i] for i in np.flatnonzero(core.status.errors)],
                     "success_rate": float(core.success_rate),
-                    "gripper_width": None if self.gripper is None else float(self.gripper.width),
+                    "gripper_width": None if self.hand is None else float(self.hand.width),
                     "cycle": core.message_id,
                 }
         return await self._job(read)
@@ -150,7 +153,7 @@ class ControlOps(FaultOps):
             raise BadRequest(f"q {q.tolist()} is outside the joint limits "
                              f"[{desc.lower.tolist()}, {desc.upper.tolist()}]")
         if gripper_width is not None:
-            if self.gripper is None:
+            if self.hand is None:
                 raise BadRequest("gripper_width given, but this simulator has no Hand")
             gripper_width = number("gripper_width", gripper_width)
             if not 0.0 <= gripper_width <= NOMINAL_MAX_WIDTH:
@@ -160,25 +163,25 @@ class ControlOps(FaultOps):
 
     def _refuse_busy(self) -> None:
         """Conflict while a reset would cut something short (cycle thread, lock held)."""
-        core, gripper = self.core, self.gripper
+        core, tool = self.core, self.tool
         if core.motion is not None or core.robot_mode in BUSY_MODES:
             raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
                            "an error recovery is under way (let it finish first)")
-        if gripper is not None and gripper.busy:
+        if tool is not None and tool.busy:
             raise Conflict("a gripper action is under way (let it finish first)")
 
     def _reset_now(self, physics, q: np.ndarray, gripper_width: float | None) -> dict:
         """The reset itself (cycle thread, lock held, `_refuse_busy` passed)."""
-        core, gripper = self.core, self.gripper
+        core, tool = self.core, self.tool
         last_sent = self.driver.withdraw_prepared()
         physics.reset(q, gripper_width)
         measured = physics.measure()
         core.reset(q, measured, last_sent)
-        if gripper is not None:
-            gripper.reset(measured.fingers.width)
+        if tool is not None:
+            tool.reset(measured.tool)
         self.driver.keep_running()
         return {"q": q.tolist(), "cycle": core.message_id,
-                "gripper_width": None if gripper is None else gripper.width}
+                "gripper_width": None if self.hand is None else self.hand.width}
 
     # -- recording ---------------------------------------------------------------------------------
     async def start_recording(self, path) -> dict:

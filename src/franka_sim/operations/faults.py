@@ -1,5 +1,5 @@
 """The network-fault operations, alike on every robot (each arm, the mobile base): its own UDP
-path is robot `robot_index` of the world's NetworkFaults (server/faults/), reached by duck
+path is robot `robot_index` of the world's NetworkFaults (server/network_faults.py), reached by duck
 typing: `check(fields)`, `set(index, spec, seed)`, `report(index)`."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""One arm inside the world: its joints, its drive, its readings, its Hand, its queries.
+"""One arm inside the world: its joints, its drive, its readings, its tool, its queries.
 
 Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
 at the start of the step, as the real drives do with one 1 kHz sample. While a generator runs,
@@ -29,10 +29,9 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY
-from franka_sim.physics.backend import FingerCommand, JointCommand, Measured
+from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
 from franka_sim.physics.external_torque import ExternalTorque
-from franka_sim.physics.fingers import Fingers
 from franka_sim.physics.queries import Queries
 from franka_sim.physics.readings import Readings
 from franka_sim.physics.scene import ArmPlacement
@@ -74,19 +73,21 @@ class Arm:
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
         self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
-        self.fingers = Fingers(model, data, gravity, prefix, self._hand) \
-            if placement.fingers else None
+        # The tool on the flange (physics/tool.py), if any: the arm calls its hooks in the order
+        # of the world's step and carries its command and reading.
+        self.tool = None if placement.tool is None else placement.tool.attach(
+            model, data, gravity, prefix, self._hand)
         self.queries = Queries(model, data, scratch, self.qs, self.vs, flange, queried)
         self.cmd: JointCommand | None = None  # what the drives do, until replaced
-        self._finger_cmd: FingerCommand | None = None  # a new finger command (None: keep)
+        self._tool_cmd = None  # a new command for the tool (None: keep its last)
         self._last_cmd: JointCommand | None = None  # the command of the last step taken
         self.prepared_load: object = None  # the load declared_load.gravity is for
         self.last: Measured | None = None  # the readings of the last step (or reset)
 
-    def command(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> None:
-        """The drives' command from the next step on; `fingers` replaces the Hand's (None:
-        keep it)."""
-        self.cmd, self._finger_cmd = cmd, fingers
+    def command(self, cmd: JointCommand, tool: object | None = None) -> None:
+        """The drives' command from the next step on; `tool` replaces the tool's (None: keep
+        it)."""
+        self.cmd, self._tool_cmd = cmd, tool
 
     def measure(self) -> Measured:
         return self.last
@@ -94,9 +95,9 @@ class Arm:
     # -- the world's step, in its order ---------------------------------------------------------
     def same_inputs(self) -> bool:
         """The command is the last step's (the same arrays: the core replaces, never mutates)."""
-        last, cmd, fingers = self._last_cmd, self.cmd, self._finger_cmd
-        if last is None or not (fingers is None or (
-                self.fingers is not None and fingers == self.fingers.command)):
+        last, cmd, tool = self._last_cmd, self.cmd, self._tool_cmd
+        if last is None or not (tool is None or (
+                self.tool is not None and tool == self.tool.command)):
             return False
         return cmd is last or (
             cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
@@ -113,9 +114,9 @@ class Arm:
             moved = not np.array_equal(q, q_d)
             q[:] = q_d
             dq[:] = 0.0
-        if self.fingers is None:
+        if self.tool is None:
             return moved
-        return self.fingers.settle(self._finger_cmd, SETTLE) or moved
+        return self.tool.settle(self._tool_cmd, SETTLE) or moved
 
     def drive(self) -> None:
         """The drive torque for this step into qfrc_applied (g(q) prepared at this q)."""
@@ -131,8 +132,8 @@ class Arm:
             self._feed_forward(cmd.ddq_d)
         if cmd.load is not None:
             applied += self.declared_load.gravity
-        if self.fingers is not None:
-            self.fingers.drive(self._finger_cmd)
+        if self.tool is not None:
+            self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
 
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
@@ -147,13 +148,14 @@ class Arm:
 
     def after_integration(self) -> None:
         """After mj_step2, before the kinematics move on: ddq, the external torque (on the
-        constraint rows the step used) and the palm for the fingers' new positions."""
+        constraint rows the step used) and the tool's own (the Hand's palm for the fingers' new
+        positions)."""
         r = self.readings
         np.subtract(self._dq, self._dq_prev, out=r.ddq)
         np.divide(r.ddq, r.timestep7, out=r.ddq)
         self._external.measure()
-        if self.fingers is not None:
-            self.fingers.update_palm()
+        if self.tool is not None:
+            self.tool.after_integration()
 
     def record(self) -> None:
         """The step's readings, once the kinematics of the new q are computed (the drive
@@ -164,22 +166,22 @@ class Arm:
             carried = last is not None and last.load is cmd.load
             self.declared_load.subtract(r.tau_ext, cmd.load, r.jac, carried)
         self._last_cmd = cmd
-        self.last = r.record(None if self.fingers is None else self.fingers.state())
+        self.last = r.record(None if self.tool is None else self.tool.reading())
 
     # -- reset (the world's, in its order) --------------------------------------------------------
-    def place(self, q0: np.ndarray, gripper_width: float | None = None) -> None:
-        """At q0 and at rest in freshly reset data, the fingers open (or `gripper_width` apart);
-        no step to compare with."""
+    def place(self, q0: np.ndarray, tool_setting: object | None = None) -> None:
+        """At q0 and at rest in freshly reset data, its tool at its start (or `tool_setting`:
+        the Hand's opening); no step to compare with."""
         self._last_cmd = None
         self._q[:] = q0
-        if self.fingers is not None:
-            self.fingers.open(gripper_width)
+        if self.tool is not None:
+            self.tool.place(tool_setting)
 
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""
         self._applied[:] = self._gcomp
-        if self.fingers is not None:
-            self.fingers.hold()
+        if self.tool is not None:
+            self.tool.hold()
 
     def record_rest(self) -> None:
         """Rest readings, once the world's forward pass is done."""
@@ -187,7 +189,7 @@ class Arm:
         r.ddq.fill(0.0)
         r.tau_ext.fill(0.0)
         r.flange_jacobian()
-        self.last = r.record(None if self.fingers is None else self.fingers.state(), first=True)
+        self.last = r.record(None if self.tool is None else self.tool.reading(), first=True)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Write a new rigid body on the flange into the model (the world then refreshes what
@@ -195,8 +197,8 @@ class Arm:
         inertia = np.asarray(inertia, float).reshape(3, 3)
         if mass < 0 or not np.allclose(inertia, inertia.T):
             raise ValueError("mass must be ≥ 0 and inertia symmetric")
-        if self.fingers is not None:  # the composite of palm + fingers becomes the given body
-            self.fingers.set_composite(mass, com, 0.5 * (inertia + inertia.T))
+        if self.tool is not None:  # the composite of the tool's parts becomes the given body
+            self.tool.set_composite(mass, com, 0.5 * (inertia + inertia.T))
             return
         principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
         if np.linalg.det(axes) < 0:

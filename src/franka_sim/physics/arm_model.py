@@ -7,8 +7,9 @@ verbatim (physics/scene.py sets the compiler), and it stores each tensor in prin
 which is an exact change of basis.
 
 What the URDF does not say and the physics needs is added here, each as a named table:
-rotor inertia (armature), the Franka Hand (one rigid body, or a palm and two driven fingers,
-physics/fingers.py), collision primitives and the sensor sites. Every name an arm adds carries
+rotor inertia (armature), the Franka Hand's body on the flange (one rigid body, or with a tool's
+moving parts built on it: physics/tool.py, e.g. the fingers of physics/fingers.py), collision
+primitives and the sensor sites. Every name an arm adds carries
 its prefix ("" for a lone arm), so several arms fit in one model.
 """
 
@@ -20,7 +21,7 @@ import numpy as np
 from franka_sim.description import hand
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, FLANGE_LINK,
                                          ArmDescription)
-from franka_sim.physics import fingers as fg
+from franka_sim.physics.tool import ToolMount
 
 # Motor rotor inertia reflected through the gearbox, kg·m², per joint. libfranka's Model (the
 # URDF's rigid bodies) leaves it out, but the physics needs it: without it joint 7 is so light
@@ -67,17 +68,12 @@ _NO_CONTACT = {frozenset((a, b)) for a, b in zip(COLLISION_BODIES, COLLISION_BOD
 _NO_CONTACT.add(frozenset(("link6", HAND_BODY)))  # the hand sits over joint 7, next to link 6
 
 
-# The fingers touch the environment only (objects, the table), never their arm or each other: a
-# bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
-FINGER_COLLISION_BITS = (1 << (len(COLLISION_BODIES) + 1), 1)
 # Several arms: arm i also sets bit FIRST_ARM_BIT + i in its geoms' contype and accepts every
 # other arm's bit, so arms (fingers included) touch each other, whatever the links.
+# (Bit len(COLLISION_BODIES) + 1 is a tool's: physics/fingers.py.)
+TOOL_BIT = 1 << (len(COLLISION_BODIES) + 1)
 FIRST_ARM_BIT = len(COLLISION_BODIES) + 2
 MAX_ARMS = 32 - FIRST_ARM_BIT
-# Pad contacts: hard and grippy enough that a squeeze of tens of newtons neither sinks the pads
-# into the object (MuJoCo's default contact would, by centimetres) nor lets a held cube creep.
-PAD_SOLREF = (0.002, 1.0)
-PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
 # How a contact of the arm with the world builds up. On the robot the compliance a press meets
 # is the arm's (its elastic joints, ~7000 Nm/rad each, and the joint impedance behind them), so
 # a fingertip or link coming down on a table at a few cm/s loads it over tens of ms. Our joints
@@ -94,12 +90,6 @@ ARM_CONTACT_PRIORITY = 2
 ARM_CONTACT_SOLREF = (0.03, 1.0)
 ARM_CONTACT_WIDTH = 0.001  # m
 ARM_CONTACT_SOLIMP = (0.001, 0.99, ARM_CONTACT_WIDTH, 0.5, 2.0)
-# The pads grip with the hard pad contact: a squeeze moves a finger, a light body, which the
-# soft contact would let sink by millimetres. So each finger's tip end (its last
-# SOLE_THICKNESS, where it meets a table) is a geom of its own, the sole, with the arm's
-# contact; the pad above it meets a table only under a press far over the collision thresholds.
-SOLE_THICKNESS = 0.002  # m
-
 
 def collision_bits(body: str) -> tuple[int, int]:
     """(contype, conaffinity) for an arm body; environment geoms keep MuJoCo's default 1/1."""
@@ -122,7 +112,7 @@ def arm_bits(index: int, arms: int) -> tuple[int, int]:
     return own, every & ~own
 
 
-def _quat(rotation: np.ndarray) -> np.ndarray:
+def quat(rotation: np.ndarray) -> np.ndarray:
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
     return quat
@@ -141,7 +131,7 @@ def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str
                       rgba=[0.9, 0.9, 0.9, 1.0])
 
 
-def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
+def set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
     inertia = np.asarray(inertia, float)
     body.explicitinertial = True
     body.mass = mass
@@ -152,14 +142,14 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
 
 def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             base: tuple[float, float, float, float] | None = None, armature=ROTOR_INERTIA_FR3,
-            fingers: bool = False, extra_bits: tuple[int, int] = (0, 0),
+            tool: ToolMount | None = None, extra_bits: tuple[int, int] = (0, 0),
             parent: mujoco.MjsBody | None = None) -> None:
     """The arm + Hand into `spec`, its names prefixed, its base at `base` = (x, y, z, yaw) in
     the world frame (None: the world origin; the arm's root frame is then the world's, else a
     static body named after the root link).
 
-    Without `fingers` the Hand is one rigid body; with them it is a palm and two driven finger
-    joints (physics/fingers.py) whose composite is still exactly the reported Hand.
+    Without a `tool` the Hand is one rigid body; with one, the tool builds its moving parts on
+    the hand body (physics/tool.py), keeping the composite the reported Hand.
     `extra_bits` (contype, conaffinity) are OR'ed into every geom's (see arm_bits). `parent`:
     the body the arm stands on (the mobile base), `base` then in its frame; None: the world.
     """
@@ -174,7 +164,7 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
         parent = desc.frames[joint.parent]
         origin = parent.offset @ joint.origin
         body = holders[parent.body].add_body(name=prefix + joint.child, pos=origin[:3, 3],
-                                             quat=_quat(origin[:3, :3]))
+                                             quat=quat(origin[:3, :3]))
         limits = joint.limits
         # The physical stop is the widest range the robot allows: the datasheet (soft) limits.
         lower = limits.lower if limits.soft_lower is None else min(limits.lower, limits.soft_lower)
@@ -196,63 +186,28 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             # A massive link fixed to a body (link0 on the base): a welded body of its own,
             # which also gives its geoms a name. On the base its inertia never moves.
             body = holders[frame.body].add_body(name=prefix + name, pos=frame.offset[:3, 3],
-                                                quat=_quat(frame.offset[:3, :3]))
+                                                quat=quat(frame.offset[:3, :3]))
             offset = np.eye(4)
         else:  # a massless frame (flange, accelerometers): a site
             body, offset = holders[frame.body], frame.offset
             site = FLANGE_SITE if name == FLANGE_LINK else name
-            body.add_site(name=prefix + site, pos=offset[:3, 3], quat=_quat(offset[:3, :3]))
+            body.add_site(name=prefix + site, pos=offset[:3, 3], quat=quat(offset[:3, :3]))
         if inertial is not None:
-            _set_inertial(body, inertial.mass, inertial.com, inertial.inertia_in_link)
+            set_inertial(body, inertial.mass, inertial.com, inertial.inertia_in_link)
         if name in COLLISION_CAPSULES:
             _add_capsules(body, COLLISION_CAPSULES[name], offset, name, prefix, extra_bits)
 
     flange = desc.frames[FLANGE_LINK]
     hand_body = holders[flange.body].add_body(name=prefix + HAND_BODY, pos=flange.offset[:3, 3],
-                                              quat=_quat(flange.offset[:3, :3]))
+                                              quat=quat(flange.offset[:3, :3]))
     _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY, prefix, extra_bits)
-    if fingers:
-        _add_fingers(hand_body, prefix, extra_bits)
+    if tool is not None:
+        tool.build(hand_body, prefix, extra_bits)
     else:
-        _set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+        set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
 
     for name in ACCELEROMETER_TOP + ACCELEROMETER_BOTTOM:
         if name not in desc.frames:  # a description without them reports zeros
             continue
         spec.add_sensor(name=prefix + name, type=mujoco.mjtSensor.mjSENS_ACCELEROMETER,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=prefix + name)
-
-
-def _add_fingers(hand_body: mujoco.MjsBody, prefix: str, extra: tuple[int, int]) -> None:
-    """Palm inertial (composite minus open fingers) and the two finger bodies with their joints."""
-    half = fg.OPEN_WIDTH / 2
-    palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
-    _set_inertial(hand_body, palm.mass, *palm.inertial(half, half))
-    contype, conaffinity = FINGER_COLLISION_BITS
-    contype, conaffinity = contype | extra[0], conaffinity | extra[1]
-    positions, rotations = fg.finger_frames()
-    (pad_centre, pad_half), knuckle = fg.FINGER_BOXES
-    t = SOLE_THICKNESS / 2  # the pad's tip end (+z) becomes the sole
-    boxes = {"collision0": ((pad_centre[0], pad_centre[1], pad_centre[2] - t),
-                            (pad_half[0], pad_half[1], pad_half[2] - t)),
-             "collision1": knuckle,
-             "sole": ((pad_centre[0], pad_centre[1], pad_centre[2] + pad_half[2] - t),
-                      (pad_half[0], pad_half[1], t))}
-    for k, (body_name, joint_name) in enumerate(zip(fg.FINGER_BODIES, fg.FINGER_JOINTS)):
-        body = hand_body.add_body(name=prefix + body_name, pos=positions[k],
-                                  quat=_quat(rotations[k]))
-        _set_inertial(body, fg.FINGER_MASS, fg.FINGER_COM, fg.FINGER_INERTIA)
-        body.add_joint(name=prefix + joint_name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
-                       range=[0.0, fg.FINGER_STROKE], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-                       armature=fg.FINGER_ARMATURE, damping=0.0, frictionloss=0.0,
-                       solref_limit=PAD_SOLREF, solimp_limit=PAD_SOLIMP)  # a hard stop
-        for suffix, (centre, half_size) in boxes.items():
-            pad = suffix == "collision0"
-            body.add_geom(name=f"{prefix}{body_name}_{suffix}",
-                          type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre, size=half_size,
-                          contype=contype, conaffinity=conaffinity, condim=4,
-                          friction=fg.PAD_FRICTION,
-                          priority=1 if pad else ARM_CONTACT_PRIORITY,
-                          solref=PAD_SOLREF if pad else ARM_CONTACT_SOLREF,
-                          solimp=PAD_SOLIMP if pad else ARM_CONTACT_SOLIMP,
-                          rgba=[0.3, 0.3, 0.3, 1.0])

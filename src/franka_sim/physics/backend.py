@@ -65,28 +65,6 @@ class JointCommand:
                    ddq_d=None if ddq_d is None else np.asarray(ddq_d, float))
 
 
-@dataclass(frozen=True)
-class FingerCommand:
-    """What the Hand's finger drive does during one step, in terms of the opening.
-
-    Both fingers track `width` (each half of it) with feed-forward `speed` (d width/dt), each
-    pushing with at most `force` N — the squeeze a grasped object feels.
-    """
-
-    width: float  # m
-    speed: float  # m/s
-    force: float  # N
-
-
-@dataclass(frozen=True)
-class FingerState:
-    """The Hand's finger sensors after a step."""
-
-    width: float  # m, between the pads
-    speed: float  # m/s, d width/dt
-    force: float  # N, mean drive force towards closing (the fingers' own weight excluded)
-
-
 @dataclass(eq=False)
 class Measured:
     """The robot's sensor readings after a step; arrays are fresh per step (safe to keep)."""
@@ -101,7 +79,7 @@ class Measured:
     O_T_F: np.ndarray  # (4,4) base → flange (link8)
     accelerometer_top: np.ndarray  # (6,3) specific force in each sensor frame, m/s²
     accelerometer_bottom: np.ndarray  # (6,3)
-    fingers: FingerState | None = None  # None: a backend without finger joints
+    tool: object = None  # what the tool on the flange reads (physics/tool.py); None: no tool
     # External joint torque over the last step in the robot's sign: Jᵀ·(the wrench the robot
     # exerts on its environment), i.e. −Jᵀ·(what the environment does to the arm). The
     # declared load's model (gravity and inertia) is already subtracted. None: not measured.
@@ -114,10 +92,10 @@ class Backend(Protocol):
 
     timestep: float  # seconds per step(); the robot's clock requires 0.001
 
-    def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
         """Advance exactly one timestep with the given drive command.
 
-        `fingers` replaces the Hand's finger command from this step on; None keeps the last one.
+        `tool` replaces the tool's command from this step on; None keeps the last one.
         """
 
     def finish_step(self) -> None:

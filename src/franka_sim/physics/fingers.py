@@ -25,11 +25,14 @@ hand's total mass, CoM and inertia are then the reported figures at every openin
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
 from franka_sim.description import hand
-from franka_sim.physics.backend import FingerCommand, FingerState
+from franka_sim.physics.arm_model import (ARM_CONTACT_PRIORITY, ARM_CONTACT_SOLIMP,
+                                          ARM_CONTACT_SOLREF, TOOL_BIT, quat, set_inertial)
 
 FINGER_JOINTS = ("finger_joint1", "finger_joint2")
 FINGER_BODIES = ("finger1", "finger2")
@@ -46,11 +49,46 @@ PAD_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
 FINGER_BOXES = (((0.0, 0.0045, 0.045), (0.011, 0.0045, 0.0175)),  # pad
                 ((0.0, 0.0135, 0.0135), (0.011, 0.009, 0.0135)))  # knuckle
 
+# The fingers touch the environment only (objects, the table), never their arm or each other: a
+# bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
+FINGER_COLLISION_BITS = (TOOL_BIT, 1)
+# Pad contacts: hard and grippy enough that a squeeze of tens of newtons neither sinks the pads
+# into the object (MuJoCo's default contact would, by centimetres) nor lets a held cube creep.
+PAD_SOLREF = (0.002, 1.0)
+PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
+# The pads grip with the hard pad contact: a squeeze moves a finger, a light body, which the
+# arm's soft contact would let sink by millimetres. So each finger's tip end (its last
+# SOLE_THICKNESS, where it meets a table) is a geom of its own, the sole, with the arm's
+# contact; the pad above it meets a table only under a press far over the collision thresholds.
+SOLE_THICKNESS = 0.002  # m
+
 FINGER_ARMATURE = 0.1  # kg along the stroke: the drive's reflected inertia (our choice)
 FINGER_KP = 3000.0  # N/m per finger
 # Critical damping, N·s/m; a Python float, as the drive's per-step arithmetic is on scalars.
 FINGER_KD = float(2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE)))
 MAX_FINGER_FORCE = 100.0  # N per finger (the description's effort limit, fr3_facts §3)
+
+
+@dataclass(frozen=True)
+class FingerCommand:
+    """What the Hand's finger drive does during one step, in terms of the opening.
+
+    Both fingers track `width` (each half of it) with feed-forward `speed` (d width/dt), each
+    pushing with at most `force` N — the squeeze a grasped object feels.
+    """
+
+    width: float  # m
+    speed: float  # m/s
+    force: float  # N
+
+
+@dataclass(frozen=True)
+class FingerState:
+    """The Hand's finger sensors after a step."""
+
+    width: float  # m, between the pads
+    speed: float  # m/s, d width/dt
+    force: float  # N, mean drive force towards closing (the fingers' own weight excluded)
 
 
 def finger_frames() -> tuple[np.ndarray, np.ndarray]:
@@ -183,19 +221,19 @@ class Fingers:
                 fq[i], fv[i] = target, 0.0
         return moved
 
-    def update_palm(self) -> None:
+    def after_integration(self) -> None:
         """Rewrite the palm for the fingers' new positions, so the hand stays the reported body."""
         x = self._q.tolist()
         if x != self._palm_at:
             self._palm.write(self._model, self._hand, *x)
             self._palm_at = x
 
-    def state(self) -> FingerState:
+    def reading(self) -> FingerState:
         (x1, x2), (v1, v2) = self._q.tolist(), self._v.tolist()
         f1, f2 = self._drive
         return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
 
-    def open(self, width: float | None = None) -> None:
+    def place(self, width: float | None = None) -> None:
         """Open (or `width` apart), at rest, commanded to stay so, the palm matching (in freshly
         reset data)."""
         width = OPEN_WIDTH if width is None else float(width)
@@ -204,7 +242,7 @@ class Fingers:
         self.command = FingerCommand(width, 0.0, MAX_FINGER_FORCE)
         self._drive = (0.0, 0.0)
         self._palm_at = None
-        self.update_palm()
+        self.after_integration()
 
     def hold(self) -> None:
         """Their gravity load alone, as the drive at rest (g(q) must be current)."""
@@ -214,4 +252,50 @@ class Fingers:
         """Palm + fingers become the given rigid body (mass, CoM in F, inertia about it)."""
         self._palm.set_composite(mass, com, inertia)
         self._palm_at = None
-        self.update_palm()
+        self.after_integration()
+
+
+class FingersMount:
+    """The Hand's fingers as a tool on an arm (physics/tool.py ToolMount)."""
+
+    def build(self, hand_body, prefix: str, bits: tuple[int, int]) -> None:
+        """Palm inertial (composite minus open fingers) and the two finger bodies with their
+        joints."""
+        half = OPEN_WIDTH / 2
+        palm = Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+        set_inertial(hand_body, palm.mass, *palm.inertial(half, half))
+        contype, conaffinity = FINGER_COLLISION_BITS
+        contype, conaffinity = contype | bits[0], conaffinity | bits[1]
+        positions, rotations = finger_frames()
+        (pad_centre, pad_half), knuckle = FINGER_BOXES
+        t = SOLE_THICKNESS / 2  # the pad's tip end (+z) becomes the sole
+        boxes = {"collision0": ((pad_centre[0], pad_centre[1], pad_centre[2] - t),
+                                (pad_half[0], pad_half[1], pad_half[2] - t)),
+                 "collision1": knuckle,
+                 "sole": ((pad_centre[0], pad_centre[1], pad_centre[2] + pad_half[2] - t),
+                          (pad_half[0], pad_half[1], t))}
+        for k, (body_name, joint_name) in enumerate(zip(FINGER_BODIES, FINGER_JOINTS)):
+            body = hand_body.add_body(name=prefix + body_name, pos=positions[k],
+                                      quat=quat(rotations[k]))
+            set_inertial(body, FINGER_MASS, FINGER_COM, FINGER_INERTIA)
+            body.add_joint(name=prefix + joint_name, type=mujoco.mjtJoint.mjJNT_SLIDE,
+                           axis=[0, 1, 0], range=[0.0, FINGER_STROKE],
+                           limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=FINGER_ARMATURE,
+                           damping=0.0, frictionloss=0.0, solref_limit=PAD_SOLREF,
+                           solimp_limit=PAD_SOLIMP)  # a hard stop
+            for suffix, (centre, half_size) in boxes.items():
+                pad = suffix == "collision0"
+                body.add_geom(name=f"{prefix}{body_name}_{suffix}",
+                              type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre, size=half_size,
+                              contype=contype, conaffinity=conaffinity, condim=4,
+                              friction=PAD_FRICTION,
+                              priority=1 if pad else ARM_CONTACT_PRIORITY,
+                              solref=PAD_SOLREF if pad else ARM_CONTACT_SOLREF,
+                              solimp=PAD_SOLIMP if pad else ARM_CONTACT_SOLIMP,
+                              rgba=[0.3, 0.3, 0.3, 1.0])
+
+    def attach(self, model, data, gravity, prefix: str, hand_body: int) -> "Fingers":
+        return Fingers(model, data, gravity, prefix, hand_body)
+
+
+FINGERS = FingersMount()

@@ -18,8 +18,9 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3
-from franka_sim.physics.backend import FingerCommand, JointCommand, Measured
+from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.scene import ArmPlacement
+from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.world import World
 
 _UNPREPARED = object()
@@ -36,14 +37,13 @@ class ArmBackend:
         self.data: mujoco.MjData = world.data
         self._scratch = world.scratch  # where the queries leave their kinematics
         self.timestep = world.timestep
-        self.has_fingers = arm.fingers is not None
         self._queries = arm.queries
-        self.command = arm.command  # (cmd, fingers): what the arm does in the world's next step
+        self.command = arm.command  # (cmd, tool): what the arm does in the world's next step
 
     # -- the hot path ---------------------------------------------------------------------------
-    def step(self, cmd: JointCommand, fingers: FingerCommand | None = None) -> Measured:
+    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
         """Command this arm and step the world (the world's other arms keep their commands)."""
-        self.arm.command(cmd, fingers)
+        self.arm.command(cmd, tool)
         self.world.step()
         return self.arm.last
 
@@ -74,16 +74,16 @@ class ArmBackend:
             self.world.forget_gravity()
 
     # -- run-time changes -------------------------------------------------------------------------
-    def reset(self, q0, gripper_width: float | None = None) -> None:
+    def reset(self, q0, tool_setting: object | None = None) -> None:
         """At rest at q0: gravity compensation alone holds the arm, so sensors read rest values;
-        the Hand's fingers are open, or `gripper_width` apart. In a world of one arm everything
+        its tool at its start, or at `tool_setting` (the Hand's opening). In a world of one arm everything
         else is back where it started too; in a world of several, the others and the bodies
         are left as they are (another arm's client may be at work)."""
         if len(self.world.arms) == 1:
-            widths = None if gripper_width is None else {self.arm.name: gripper_width}
-            self.world.reset({self.arm.name: q0}, widths)
+            settings = None if tool_setting is None else {self.arm.name: tool_setting}
+            self.world.reset({self.arm.name: q0}, settings)
         else:
-            self.world.reset_arm(self.arm.name, q0, gripper_width)
+            self.world.reset_arm(self.arm.name, q0, tool_setting)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace the rigid body on the flange (see World.set_end_effector)."""
@@ -111,7 +111,7 @@ class MujocoBackend(ArmBackend):
     """One arm in a world of its own, at the origin, with the arm's own names."""
 
     def __init__(self, desc: ArmDescription, q0, *, scene_xml: str | os.PathLike | None = None,
-                 armature=ROTOR_INERTIA_FR3, fingers: bool = False) -> None:
-        placement = ArmPlacement(desc, fingers=fingers, armature=tuple(armature))
+                 armature=ROTOR_INERTIA_FR3, tool: ToolMount | None = None) -> None:
+        placement = ArmPlacement(desc, tool=tool, armature=tuple(armature))
         super().__init__(World([placement], {placement.name: q0}, scene_xml=scene_xml),
                          placement.name)

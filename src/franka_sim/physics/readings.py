@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
-from franka_sim.physics.backend import FingerState, Measured
+from franka_sim.physics.backend import Measured
 
 JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
 # The 7-vectors sit in rows of 8 so that every field starts 16-byte aligned, as a freshly
@@ -107,7 +107,7 @@ class Readings:
         block = self._flange
         mujoco.mj_jacSite(self._model, self._data, block.jacp, block.jacr, self._site)
 
-    def record(self, fingers: FingerState | None, *, first: bool = False) -> Measured:
+    def record(self, tool: object, *, first: bool = False) -> Measured:
         """The readings of the step just taken, as one fresh array the Measured's fields view.
 
         The drive torque is in qfrc_applied; ddq, tau_ext and the Jacobian in the work array.
@@ -135,4 +135,4 @@ class Readings:
             q=r[_Q], dq=r[_DQ], ddq=r[_DDQ], tau_J=r[_TAU_J], dtau_J=r[_DTAU_J], theta=r[_THETA],
             dtheta=r[_DTHETA], O_T_F=r[_O_T_F].reshape(4, 4),
             accelerometer_top=r[_TOP].reshape(6, 3), accelerometer_bottom=r[_BOTTOM].reshape(6, 3),
-            fingers=fingers, tau_ext=r[_TAU_EXT], J_F=r[_J_F].reshape(6, 7))
+            tool=tool, tau_ext=r[_TAU_EXT], J_F=r[_J_F].reshape(6, 7))

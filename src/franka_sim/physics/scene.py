@@ -17,6 +17,7 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
+from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.mobile_base import add_mobile_base
 from franka_sim.protocol.timing import CYCLE_PERIOD
 
@@ -39,7 +40,7 @@ class ArmPlacement:
     desc: ArmDescription
     name: str = ""
     base: tuple[float, float, float, float] | None = None
-    fingers: bool = False
+    tool: ToolMount | None = None  # a tool's moving parts on the hand body (physics/tool.py)
     armature: tuple[float, ...] = ROTOR_INERTIA_FR3
     rides: bool = False
 
@@ -90,7 +91,7 @@ def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
         if arm.rides:  # a root body of its own on the base, even at the base's origin
             parent, base = carrier, base or (0.0, 0.0, 0.0, 0.0)
         add_arm(spec, arm.desc, prefix=arm.prefix, base=base, armature=arm.armature,
-                fingers=arm.fingers, extra_bits=arm_bits(i, len(arms)), parent=parent)
+                tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent)
     if scene_xml is not None:
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)
@@ -102,9 +103,9 @@ def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
 
 def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,
                 scene_xml: str | os.PathLike | None = None,
-                fingers: bool = False) -> mujoco.MjModel:
+                tool: ToolMount | None = None) -> mujoco.MjModel:
     """Compile one arm at the world origin (its own names), optionally inside a scene."""
-    return build_world_model([ArmPlacement(desc, fingers=fingers, armature=tuple(armature))],
+    return build_world_model([ArmPlacement(desc, tool=tool, armature=tuple(armature))],
                              scene_xml=scene_xml)
 
 
@@ -160,11 +161,6 @@ def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, floa
         yaw = float(np.arctan2(2.0 * (w * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
         placed[name] = (x, y, z, yaw)
     return placed
-
-
-def check_scene(desc: ArmDescription, path: os.PathLike, *, fingers: bool) -> None:
-    """Raise SceneError (one line) unless the arm compiles inside the scene at `path`."""
-    check_world([ArmPlacement(desc, fingers=fingers)], path)
 
 
 def check_world(arms: list[ArmPlacement], path: os.PathLike | None) -> None:

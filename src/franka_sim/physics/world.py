@@ -182,14 +182,14 @@ class World:
 
     # -- run-time changes -------------------------------------------------------------------------
     def reset(self, q0: Mapping[str, np.ndarray],
-              gripper_widths: Mapping[str, float] | None = None) -> None:
+              tool_settings: Mapping[str, object] | None = None) -> None:
         """Everything back to the model's initial state, each arm at rest at its pose in `q0`
         (an arm not named there: where it stands), held by gravity compensation alone, so the
-        sensors read rest values. A Hand's fingers are open, or at rest at the width
-        `gripper_widths` gives for its arm. No push goes on."""
+        sensors read rest values. An arm's tool is at its start, or at rest at the setting
+        `tool_settings` gives for its arm (the Hand: its opening). No push goes on."""
         poses = {name: self.data.qpos[arm.qs].copy() for name, arm in self.arms.items()}
-        widths = gripper_widths or {}
-        if unknown := set(widths) - set(self.arms):
+        settings = tool_settings or {}
+        if unknown := set(settings) - set(self.arms):
             raise KeyError(f"no arm named {sorted(unknown)}")
         for name, q in q0.items():
             q = np.asarray(q, dtype=float)
@@ -204,7 +204,7 @@ class World:
         mujoco.mj_resetData(m, d)
         self._pushes.clear()
         for arm in self._arms:
-            arm.place(poses[arm.name], widths.get(arm.name))
+            arm.place(poses[arm.name], settings.get(arm.name))
         self._gravity_at_rest()
         for arm in self._arms:
             arm.hold_still()
@@ -212,8 +212,8 @@ class World:
         for arm in self._arms:
             arm.record_rest()
 
-    def reset_arm(self, name: str, q0, gripper_width: float | None = None) -> None:
-        """One arm at rest at q0 (its fingers open, or `gripper_width` apart), held by gravity
+    def reset_arm(self, name: str, q0, tool_setting: object | None = None) -> None:
+        """One arm at rest at q0 (its tool at its start, or at `tool_setting`), held by gravity
         compensation alone; the other arms and the bodies are left as they are (a world of
         several arms, whose other clients may be at work)."""
         q0 = np.asarray(q0, dtype=float)
@@ -223,7 +223,7 @@ class World:
         self.finish_step()
         self._still = 0
         self._unfinished, self._prepared = False, False
-        arm.place(q0, gripper_width)
+        arm.place(q0, tool_setting)
         self.data.qvel[arm.vs] = 0.0
         self._gravity_at_rest()
         arm.hold_still()

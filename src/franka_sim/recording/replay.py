@@ -84,7 +84,7 @@ class Replayer:
         self._repeat_firsts = [first for first, _ in runs]
         self._repeat_runs = runs
         self.ops = {i: ControlOps(
-            core=arm.core, gripper=arm.gripper, driver=_Driver(self), worker=_Worker(self),
+            core=arm.core, tool=arm.tool, driver=_Driver(self), worker=_Worker(self),
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
             clock=self.config.clock.value, arm=arm.name, arm_index=i,
             client_connected=lambda i=i: (i, "robot") in self.sessions)
@@ -171,14 +171,14 @@ class Replayer:
         parts = self.world_parts.robots[robot]
         if kind == "open":
             self.sessions[robot, service] = (parts.robot_session() if service == "robot"
-                                             else parts.gripper_session())
+                                             else parts.tool_session())
         elif kind == "close":
             self.sessions.pop((robot, service), None)
             if service == "robot":
                 parts.core.client_gone()
             else:
                 self.listening[robot] = False
-                parts.gripper.client_gone()
+                parts.tool.client_gone()
         else:
             session = self.sessions[robot, service]
             had_handshake = session.handshake is not None

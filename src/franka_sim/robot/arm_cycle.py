@@ -1,11 +1,11 @@
 """An arm's part of a world cycle, sans-IO (the contract: robot/cycle.py).
 
 `drive` has the core close the open command window and say what the joint drives do, and gives
-the arm's body that command (with the Hand's finger command) for the world's next step;
+the arm's body that command (with its tool's command) for the world's next step;
 `publish`, once the world stepped, takes the desired-side kinematics at q_d when a generator
 sets it, and has the core pack the RobotState; `complete`, after the state has left, advances
-the Hand on the new finger reading, does the part of the physics step that no reading needed,
-runs the log-only limit checks and hands back the replies the cycle produced (robot and Hand).
+the tool (robot/tool.py) on its new reading, does the part of the physics step that no reading needed,
+runs the log-only limit checks and hands back the replies the cycle produced (robot and tool).
 
 Work that a client does not wait for comes after the send, so a lockstep client gets its state
 as early as possible; doing it later gives the same bits (physics/world.py, "Step structure").
@@ -18,19 +18,19 @@ import logging
 from franka_sim.physics.backend import Backend
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.cycle import NO_REPLIES, PacerQuestions, Released, Replies
-from franka_sim.robot.gripper import Gripper
+from franka_sim.robot.tool import ToolDevice
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
 
 class ArmCycle(PacerQuestions):
-    def __init__(self, core: ArmCore, physics: Backend, hand: Gripper | None = None, *,
-                 hand_state_wanted=lambda: True) -> None:
+    def __init__(self, core: ArmCore, physics: Backend, tool: ToolDevice | None = None, *,
+                 tool_state_wanted=lambda: True) -> None:
         self.core = core
         self.physics = physics
-        self.hand = hand
-        self.hand_state_wanted = hand_state_wanted  # () -> bool: a Hand client takes states
+        self.tool = tool  # its tool's device (robot/tool.py), or None
+        self.tool_state_wanted = tool_state_wanted  # () -> bool: a tool client takes states
         self._failures = 0
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
@@ -41,22 +41,22 @@ class ArmCycle(PacerQuestions):
     @property
     def busy(self) -> bool:
         """Something is under way that ends by itself: a motion, a recovery, a lost client's
-        motion stopping, a Hand action."""
+        motion stopping, a tool's action."""
         return self.core.busy or self.tool_busy
 
     @property
     def tool_busy(self) -> bool:
-        """A Hand action runs (a client may watch it and stop it)."""
-        hand = self.hand
-        return hand is not None and not hand.idle
+        """A tool's action runs (a client may watch it and stop it)."""
+        tool = self.tool
+        return tool is not None and not tool.idle
 
     @property
     def at_rest(self) -> bool:
         """The next cycle would change nothing but message_id: no motion or recovery under way,
         the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
         change nothing hands back the last measurement itself, physics "Rest")."""
-        hand = self.hand
-        return self._unchanged and self.core.settled and (hand is None or hand.idle)
+        tool = self.tool
+        return self._unchanged and self.core.settled and (tool is None or tool.idle)
 
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
@@ -75,7 +75,7 @@ class ArmCycle(PacerQuestions):
         core = self.core
         joint_command = core.release_cycle()
         self._q_d = core.desired_q
-        return joint_command, (None if self.hand is None else self.hand.command)
+        return joint_command, (None if self.tool is None else self.tool.command)
 
     def publish(self) -> Released:
         core, physics, q_d = self.core, self.physics, self._q_d
@@ -99,20 +99,20 @@ class ArmCycle(PacerQuestions):
         return Released(core.message_id, state, self._measured)
 
     def complete(self, released: Released) -> Replies:
-        """After the state has left: the Hand, the rest of the step, the log-only checks. A
+        """After the state has left: the tool, the rest of the step, the log-only checks. A
         cycle whose state could not be packed leaves its replies for the next one's state."""
-        core, hand = self.core, self.hand
+        core, tool = self.core, self.tool
         robot_replies, tools = [], ()
         if released.state is not None:
             robot_replies = core.take_replies()
-            if hand is not None:
+            if tool is not None:
                 try:
-                    hand.advance(released.message_id, released.measured.fingers)
-                    hand_replies, hand_state = hand.take_replies(), None
-                    if hand.state_due(released.message_id) and self.hand_state_wanted():
-                        hand_state = hand.pack_state(released.message_id)
-                    if hand_replies or hand_state is not None:
-                        tools = ((hand_replies, hand_state),)
+                    tool.advance(released.message_id, released.measured.tool)
+                    tool_replies, tool_state = tool.take_replies(), None
+                    if tool.state_due(released.message_id) and self.tool_state_wanted():
+                        tool_state = tool.pack_state(released.message_id)
+                    if tool_replies or tool_state is not None:
+                        tools = ((tool_replies, tool_state),)
                 except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
                     self._failed()
         self.physics.finish_step()

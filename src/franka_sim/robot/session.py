@@ -133,6 +133,6 @@ def robot_session(robot) -> Session:
     return Session(ROBOT, robot.handle)
 
 
-def gripper_session(gripper) -> Session:
-    """The Hand's conversation: requests go to the Gripper state machine."""
-    return Session(GRIPPER, gripper.request)
+def tool_session(service: Service, device) -> Session:
+    """A tool's conversation (the Hand's: GRIPPER): requests go to its device (robot/tool.py)."""
+    return Session(service, device.request)

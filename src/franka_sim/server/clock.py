@@ -68,6 +68,10 @@ class ClockWatcher:
     def motion_started(self) -> None:
         """The state on which a motion's modes flipped was released."""
 
+    def held(self) -> None:
+        """A motion's start was held for its client's first command (a repeat whose number the
+        client's timing decides)."""
+
     def window_ran_out(self) -> None:
         """A lockstep cycle went without the answer it waited for."""
 
@@ -177,6 +181,7 @@ class Clock:
             if cycle.holds_start:
                 held = cycle.hold()
                 if held is not None:
+                    self.watcher.held()
                     return held
         self._frozen = False
         released = cycle.release()

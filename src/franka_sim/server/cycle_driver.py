@@ -45,7 +45,7 @@ class CycleDriver:
         self.endpoints: tuple = ()  # each robot's UdpEndpoint, by robot index
         self.cycle = None
         self.clock: Clock | None = None
-        self.faults = None  # server/faults.NetworkFaults while faults are injected
+        self.faults = None  # server/network_faults.py NetworkFaults while faults are injected
         self._sockets: tuple = ()
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop: (cycle, deliver)
         self._loop: asyncio.AbstractEventLoop | None = None

@@ -53,6 +53,10 @@ class NetworkFaults(ClockWatcher):
     def motion_started(self) -> None:
         self.key_offset = self.repeats
 
+    def held(self) -> None:  # within the motion: its later cycles keep their keys
+        self.repeats += 1
+        self.key_offset += 1
+
     def window_ran_out(self) -> None:
         self.windows_run_out += 1
 

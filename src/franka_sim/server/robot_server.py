@@ -1,6 +1,7 @@
 """One robot of the world on its own address, whatever its kind (an arm, the mobile base): its
-FCI endpoints (TCP 1337 + UDP), its tool's endpoint (the Franka Hand on 1338, an arm's), its
-control API, opened all or none, and the FCI client it follows.
+FCI endpoints (TCP 1337 + UDP), its tool's endpoint (an arm's: the Franka Hand on 1338, or
+another franka_sim/tools/ row), its control API, opened all or none, and the FCI client it
+follows.
 
 What a robot has of its own comes from its parts (assembly.py: `ArmParts`, `BaseParts`): its
 core, its tools, its sessions, its name. What the robots share (the cycle thread and its world,
@@ -19,8 +20,8 @@ from franka_sim.operations.arm import ControlOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.gripper_endpoint import GripperEndpoint
 from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.tool_endpoint import ToolEndpoint
 from franka_sim.server.udp_endpoint import UdpEndpoint
 
 log = logging.getLogger(__name__)
@@ -41,22 +42,22 @@ class RobotServer:
         self.parts, self.index, self.config = parts, index, config
         self.name, self.host, self.label = parts.name, parts.host, parts.label
         self.driver, self.lock = driver, lock
-        self.core, self.gripper = parts.core, parts.gripper
+        self.core, self.tool, self.tool_kind = parts.core, parts.tool, parts.tool_kind
         robot_taps = taps.robots[index]
         self.udp = UdpEndpoint(robot_taps)
         self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
                                    defer_replies=driver.after_next_state, lock=lock,
                                    replaceable=self._client_silent,
                                    on_request=driver.client_event, taps=robot_taps)
-        self.gripper_endpoint = None
-        if self.gripper is not None:
-            self.gripper_endpoint = GripperEndpoint(
-                self._make_gripper_session, self._on_gripper_disconnect, lock=lock,
-                on_request=driver.client_event, taps=robot_taps)
+        self.tool_endpoint = None
+        if self.tool is not None:
+            self.tool_endpoint = ToolEndpoint(
+                self.tool_kind.service.name, self._make_tool_session, self._on_tool_disconnect,
+                lock=lock, on_request=driver.client_event, taps=robot_taps)
         connected = lambda: self.robot.active is not None  # noqa: E731
         if parts.kind == "arm":
             self.control = ControlOps(
-                core=self.core, gripper=self.gripper, driver=driver, worker=worker, lock=lock,
+                core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
                 description=parts.description, q0=parts.q0, clock=config.clock.value,
                 client_connected=connected, arm=self.name, arm_index=index, faults=faults,
                 taps=taps, recordings=recordings)
@@ -70,8 +71,8 @@ class RobotServer:
         config = self.config
         parts = [self.label]
         if self.parts.kind == "arm":
-            parts.append(f"Franka Hand on {config.gripper_port}" if self.gripper is not None
-                         else "no gripper")
+            parts.append(f"{self.tool_kind.label} on {self.tool_port}" if self.tool is not None
+                         else "no tool")
         parts.append(f"control API on {config.control_port}" if config.control_port
                      else "no control API")
         return "serving on {}:{} ({}".format(self.host, config.robot_port, "; ".join(parts))
@@ -90,10 +91,10 @@ class RobotServer:
             except OSError as exc:
                 raise OSError(exc.errno, f"{self.label}: no UDP socket on {host}: "
                               f"{exc.strerror}") from exc
-            if self.gripper_endpoint is not None:
-                await self._open(self.gripper_endpoint.start(host, config.gripper_port),
-                                 config.gripper_port, " (gripper)")
-                opened.append(self.gripper_endpoint.stop)
+            if self.tool_endpoint is not None:
+                await self._open(self.tool_endpoint.start(host, self.tool_port),
+                                 self.tool_port, f" ({self.tool_kind.label})")
+                opened.append(self.tool_endpoint.stop)
             if config.control_port:
                 await self._open(self._start_control_api(), config.control_port,
                                  " (control API)")
@@ -127,37 +128,44 @@ class RobotServer:
 
     async def stop_endpoints(self) -> None:
         await self.robot.stop()
-        if self.gripper_endpoint is not None:
-            await self.gripper_endpoint.stop()
+        if self.tool_endpoint is not None:
+            await self.tool_endpoint.stop()
+
+    @property
+    def tool_port(self) -> int | None:
+        """Its tool's service port (--tool-port, else the tool's own)."""
+        if self.tool_kind is None:
+            return None
+        return self.config.tool_port or self.tool_kind.port
 
     def has_client(self) -> bool:
         return self.robot.active is not None or (
-            self.gripper_endpoint is not None and self.gripper_endpoint.active is not None)
+            self.tool_endpoint is not None and self.tool_endpoint.active is not None)
 
     # -- the cycle -------------------------------------------------------------------------------
-    def hand_state_wanted(self) -> bool:
-        """A Hand client takes GripperStates (its handshake said where)."""
-        endpoint = self.gripper_endpoint
+    def tool_state_wanted(self) -> bool:
+        """Its tool's client takes its state datagrams (its handshake said where)."""
+        endpoint = self.tool_endpoint
         return endpoint is not None and endpoint.state_target is not None
 
     def deliver(self, replies) -> None:
         """A cycle's replies (robot/cycle.py Replies), on the loop, once its state has left."""
         for reply in replies.robot:
             self.robot.send(reply)
-        for hand_replies, hand_state in replies.tools:
-            for reply in hand_replies:
-                self.gripper_endpoint.send(reply)
-            if hand_state is not None:
-                self.gripper_endpoint.send_state(hand_state)
+        for tool_replies, tool_state in replies.tools:
+            for reply in tool_replies:
+                self.tool_endpoint.send(reply)
+            if tool_state is not None:
+                self.tool_endpoint.send_state(tool_state)
 
     # -- the endpoints' callbacks ----------------------------------------------------------------
     def _make_session(self) -> Session:
         self.driver.resume()  # a paused clock starts again for the newcomer
         return self.parts.robot_session()
 
-    def _make_gripper_session(self) -> Session:
+    def _make_tool_session(self) -> Session:
         self.driver.resume()
-        return self.parts.gripper_session()
+        return self.parts.tool_session()
 
     def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
         self.udp.connect(peer_ip, udp_port)
@@ -172,6 +180,6 @@ class RobotServer:
         self.core.client_gone()
         self.driver.client_event()
 
-    def _on_gripper_disconnect(self) -> None:
-        self.gripper.client_gone()
+    def _on_tool_disconnect(self) -> None:
+        self.tool.client_gone()
         self.driver.client_event()

@@ -143,8 +143,8 @@ class FrankaSim(EmbeddedOperations):
         return self.arms[0].core
 
     @property
-    def gripper(self):
-        return self.arms[0].gripper
+    def tool(self):
+        return self.arms[0].tool
 
     @property
     def control(self):
@@ -159,8 +159,8 @@ class FrankaSim(EmbeddedOperations):
         return self.arms[0].udp
 
     @property
-    def gripper_endpoint(self):
-        return self.arms[0].gripper_endpoint
+    def tool_endpoint(self):
+        return self.arms[0].tool_endpoint
 
     def arm(self, name: str) -> RobotServer:
         """The arm of that name (KeyError: none)."""
@@ -171,7 +171,7 @@ class FrankaSim(EmbeddedOperations):
 
     # -- the world's cycle -------------------------------------------------------------------------
     def _make_cycle(self, physics: list):
-        cycle = self.parts.make_cycle(physics, [robot.hand_state_wanted for robot in self.robots])
+        cycle = self.parts.make_cycle(physics, [robot.tool_state_wanted for robot in self.robots])
         if self.recorder is not None:
             self.recordings.attach(self.recorder, physics[0].world, cycle=cycle, fresh=True)
         return cycle

@@ -32,7 +32,8 @@ from franka_sim.protocol.exceptions import DatagramSizeError, ProtocolError
 from franka_sim.protocol.framing import FrameReader, decode_request
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
-from franka_sim.robot.gripper import Gripper
+from franka_sim.physics.fingers import FINGERS
+from franka_sim.robot.hand import Hand
 from franka_sim.robot.session import GRIPPER, ROBOT, Service, Session, SessionError
 from franka_sim.testing.fuzz_inputs import (
     GRIPPER_WIRE,
@@ -114,7 +115,7 @@ class _Target:
     def _backend(self) -> MujocoBackend:
         return MujocoBackend(_DESCRIPTION, np.array(READY_POSE))
 
-    def _hand(self) -> Gripper | None:
+    def _hand(self) -> Hand | None:
         return None
 
     def open(self) -> None:
@@ -162,11 +163,12 @@ class _Target:
             replies = self.cycle.complete(released)
             for reply in replies.robot:
                 check_reply(ROBOT_WIRE, reply)
-            for reply in replies.hand:
-                check_reply(GRIPPER_WIRE, reply)
-            if replies.hand_state is not None:
-                width = float(decode_gripper_state(replies.hand_state)["width"])
-                assert math.isfinite(width), width
+            for tool_replies, tool_state in replies.tools:
+                for reply in tool_replies:
+                    check_reply(GRIPPER_WIRE, reply)
+                if tool_state is not None:
+                    width = float(decode_gripper_state(tool_state)["width"])
+                    assert math.isfinite(width), width
 
     def still_serves(self) -> None:
         """After anything, the next client is welcome: its Connect succeeds."""
@@ -207,10 +209,10 @@ class GripperTarget(_Target):
 
     def _backend(self) -> MujocoBackend:
         return MujocoBackend(_DESCRIPTION, np.array(READY_POSE), scene_xml=default_scene_path(),
-                             fingers=True)
+                             tool=FINGERS)
 
-    def _hand(self) -> Gripper:
-        self.hand = Gripper()
+    def _hand(self) -> Hand:
+        self.hand = Hand()
         return self.hand
 
     def _session(self) -> Session:

@@ -44,7 +44,7 @@ class Recordings:
         if not fresh:
             connected = [what for robot in sim.robots
                          for what, endpoint in (("an FCI client", robot.robot),
-                                                ("a Hand client", robot.gripper_endpoint))
+                                                ("a Hand client", robot.tool_endpoint))
                          if endpoint is not None and endpoint.active is not None]
             if connected:
                 raise Conflict(f"{' and '.join(connected)} connected: a recording starts with "

@@ -1,4 +1,5 @@
-"""The Franka Hand's sockets: TCP 1338 for commands, UDP for its GripperState stream.
+"""A tool's sockets (the Franka Hand's: TCP 1338 for commands, UDP for its GripperState
+stream): franka_sim/tools/ says which port and which service.
 
 The TCP side is the same one-client-at-a-time adapter as the robot's (single_client.py);
 states go to (client IP, the UDP port it announced in Connect) from a socket of our own.
@@ -14,14 +15,15 @@ from franka_sim.robot.session import Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
-class GripperEndpoint(SingleClientEndpoint):
-    """Accepts gripper clients, routes the active one's traffic and sends it GripperStates."""
+class ToolEndpoint(SingleClientEndpoint):
+    """Accepts a tool's clients (`what`: its service's name, "gripper"), routes the active
+    one's traffic and sends it the tool's state datagrams."""
 
-    def __init__(self, make_session: Callable[[], Session],
+    def __init__(self, what: str, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None],
                  lock: AbstractContextManager | None = None,
                  on_request: Callable[[], None] = lambda: None, taps=None) -> None:
-        super().__init__("gripper", make_session, self._on_handshake, self._on_disconnect,
+        super().__init__(what, make_session, self._on_handshake, self._on_disconnect,
                          lock=lock, on_request=on_request, taps=taps)
         self._client_gone = on_disconnect
         self.state_target: tuple[str, int] | None = None

@@ -1,7 +1,8 @@
-"""The Franka Hand behind gripper protocol v3: a state machine clocked by the robot's cycle number.
+"""The Franka Hand behind gripper protocol v3: a state machine clocked by the robot's cycle number,
+the arm's tool device (robot/tool.py; its actions: robot/hand_actions.py).
 
 No sockets, threads or wall time. Decoded requests come in through `request()`; after every
-physics step the server calls `advance(cycle, fingers)` with the finger sensors. The hand answers
+physics step the arm's cycle calls `advance(cycle, fingers)` with the finger sensors. The hand answers
 Homing, Move and Grasp when the action completes (libfranka blocks until then), says what the
 finger drive does next (`command`), and packs a GripperState whenever `state_due(cycle)`.
 
@@ -33,161 +34,23 @@ Figures and choices (fr3_facts §3 where sourced, ours otherwise):
 from __future__ import annotations
 
 import logging
-import math
-from dataclasses import dataclass
 
-from franka_sim.physics.backend import FingerCommand, FingerState
+from franka_sim.physics.fingers import FingerCommand, FingerState
 from franka_sim.protocol.codec import GripperStateBuffer
 from franka_sim.protocol.enums import GripperCommand, GripperStatus
 from franka_sim.protocol.gripper_messages import build_gripper_response
-from franka_sim.protocol.timing import CYCLE_PERIOD as DT
+from franka_sim.robot.hand_actions import (MAX_FORCE, MAX_SPEED, MIN_SPEED, NOMINAL_MAX_WIDTH,
+                                           STATE_PERIOD, STOP_CLEARANCE, TEMPERATURE, Grasp,
+                                           GraspArgs, Homing, Move, finite)
 
 log = logging.getLogger(__name__)
 
-STATE_PERIOD = 100  # cycles between GripperStates: 10 Hz
-NOMINAL_MAX_WIDTH = 0.08  # m, the datasheet opening: max_width until a homing measures it
-MAX_SPEED = 0.1  # m/s of opening
-MIN_SPEED = 1e-3  # m/s: slower requests are refused, so none blocks its client for long
-HOMING_SPEED = 0.1  # m/s of opening
-HOMING_OPEN_TARGET = 0.1  # m: beyond any stop, so the fingers open until they are stopped
-HOMING_FORCE = 10.0  # N per finger against the stops
-MAX_FORCE = 100.0  # N per finger: the drive's limit (physics/fingers.py), also a Move's force
-MOVE_TOLERANCE = 5e-4  # m: a Move has arrived within this of its goal
-MOVE_TIMEOUT = 500  # cycles after its ramp a blocked Move gives up
-SETTLE_TIMEOUT = 1000  # cycles after a ramp: fingers still not at rest count as stopped
-BLOCKED_LAG = 2e-3  # m: fingers this far behind their ramp are stopped by something
-SQUEEZE_CYCLES = 50  # cycles a grasp squeezes before it judges the width
-AT_REST_SPEED = 1e-3  # m/s
-STOP_CLEARANCE = 8e-6  # m of opening: a homed Hand holds at most max_width less this
-TEMPERATURE = 30  # °C, constant (no thermal model)
+__all__ = ["MAX_SPEED", "NOMINAL_MAX_WIDTH", "STATE_PERIOD", "Hand"]
 
 
-def _finite(*values: float) -> bool:
-    return all(math.isfinite(v) for v in values)
-
-
-@dataclass
-class _Ramp:
-    """The opening going from `start` to `goal` at `speed`, one step per cycle from `first`."""
-
-    first: int
-    start: float
-    goal: float
-    speed: float
-
-    def at(self, cycle: int) -> tuple[float, float]:
-        """(target opening, its rate) commanded for `cycle`."""
-        distance = abs(self.goal - self.start)
-        travel = self.speed * DT * (cycle - self.first + 1)
-        if travel >= distance:
-            return self.goal, 0.0
-        sign = 1.0 if self.goal > self.start else -1.0
-        return self.start + sign * travel, sign * self.speed
-
-    def done(self, cycle: int) -> bool:
-        return self.at(cycle)[1] == 0.0
-
-    def overdue(self, cycle: int) -> bool:
-        """Ended SETTLE_TIMEOUT cycles ago: stop waiting for the fingers to come to rest."""
-        steps = math.ceil(abs(self.goal - self.start) / (self.speed * DT))
-        return cycle - self.first >= steps + SETTLE_TIMEOUT
-
-
-class _Move:
-    kind = GripperCommand.Move
-
-    def __init__(self, command_id: int, first: int, width: float, goal: float, speed: float):
-        self.command_id = command_id
-        self.ramp = _Ramp(first, width, goal, speed)
-        self.ended: int | None = None  # cycle the ramp reached the goal
-
-    def command(self, cycle: int) -> FingerCommand:
-        return FingerCommand(*self.ramp.at(cycle), MAX_FORCE)
-
-    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
-        if not self.ramp.done(cycle):
-            return None
-        if self.ended is None:
-            self.ended = cycle
-        if abs(fingers.width - self.ramp.goal) <= MOVE_TOLERANCE:
-            return GripperStatus.kSuccess
-        if cycle - self.ended >= MOVE_TIMEOUT:
-            log.info("gripper Move to %.4f m blocked at %.4f m", self.ramp.goal, fingers.width)
-            return GripperStatus.kUnsuccessful
-        return None
-
-
-@dataclass(frozen=True)
-class _GraspArgs:
-    width: float
-    epsilon_inner: float
-    epsilon_outer: float
-    speed: float
-    force: float
-
-    def holds(self, d: float) -> bool:
-        """libfranka's grasp rule: width − ε_inner < d < width + ε_outer."""
-        return self.width - self.epsilon_inner < d < self.width + self.epsilon_outer
-
-
-class _Grasp:
-    kind = GripperCommand.Grasp
-
-    def __init__(self, command_id: int, first: int, width: float, request: _GraspArgs):
-        self.command_id = command_id
-        self.args = request
-        self.ramp = _Ramp(first, width, 0.0, request.speed)
-        self.squeezing_since: int | None = None
-
-    def command(self, cycle: int) -> FingerCommand:
-        if self.squeezing_since is None:
-            return FingerCommand(*self.ramp.at(cycle), self.args.force)
-        return FingerCommand(0.0, 0.0, self.args.force)
-
-    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
-        if self.squeezing_since is None:
-            target = self.ramp.at(cycle)[0]
-            closed = self.ramp.done(cycle) and abs(fingers.speed) < AT_REST_SPEED
-            if fingers.width - target > BLOCKED_LAG or closed or self.ramp.overdue(cycle):
-                self.squeezing_since = cycle
-            return None
-        if cycle - self.squeezing_since < SQUEEZE_CYCLES:
-            return None
-        if self.args.holds(fingers.width):
-            return GripperStatus.kSuccess
-        return GripperStatus.kUnsuccessful
-
-
-class _Homing:
-    kind = GripperCommand.Homing
-
-    def __init__(self, command_id: int, first: int, width: float):
-        self.command_id = command_id
-        self.ramp = _Ramp(first, width, 0.0, HOMING_SPEED)
-        self.opening = False
-        self.max_width: float | None = None
-
-    def command(self, cycle: int) -> FingerCommand:
-        target, rate = self.ramp.at(cycle)
-        return FingerCommand(target, rate, HOMING_FORCE if self.opening else MAX_FORCE)
-
-    def update(self, cycle: int, fingers: FingerState) -> GripperStatus | None:
-        target = self.ramp.at(cycle)[0]
-        lag = abs(fingers.width - target)
-        stopped = abs(fingers.speed) < AT_REST_SPEED or self.ramp.overdue(cycle)
-        if not self.opening:
-            if (self.ramp.done(cycle) or lag > BLOCKED_LAG) and stopped:
-                self.opening = True
-                self.ramp = _Ramp(cycle + 1, fingers.width, HOMING_OPEN_TARGET, HOMING_SPEED)
-            return None
-        if (lag > BLOCKED_LAG or self.ramp.done(cycle)) and stopped:
-            self.max_width = fingers.width
-            return GripperStatus.kSuccess
-        return None
-
-
-class Gripper:
-    """The Hand: its calibration, the running action, the grasp, and what the fingers do next."""
+class Hand:
+    """The Hand: its calibration, the running action, the grasp, and what the fingers do next
+    (a tool device: robot/tool.py)."""
 
     def __init__(self, *, state_period: int = STATE_PERIOD,
                  max_width: float = NOMINAL_MAX_WIDTH) -> None:
@@ -197,8 +60,8 @@ class Gripper:
         self._widest_hold = max_width  # no hold opens wider (homing: just inside its stops)
         self.is_grasped = False
         self.cycle = 0  # last advanced cycle
-        self._action: _Move | _Grasp | _Homing | None = None
-        self._grasp: _GraspArgs | None = None  # the object held, while squeezing it
+        self._action: Move | Grasp | Homing | None = None
+        self._grasp: GraspArgs | None = None  # the object held, while squeezing it
         self._idle: FingerCommand | None = None  # None: the drive keeps what it had
         self._replies: list[bytes] = []
         self._buffer = GripperStateBuffer()
@@ -235,14 +98,14 @@ class Gripper:
             return
         self._action = None
         self._replies.append(build_gripper_response(action.kind, action.command_id, status))
-        if status is GripperStatus.kSuccess and isinstance(action, _Grasp):
+        if status is GripperStatus.kSuccess and isinstance(action, Grasp):
             self._grasp = action.args
             self.is_grasped = True
             return
-        if isinstance(action, _Homing) and action.max_width is not None:
+        if isinstance(action, Homing) and action.max_width is not None:
             self.max_width = action.max_width
             self._widest_hold = action.max_width - STOP_CLEARANCE
-        if isinstance(action, _Move) and status is GripperStatus.kSuccess:
+        if isinstance(action, Move) and status is GripperStatus.kSuccess:
             self._hold(action.ramp.goal)
         else:  # stay where the fingers stopped (a missed grasp stops squeezing)
             self._hold(fingers.width)
@@ -270,25 +133,25 @@ class Gripper:
         if command is GripperCommand.Stop:
             return self._stop(command_id)
         if command is GripperCommand.Homing:
-            return self._start(_Homing(command_id, self.cycle + 1, self.width))
+            return self._start(Homing(command_id, self.cycle + 1, self.width))
         if command is GripperCommand.Move:
             width, speed = float(request.width), float(request.speed)
             problem = self._check_width(width) or self._check_speed(speed)
             if problem:
                 return self._fail(command, command_id, problem)
-            return self._start(_Move(command_id, self.cycle + 1, self.width, width,
+            return self._start(Move(command_id, self.cycle + 1, self.width, width,
                                      min(speed, MAX_SPEED)))
         if command is GripperCommand.Grasp:
-            args = _GraspArgs(float(request.width), float(request.epsilon_inner),
+            args = GraspArgs(float(request.width), float(request.epsilon_inner),
                               float(request.epsilon_outer), float(request.speed),
                               float(request.force))
             problem = (self._check_width(args.width) or self._check_speed(args.speed)
                        or self._check_grasp(args))
             if problem:
                 return self._fail(command, command_id, problem)
-            args = _GraspArgs(args.width, args.epsilon_inner, args.epsilon_outer,
+            args = GraspArgs(args.width, args.epsilon_inner, args.epsilon_outer,
                               min(args.speed, MAX_SPEED), min(args.force, MAX_FORCE))
-            return self._start(_Grasp(command_id, self.cycle + 1, self.width, args))
+            return self._start(Grasp(command_id, self.cycle + 1, self.width, args))
         raise AssertionError(f"unhandled gripper command {command!r}")  # Connect: the session's
 
     @property
@@ -296,13 +159,13 @@ class Gripper:
         """An action (Homing, Move, Grasp) is under way: its client waits for the answer."""
         return self._action is not None
 
-    def reset(self, width: float) -> None:
-        """As a Hand starts: not homed, holding nothing, the fingers `width` apart at rest
-        (the physics puts them there). Only while no action is under way."""
+    def reset(self, reading: FingerState) -> None:
+        """As a Hand starts: not homed, holding nothing, the fingers where `reading` has them,
+        at rest (the physics put them there). Only while no action is under way."""
         if self._action is not None:
             raise ValueError("a gripper action is under way")
         self.max_width = NOMINAL_MAX_WIDTH
-        self.width = width
+        self.width = reading.width
         self.is_grasped = False
         self._grasp = None
         self._idle = None  # the drive keeps the command the physics was reset with
@@ -349,7 +212,7 @@ class Gripper:
         return [build_gripper_response(command, command_id, GripperStatus.kFail)]
 
     def _check_width(self, width: float) -> str:
-        if not _finite(width):
+        if not finite(width):
             return f"width {width} is not finite"
         if not 0.0 <= width <= self.max_width:
             return f"width {width} m outside [0, {self.max_width:.4f}] m"
@@ -357,15 +220,15 @@ class Gripper:
 
     @staticmethod
     def _check_speed(speed: float) -> str:
-        if not _finite(speed) or speed < MIN_SPEED:
+        if not finite(speed) or speed < MIN_SPEED:
             return f"speed {speed} m/s is not a number of at least {MIN_SPEED} m/s"
         return ""
 
     @staticmethod
-    def _check_grasp(args: _GraspArgs) -> str:
-        if not _finite(args.force) or args.force <= 0.0:
+    def _check_grasp(args: GraspArgs) -> str:
+        if not finite(args.force) or args.force <= 0.0:
             return f"force {args.force} N is not a positive number"
-        if not _finite(args.epsilon_inner, args.epsilon_outer) \
+        if not finite(args.epsilon_inner, args.epsilon_outer) \
                 or args.epsilon_inner < 0.0 or args.epsilon_outer < 0.0:
             return f"epsilons {args.epsilon_inner}, {args.epsilon_outer} m are not ≥ 0"
         return ""
