@@ -11,7 +11,7 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
-from franka_sim.config import ArmSpec, ClockMode, Config
+from franka_sim.config import ArmSpec, ClockMode, Config, ToolName
 
 
 app = typer.Typer(
@@ -85,8 +85,8 @@ def serve(
         "and control API; a 'tmr' URDF, driven by Cartesian-velocity motions: "
         "docs/deviations.md). E.g. --scene mobile_duo --arm left=A --arm right=B.",
     ),
-    tool: str = typer.Option(
-        "hand", "--tool", envvar="FRANKA_SIM_TOOL", metavar="hand|none",
+    tool: ToolName = typer.Option(
+        ToolName.hand, "--tool", envvar="FRANKA_SIM_TOOL",
         help="The tool on every arm's flange and the service it answers beside the FCI: hand "
         "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world) or none "
         "(no tool service: its port refuses connections, and the Hand's body is rigid).",
@@ -159,7 +159,7 @@ def serve(
             host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
             enforce_motion_limits=enforce_motion_limits,
             joint_discontinuity_scale=joint_discontinuity_scale,
-            scene=scene, tool=_tool(tool, no_gripper), control_port=control_port,
+            scene=scene, tool=_tool(tool.value, no_gripper), control_port=control_port,
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
             inject=inject, seed=seed,
         ))

@@ -34,6 +34,13 @@ class ClockMode(str, Enum):
     lockstep = "lockstep"
 
 
+class ToolName(str, Enum):
+    """The tools an arm can carry (franka_sim/tools/ has one row for each but `none`)."""
+
+    hand = "hand"
+    none = "none"
+
+
 @dataclass
 class Config:
     host: str = "127.0.0.1"

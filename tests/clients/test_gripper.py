@@ -52,7 +52,7 @@ def test_no_gripper_refuses_port_1338_like_a_robot_without_a_hand():
             pylibfranka.Gripper(sim.host)
         robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
         assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
-        assert sim.log_matching("no gripper")
+        assert sim.log_matching("no tool")
 
 
 # -- actions -------------------------------------------------------------------------------------

@@ -31,6 +31,7 @@ NOT_FACTORS = {
     "rt_priority": "scheduling of the server process only; it needs CAP_SYS_NICE, and "
                    "SCHED_FIFO servers side by side can starve a machine of two cores",
     "log_level": "what is logged, not what is simulated",
+    "no_gripper": "the same as --tool none, which the tool factor covers",
 }
 
 # The world factor stands for these options together: a packaged scene and the robots it holds.

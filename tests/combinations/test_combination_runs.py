@@ -56,7 +56,7 @@ def test_a_run_of_the_matrix(run, tmp_path, request):
 def _drive(run: dict, world, where: Site, problems: list[str]) -> list[str]:
     """Start every robot's program at once and judge each outcome; returns the robots whose
     client the host held up (programs.HELD_UP)."""
-    hand = not run["no_gripper"]
+    hand = run["tool"] == "hand"
     started = {}
     for name, turn in world.arms:
         body = "hand" if world.scene is None else f"{name}/hand"  # a lone arm's names are bare

@@ -38,7 +38,7 @@ def test_an_address_that_cannot_be_bound_names_the_arm_and_serves_nothing():
         done = serve("--arm", f"left={left}", "--arm", f"right={right}", "--scene",
                      "dual_arm_table")
         err = said(done)
-        assert f"arm right: {right}:1338 (gripper) is already in use" in err
+        assert f"arm right: {right}:1338 (Franka Hand) is already in use" in err
     with socket.socket() as probe:  # the left arm, opened first, was closed again
         probe.bind((left, 1337))
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from franka_sim import FrankaSim
-from franka_sim.config import Config
+from franka_sim.config import ArmSpec, Config
 from franka_sim.control import Control, Failed
 from franka_sim.serving import serving_argument
 from franka_sim.testing import fresh_loopback_address
@@ -62,7 +62,8 @@ def test_a_serve_process_whose_cycle_fails_exits_non_zero_and_says_why(world):
     host = fresh_loopback_address()
     config = Config(host=host)
     if world:
-        config = Config(host=host, scene="mobile_duo", mobile_base=fresh_loopback_address())
+        config = Config(scene="mobile_duo", mobile_base=fresh_loopback_address(),
+                        arms=(ArmSpec("left", host), ArmSpec("right", fresh_loopback_address())))
     proc = subprocess.run([sys.executable, str(FAILING_SERVE), serving_argument(config)],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 1, proc.stderr

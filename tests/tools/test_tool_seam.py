@@ -1,0 +1,66 @@
+"""The end-effector tool seam: every tool a row of franka_sim/tools/, each row's pieces keeping
+the contracts the arm's cycle, its physics and the server use (robot/tool.py, physics/tool.py),
+and `--tool none` (alias `--no-gripper`) a robot whose tool answers nothing."""
+
+from __future__ import annotations
+
+import inspect
+import socket
+
+import numpy as np
+import pylibfranka
+import pytest
+
+from franka_sim.config import READY_POSE, ToolName
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
+from franka_sim.physics.tool import ToolAttachment, ToolMount
+from franka_sim.robot.tool import ToolDevice
+from franka_sim.testing import running_sim
+from franka_sim.tools import NO_TOOL, tool_kind, tool_kinds
+
+DESC = load_arm_description(default_urdf_text())
+
+
+def _members(protocol) -> set[str]:
+    return {name for name, _ in inspect.getmembers(protocol) if not name.startswith("_")}
+
+
+def test_the_cli_offers_every_tool_and_only_them():
+    assert {t.value for t in ToolName} == {*tool_kinds(), NO_TOOL}
+    assert tool_kind(NO_TOOL) is None
+    with pytest.raises(KeyError, match="one of"):
+        tool_kind("vacuum cleaner")
+
+
+@pytest.mark.parametrize("name", sorted(tool_kinds()))
+def test_each_tool_keeps_the_contracts(name):
+    kind = tool_kinds()[name]
+    device = kind.make_device()
+    assert _members(ToolDevice) <= set(dir(device)), name
+    assert _members(ToolMount) <= set(dir(kind.mount)), name
+    backend = MujocoBackend(DESC, np.array(READY_POSE), tool=kind.mount)
+    attachment = backend.arm.tool
+    assert _members(ToolAttachment) <= set(dir(attachment)), name
+    reading = backend.measure().tool
+    assert reading is not None  # what the device advances on
+    device.advance(1, reading)
+    assert device.idle and not device.busy
+    assert kind.service.name and kind.port not in (1337, 1340)
+
+
+@pytest.mark.parametrize("flags", [("--tool", "none"), ("--no-gripper",)])
+def test_without_a_tool_its_port_refuses_and_the_robot_serves(flags):
+    with running_sim(*flags) as sim:
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection((sim.host, 1338), timeout=5).close()
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        assert sim.log_matching("no tool")
+
+
+def test_no_gripper_and_another_tool_contradict_each_other():
+    from franka_sim.cli import _tool
+
+    assert _tool("hand", True) == "none" and _tool("none", True) == "none"
+    assert _tool("hand", False) == "hand"
