@@ -15,19 +15,17 @@ import numpy as np
 from franka_sim.config import ArmSpec, Config
 from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
-from franka_sim.physics.mobile_base import BaseBody
-from franka_sim.physics.mujoco_backend import ArmBackend
+from franka_sim.physics.engine import Physics, make_physics
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
                                       resolve_scene, scene_mounts)
-from franka_sim.physics.world import World
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.base_cycle import BaseCycle
 from franka_sim.robot.events import NO_ROBOT_EVENTS, NO_WORLD_EVENTS, RobotEvents, WorldEvents
 from franka_sim.robot.session import Session, robot_session, tool_session
-from franka_sim.tools import tool_kind
 from franka_sim.robot.world_cycle import WorldCycle
+from franka_sim.tools import tool_kind
 
 
 class ArmParts:
@@ -133,7 +131,8 @@ class WorldParts:
     def _check(self) -> None:
         check_world(self.placements, self.scene)
         if len(self.placements) > 1:
-            for a, b in World(self.placements, self._q0s(), scene_xml=self.scene).touching_arms():
+            world = make_physics(self.placements, self._q0s(), self.scene).world
+            for a, b in world.touching_arms():
                 raise SceneError(f"arm {a}: placed into arm {b} (their bodies intersect at the "
                                  "starting pose; move their bases apart)")
 
@@ -141,18 +140,15 @@ class WorldParts:
         q0 = np.array(self.config.q0, dtype=float)
         return {p.name: q0 for p in self.placements}
 
-    def make_physics(self) -> list:
-        """The world (in the thread that will own it), as each arm's view of it, by index,
-        then the mobile base's body if there is one."""
-        world = World(self.placements, self._q0s(), scene_xml=self.scene)
-        physics = [ArmBackend(world, p.name) for p in self.placements]
-        if self.base is not None:
-            physics.append(BaseBody(world.model, world.data))
-        return physics
+    def make_physics(self) -> Physics:
+        """The world (in the thread that will own it) and each robot's body in it, by index
+        (physics/engine.py)."""
+        return make_physics(self.placements, self._q0s(), self.scene,
+                            mobile_base=self.base is not None)
 
-    def make_cycle(self, physics: list, tool_state_wanted) -> WorldCycle:
+    def make_cycle(self, physics: Physics, tool_state_wanted) -> WorldCycle:
         """The world's cycle: every robot's part around the world's one step.
         `tool_state_wanted[i]`: whether robot i's tool client takes its state datagrams."""
-        parts = [robot.make_part(physics[i], tool_state_wanted[i])
+        parts = [robot.make_part(physics.robots[i], tool_state_wanted[i])
                  for i, robot in enumerate(self.robots)]
-        return WorldCycle(parts, physics[0].world.step, self.events)
+        return WorldCycle(parts, physics.world.step, self.events)

@@ -234,7 +234,7 @@ async def _stop_within(sim, seconds: float) -> None:
 async def _open_viewer(sim):
     from franka_sim.server.viewer import LiveViewer
 
-    world = await sim.worker.call(lambda physics: physics[0].world)
+    world = await sim.worker.call(lambda physics: physics.world)
     viewer = LiveViewer(world.model, world.data)
     try:
         viewer.start()

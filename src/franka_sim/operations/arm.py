@@ -69,17 +69,19 @@ class ControlOps(FaultOps):
         self.recordings = recordings
         self.network_faults = faults  # the world's NetworkFaults (None: none can be injected)
 
-    async def _job(self, fn: Callable[[Any], Any], call: tuple[str, dict] | None = None) -> Any:
-        """fn(this arm's physics) in the cycle thread; a refusal it raises comes back raised
-        here (and is not logged there as a failed job). `call` (operation, arguments):
-        recorded, with the point in the cycle sequence where it ran, for replay."""
+    async def _job(self, fn: Callable[[Any, Any], Any],
+                   call: tuple[str, dict] | None = None) -> Any:
+        """fn(the world, this arm's body in it: physics/engine.py) in the cycle thread; a
+        refusal it raises comes back raised here (and is not logged there as a failed job).
+        `call` (operation, arguments): recorded, with the point in the cycle sequence where it
+        ran, for replay."""
         index = self.arm_index
 
-        def job(arms):
+        def job(physics):
             taps = self.taps if call is not None else None
             at = taps.position() if taps is not None else None
             try:
-                result = fn(arms[index])
+                result = fn(physics.world, physics.arm(index))
             except ControlError as refusal:
                 result = refusal
             if taps is not None:
@@ -100,10 +102,10 @@ class ControlOps(FaultOps):
                 "robot_mode": mode_name(core.robot_mode)}
 
     async def state(self) -> dict:
-        def read(physics) -> dict:
+        def read(world, arm) -> dict:
             with self.lock:
                 core = self.core
-                m = core.measured if core.measured is not None else physics.measure()
+                m = core.measured if core.measured is not None else arm.measure()
                 O_T_EE = m.O_T_F @ flange_to_ee(core.settings.NE_T_EE)
                 return {
                     "q": m.q.tolist(), "dq": m.dq.tolist(), "tau_J": m.tau_J.tolist(),
@@ -116,17 +118,17 @@ class ControlOps(FaultOps):
         return await self._job(read)
 
     async def bodies(self) -> list[dict]:
-        def read(physics) -> list[dict]:
-            bodies = physics.world.bodies
+        def read(world, arm) -> list[dict]:
+            bodies = world.bodies
             return [{"name": name, "free": bodies.is_free(name)} for name in bodies.names]
         return await self._job(read)
 
     async def pose(self, name: str) -> dict:
         name = body_name(name)
 
-        def read(physics) -> dict:
+        def read(world, arm) -> dict:
             try:
-                return _pose(physics.world.body_state(name))
+                return _pose(world.body_state(name))
             except UnknownBody:
                 raise NotFound(f"no body named {name!r} (GET /bodies lists them)") from None
         return await self._job(read)
@@ -139,10 +141,10 @@ class ControlOps(FaultOps):
         left as they are (another client may be at work)."""
         q, gripper_width = self._reset_arguments(q, gripper_width)
 
-        def reset(physics) -> dict:
+        def reset(world, arm) -> dict:
             with self.lock:
                 self._refuse_busy()
-                return self._reset_now(physics, q, gripper_width)
+                return self._reset_now(arm, q, gripper_width)
         return await self._job(reset, ("reset", {
             "q": q.tolist(), "gripper_width": gripper_width}))
 
@@ -170,12 +172,13 @@ class ControlOps(FaultOps):
         if tool is not None and tool.busy:
             raise Conflict("a gripper action is under way (let it finish first)")
 
-    def _reset_now(self, physics, q: np.ndarray, gripper_width: float | None) -> dict:
-        """The reset itself (cycle thread, lock held, `_refuse_busy` passed)."""
+    def _reset_now(self, arm, q: np.ndarray, gripper_width: float | None) -> dict:
+        """The reset itself (cycle thread, lock held, `_refuse_busy` passed), on this arm's
+        body (physics/engine.py ArmBody)."""
         core, tool = self.core, self.tool
         last_sent = self.driver.withdraw_prepared()
-        physics.reset(q, gripper_width)
-        measured = physics.measure()
+        arm.reset(q, gripper_width)
+        measured = arm.measure()
         core.reset(q, measured, last_sent)
         if tool is not None:
             tool.reset(measured.tool)
@@ -210,14 +213,14 @@ class ControlOps(FaultOps):
         except OSError as exc:
             raise BadRequest(f"cannot record to {path}: {exc.strerror or exc}") from None
 
-        def start(physics) -> dict:
+        def start(world, arm) -> dict:
             with self.lock:
                 if taps.recorder is not None:
                     raise Conflict(f"already recording to {taps.recorder.path}")
                 self._refuse_busy()
-                recordings.attach(recorder, physics.world)  # Conflict: a client is connected
+                recordings.attach(recorder, world)  # Conflict: a client is connected
                 at = taps.position()
-                result = self._reset_now(physics, q, None)
+                result = self._reset_now(arm, q, None)
                 taps.control(self.robot_index, "reset", {"q": q.tolist(), "gripper_width": None},
                              at, 200, result)
                 return {"path": str(recorder.path), "cycle": result["cycle"]}
@@ -234,7 +237,7 @@ class ControlOps(FaultOps):
         if recordings is None:
             raise Conflict("no recording started through the control API is under way")
 
-        def finish(physics) -> tuple:
+        def finish(world, arm) -> tuple:
             with self.lock:
                 return recordings.detach(), self.core.message_id
         recorder, cycle = await self._job(finish)
@@ -249,8 +252,7 @@ class ControlOps(FaultOps):
             if np.linalg.norm(quaternion) < 1e-9:
                 raise BadRequest("quaternion must not be zero (it is normalised)")
 
-        def place(physics) -> dict:
-            world = physics.world
+        def place(world, arm) -> dict:
             try:
                 world.place_body(name, position, quaternion)
             except UnknownBody:
@@ -275,8 +277,7 @@ class ControlOps(FaultOps):
             raise BadRequest(f"duration must be positive, not {duration}")
         cycles = max(1, round(duration / CYCLE_PERIOD))
 
-        def push(physics) -> dict:
-            world = physics.world
+        def push(world, arm) -> dict:
             try:
                 world.push(body, force, torque, cycles)
             except UnknownBody:

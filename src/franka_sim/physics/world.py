@@ -73,6 +73,10 @@ class World:
             raise ValueError(f"no starting pose for arm(s) {sorted(missing)}")
         self.reset(q0)
 
+    def positions(self) -> np.ndarray:
+        """Every position of the world now (qpos: a view)."""
+        return self.data.qpos
+
     @property
     def unfinished(self) -> bool:
         """The last step's mj_step1 (and next g(q)) is still to do (see finish_step)."""

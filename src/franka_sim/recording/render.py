@@ -47,7 +47,7 @@ def render(recording: Recording, output: Path, *, fps: float = 30.0,
     states = recording.states()
     if len(states) == 0:
         raise RenderError(f"{recording.path}: no state recorded")
-    physics = WorldParts(replay_config(recording.metadata)).make_physics()[0]
+    physics = WorldParts(replay_config(recording.metadata)).make_physics()
     model, data = physics.world.model, physics.world.data
     arm = next(iter(physics.world.arms.values()))
     cam = _camera(model, camera)

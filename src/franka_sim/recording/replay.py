@@ -74,7 +74,7 @@ class Replayer:
         self.config = replay_config(recording.metadata)
         self.recording = recording
         self.world_parts = parts = WorldParts(self.config)
-        self.physics = parts.make_physics()  # each robot's body, by index
+        self.physics = parts.make_physics()  # the world and each robot's body in it
         self.listening = [False] * len(parts.robots)  # a Hand client took its state stream
         self.cycle = parts.make_cycle(
             self.physics, [lambda i=i: self.listening[i] for i in range(len(parts.robots))])

@@ -170,10 +170,10 @@ class FrankaSim(EmbeddedOperations):
         raise KeyError(f"no arm named {name!r} ({', '.join(a.name for a in self.arms)})")
 
     # -- the world's cycle -------------------------------------------------------------------------
-    def _make_cycle(self, physics: list):
+    def _make_cycle(self, physics):
         cycle = self.parts.make_cycle(physics, [robot.tool_state_wanted for robot in self.robots])
         if self.recorder is not None:
-            self.recordings.attach(self.recorder, physics[0].world, cycle=cycle, fresh=True)
+            self.recordings.attach(self.recorder, physics.world, cycle=cycle, fresh=True)
         return cycle
 
     def _deliver(self, replies) -> None:

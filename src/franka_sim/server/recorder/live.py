@@ -50,7 +50,7 @@ class Recordings:
                 raise Conflict(f"{' and '.join(connected)} connected: a recording starts with "
                                "none (it begins from a reset world, without their sessions)")
         recorder.describe_world(world.bodies.free_qpos())
-        sim.taps.attach(recorder, cycle or sim.driver.cycle, world.data.qpos)
+        sim.taps.attach(recorder, cycle or sim.driver.cycle, world.positions())
         if not fresh:
             recorder.start()
             self.live = recorder
