@@ -266,7 +266,7 @@ def replay(
     """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
     `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
     from franka_sim.recording.metadata import Incompatible
-    from franka_sim.recording.replay import replay as run_replay
+    from franka_sim.playback.replay import replay as run_replay
 
     loaded = _open(recording)
     try:
@@ -291,8 +291,8 @@ def plot(
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
     rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
-    from franka_sim.recording.plot import PlotError, parse_fields, parse_joints
-    from franka_sim.recording.plot import plot as draw
+    from franka_sim.playback.plot import PlotError, parse_fields, parse_joints
+    from franka_sim.playback.plot import plot as draw
 
     try:
         chosen, extra = parse_joints(joints), parse_fields(fields)
@@ -316,8 +316,8 @@ def render(
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
-    from franka_sim.recording.render import RenderError
-    from franka_sim.recording.render import render as make_video
+    from franka_sim.playback.render import RenderError
+    from franka_sim.playback.render import render as make_video
 
     loaded = _open(recording)
     try:

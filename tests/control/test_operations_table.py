@@ -17,7 +17,7 @@ from franka_sim import FrankaSim
 from franka_sim.control import Control
 from franka_sim.operations.arm import ControlOps
 from franka_sim.operations.base import BaseOps
-from franka_sim.operations.table import BY_NAME, OPERATIONS, Effect, Kind, served_by
+from franka_sim.control.table import BY_NAME, OPERATIONS, Effect, Kind, served_by
 from franka_sim.server.control_api import ControlApi, route_path
 from franka_sim.faults.spec import KEYS as FAULT_KEYS
 

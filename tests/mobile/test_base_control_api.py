@@ -11,7 +11,7 @@ import time
 import pytest
 
 from franka_sim.control import Control, NotFound
-from franka_sim.operations.table import OPERATIONS, Kind, served_by
+from franka_sim.control.table import OPERATIONS, Kind, served_by
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 ABSENT = [op for op in OPERATIONS if Kind.BASE not in op.kinds]

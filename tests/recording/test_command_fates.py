@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.recording.reader import command_of, open_recording
-from franka_sim.recording.timeline import lost_cycles
+from franka_sim.playback.timeline import lost_cycles
 from franka_sim.testing import RawClient, running_sim
 
 JOINT_IMPEDANCE, JOINT_POSITION, MOTION_STARTED = 0, 0, 1

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from franka_sim.recording import FORMAT_VERSION
-from franka_sim.recording.plot import DPI, PANEL_HEIGHT, WIDTH
+from franka_sim.playback.plot import DPI, PANEL_HEIGHT, WIDTH
 from franka_sim.recording.reader import open_recording
-from franka_sim.recording.render import HEIGHT, WIDTH as VIDEO_WIDTH, frame_cycles
+from franka_sim.playback.render import HEIGHT, WIDTH as VIDEO_WIDTH, frame_cycles
 
 
 def franka_sim(*args: str) -> subprocess.CompletedProcess:

@@ -1,6 +1,6 @@
 """`Control`: the control API from Python, on the standard library alone.
 
-Its methods are made from the table of operations (operations/table.py, itself standard library
+Its methods are made from the table of operations (control/table.py, itself standard library
 only): one per row, taking the row's arguments (those of its path, then those of its JSON
 body; an optional one left at None is not sent), so the client offers exactly what a server
 serves. One HTTP request per call, each on its own connection (nothing to keep alive between a
@@ -18,7 +18,7 @@ from collections.abc import Iterable
 from urllib.parse import quote
 
 from franka_sim.control.errors import ControlError, Unreachable, error_for
-from franka_sim.operations.table import OPERATIONS, Operation
+from franka_sim.control.table import OPERATIONS, Operation
 
 DEFAULT_PORT = 1340
 

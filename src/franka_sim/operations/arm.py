@@ -1,5 +1,5 @@
 """What an arm's control API does: read the ground truth, reset, move and push bodies, record
-(and its network faults: operations/faults.py). Each method is a row of operations/table.py.
+(and its network faults: operations/faults.py). Each method is a row of control/table.py.
 
 Shared by the HTTP adapter (server/control_api.py), an embedded `FrankaSim` and replay. Each
 operation checks its arguments first and refuses (franka_sim.control.errors) before anything
@@ -21,7 +21,7 @@ from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.operations.faults import FaultOps
 from franka_sim.operations.ports import Jobs, Pacer
-from franka_sim.operations.table import Kind
+from franka_sim.control.table import Kind
 from franka_sim.operations.values import (body_name, mode_name, number, numbers,
                                           refuse_if_failed)
 from franka_sim.physics.bodies import NotFree, UnknownBody

@@ -1,6 +1,6 @@
 """What the mobile base's control API does: what it is doing, and the network faults on its UDP
 path (operations/faults.py); nothing that changes the world. Each method is a row of
-operations/table.py whose kinds include the base; the other rows it answers 404."""
+control/table.py whose kinds include the base; the other rows it answers 404."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import threading
 
 from franka_sim.operations.faults import FaultOps
 from franka_sim.operations.ports import Jobs
-from franka_sim.operations.table import Kind
+from franka_sim.control.table import Kind
 from franka_sim.operations.values import mode_name, refuse_if_failed
 from franka_sim.robot.base_core import BaseCore
 

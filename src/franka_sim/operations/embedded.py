@@ -1,6 +1,6 @@
 """The operations as an embedding program calls them: `await sim.push(...)` on a FrankaSim.
 
-`EmbeddedOperations` has one async method per row an arm has (operations/table.py), each
+`EmbeddedOperations` has one async method per row an arm has (control/table.py), each
 handing its arguments to the first arm's operations (the embedder's `control`) and raising
 the same refusals the HTTP client does. Made from the table, so a new row needs nothing here.
 """
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import inspect
 
-from franka_sim.operations.table import OPERATIONS, Kind, Operation
+from franka_sim.control.table import OPERATIONS, Kind, Operation
 
 
 def _signature(operation: Operation) -> inspect.Signature:

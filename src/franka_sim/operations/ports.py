@@ -1,6 +1,6 @@
 """What the operations ask of the simulator that runs them, as protocols: the server's cycle
 thread and driver (server/) fit them, and so do replay's in-line stand-ins
-(recording/replay.py), so the operations import nothing from either."""
+(playback/replay.py), so the operations import nothing from either."""
 
 from __future__ import annotations
 

@@ -1,8 +1,9 @@
-"""Recording a run to MCAP, and what reads one back: replay, plot, render.
+"""A recording's format: what a run's MCAP file holds and how it is read back.
 
-`recorder.py` taps the server (a bounded queue the cycle thread only appends to) and
-`writer.py` drains it on a thread of its own; `channels.py` names what is recorded and how it is
-encoded; `reader.py` opens a recording and says in one line why it cannot.
+`channels.py` names what is recorded and how it is encoded; `metadata.py` is the configuration
+record replay builds the same world from; `reader.py` opens a recording and says in one line why
+it cannot; `wire_json.py` turns TCP bytes into JSON for the file's readers. The live writer is
+the server's (server/recorder/); what is done with a file is franka_sim/playback/.
 """
 
 FORMAT_VERSION = 2  # bumped when a reader of the previous format would misread a new file

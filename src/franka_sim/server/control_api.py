@@ -1,6 +1,6 @@
 """The control API over HTTP + JSON (aiohttp), served on the simulator's own event loop.
 
-A thin adapter made from the table of operations (operations/table.py): one route per row, at
+A thin adapter made from the table of operations (control/table.py): one route per row, at
 its method and path. It checks the request (a bearer token when one is set, a JSON object with
 the row's fields) and calls the robot's implementation of that row (operations/arm.py,
 operations/base.py), which checks the values; a row the robot's kind does not have answers 404
@@ -24,7 +24,7 @@ import re
 from aiohttp import web
 
 from franka_sim.control.errors import BadRequest, ControlError, NotFound, Unauthorized
-from franka_sim.operations.table import OPERATIONS, Operation, served_by
+from franka_sim.control.table import OPERATIONS, Operation, served_by
 
 log = logging.getLogger(__name__)
 

@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 
 
 class FrankaSim(EmbeddedOperations):
-    """The control operations are its async methods, on the first arm (operations/table.py:
+    """The control operations are its async methods, on the first arm (control/table.py:
     `health`, `state`, `reset`, ...; operations/embedded.py)."""
 
     def __init__(self, config: Config | None = None, **overrides) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ControlOps
-from franka_sim.operations.table import BY_NAME, Effect
+from franka_sim.control.table import BY_NAME, Effect
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
@@ -197,7 +197,7 @@ class Replayer:
         operation, args = call["operation"], call["arguments"]
         if operation not in BY_NAME or BY_NAME[operation].effect is not Effect.CHANGE:
             raise Incompatible(f"a recorded control call {operation!r} is not an operation "
-                               "that changes the world (operations/table.py)")
+                               "that changes the world (control/table.py)")
         status = _run_now(getattr(self.ops[robot], operation)(**args))
         if status != call["status"]:
             raise _Diverged(f"control {operation} answered {status}, recorded {call['status']}")

@@ -13,7 +13,7 @@ import numpy as np
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.recording.reader import Recording
-from franka_sim.recording.timeline import (
+from franka_sim.playback.timeline import (
     error_onsets,
     lost_cycles,
     mode_names,
