@@ -15,14 +15,14 @@ import pytest
 
 from franka_sim import FrankaSim
 from franka_sim.control import Control
-from franka_sim.operations.arm import ControlOps
+from franka_sim.operations.arm import ArmOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.control.table import BY_NAME, OPERATIONS, Effect, Kind, served_by
 from franka_sim.server.control_api import ControlApi, route_path
 from franka_sim.faults.spec import KEYS as FAULT_KEYS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "control_api.md"
-IMPLEMENTATIONS = {Kind.ARM: ControlOps, Kind.BASE: BaseOps}
+IMPLEMENTATIONS = {Kind.ARM: ArmOps, Kind.BASE: BaseOps}
 ROWS = pytest.mark.parametrize("operation", OPERATIONS, ids=[op.name for op in OPERATIONS])
 
 
@@ -78,7 +78,7 @@ def test_frankasim_has_an_async_method_per_arm_row_with_the_implementations_para
     for op in served_by(Kind.ARM):
         method = getattr(FrankaSim, op.name)
         assert inspect.iscoroutinefunction(method), op.name
-        assert parameters(method) == parameters(getattr(ControlOps, op.name)), op.name
+        assert parameters(method) == parameters(getattr(ArmOps, op.name)), op.name
 
 
 @ROWS

@@ -23,7 +23,7 @@ GENEROUS = 20.0  # s: any bound below is met long before this on a loaded machin
 
 
 def _endpoint(sim, port):
-    return sim.robot if port == ROBOT else sim.tool_endpoint
+    return sim.fci if port == ROBOT else sim.tool_endpoint
 
 
 def _open(host: str, port: int) -> socket.socket:
@@ -130,20 +130,20 @@ def test_a_peer_that_never_reads_its_replies_is_cut_off(caplog):
         s.connect((host, ROBOT))
         with s:
             s.sendall(CONNECT[ROBOT])
-            while sim.robot.active is None:  # admitted
+            while sim.fci.active is None:  # admitted
                 time.sleep(0.01)
             model = struct.pack("<III", 11, 1, 12)  # GetRobotModel: tens of kB each answer
             deadline = time.monotonic() + GENEROUS
             try:
-                while sim.robot.active is not None and time.monotonic() < deadline:
+                while sim.fci.active is not None and time.monotonic() < deadline:
                     s.sendall(model * 50)
                     time.sleep(0.01)
             except (ConnectionResetError, BrokenPipeError):
                 pass
             deadline = time.monotonic() + GENEROUS
-            while sim.robot.active is not None and time.monotonic() < deadline:
+            while sim.fci.active is not None and time.monotonic() < deadline:
                 time.sleep(0.05)
-            assert sim.robot.active is None, "still buffering for a peer that does not read"
+            assert sim.fci.active is None, "still buffering for a peer that does not read"
         _served(host, ROBOT)
     _one_line(caplog, "reply bytes left unread")
 
@@ -153,7 +153,7 @@ def test_admitted_connections_are_probed_by_keepalive():
         with _open(sim.config.host, ROBOT) as s:
             s.sendall(CONNECT[ROBOT])
             s.recv(64)
-            sock = sim.robot.active.transport.get_extra_info("socket")
+            sock = sim.fci.active.transport.get_extra_info("socket")
             assert sock.getsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE) == 1
             idle, interval, count = (sock.getsockopt(socket.IPPROTO_TCP, option) for option in
                                      (socket.TCP_KEEPIDLE, socket.TCP_KEEPINTVL,
@@ -170,6 +170,6 @@ def test_a_connected_client_idle_on_tcp_is_never_dropped():
             s.sendall(CONNECT[ROBOT])
             s.recv(64)
             time.sleep(2.0)
-            assert sim.robot.active is not None
+            assert sim.fci.active is not None
             s.sendall(struct.pack("<III", 2, 9, 12))  # StopMove: still answered
             assert struct.unpack("<IIIB", s.recv(64)[:13])[:2] == (2, 9)

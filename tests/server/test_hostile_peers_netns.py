@@ -85,11 +85,11 @@ def test_a_vanished_host_frees_the_slot_within_about_ten_seconds(vanishing_link)
             vanished = time.monotonic()
             client.kill()  # its FIN can no longer leave: the host is gone as far as we know
             client.wait(10)
-            while sim.robot.active is not None and time.monotonic() - vanished < 60:
+            while sim.fci.active is not None and time.monotonic() - vanished < 60:
                 time.sleep(0.2)
             freed = time.monotonic() - vanished
         finally:
             client.kill()
-        assert sim.robot.active is None, "the dead peer still holds the slot after 60 s"
+        assert sim.fci.active is None, "the dead peer still holds the slot after 60 s"
         assert freed < 20, f"freed after {freed:.1f} s"  # ~10 s: keepalive 5 s + 5 × 1 s
         assert _newcomer_served(our_address)

@@ -46,7 +46,7 @@ def serving(host: str | None = None, **bounds):
 
 async def _serve(host: str, bounds: dict, box: dict, ready: threading.Event) -> None:
     sim = FrankaSim(host=host)
-    for endpoint in (sim.robot, sim.tool_endpoint):
+    for endpoint in (sim.fci, sim.tool_endpoint):
         for name, value in bounds.items():
             setattr(endpoint, name, value)
     async with sim:

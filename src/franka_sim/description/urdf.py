@@ -108,11 +108,6 @@ class ArmDescription:
         """One JointLimits attribute over the 7 joints, e.g. "velocity" or "soft_upper"."""
         return _frozen([getattr(j.limits, attribute) for j in self.joints])
 
-    def body_link(self, body: int) -> str:
-        """The link that defines moving body `body` (0: the root)."""
-        return self.root if body == 0 else self.joints[body - 1].child
-
-
 # -- XML helpers -------------------------------------------------------------------------------
 def _floats(text: str | None, count: int, what: str, default: str | None = None) -> list[float]:
     text = default if text is None else text

@@ -1,7 +1,7 @@
 """The control operations, in one place: what each is (the table) and what it does.
 
 table.py     one row per operation: name, HTTP method and path, arguments, effect, robot kinds
-arm.py       an arm's operations (ControlOps): ground truth, reset, bodies, pushes, recording
+arm.py       an arm's operations (ArmOps): ground truth, reset, bodies, pushes, recording
 base.py      the mobile base's (BaseOps): health, state
 faults.py    the network-fault operations every robot has
 values.py    arguments checked before anything changes

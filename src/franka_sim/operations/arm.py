@@ -41,7 +41,7 @@ def _pose(state) -> dict:
             "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
 
 
-class ControlOps(FaultOps):
+class ArmOps(FaultOps):
     """The control operations on one simulated arm, its Hand (None: none) and its world (whose
     bodies every arm's API sees alike). Arm `arm_index` is robot `arm_index` of the world."""
 

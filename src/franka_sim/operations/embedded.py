@@ -37,7 +37,7 @@ def _delegate(operation: Operation):
 
 
 class EmbeddedOperations:
-    """Mixed into FrankaSim, whose `control` is its first arm's ControlOps."""
+    """Mixed into FrankaSim, whose `control` is its first arm's ArmOps."""
 
     control = None
 

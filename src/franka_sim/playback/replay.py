@@ -28,7 +28,7 @@ import numpy as np
 
 from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
-from franka_sim.operations.arm import ControlOps
+from franka_sim.operations.arm import ArmOps
 from franka_sim.control.table import BY_NAME, Effect
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
@@ -83,7 +83,7 @@ class Replayer:
         runs = sorted((e.json()["first"], e.json()["last"]) for e in recording.of("repeated"))
         self._repeat_firsts = [first for first, _ in runs]
         self._repeat_runs = runs
-        self.ops = {i: ControlOps(
+        self.ops = {i: ArmOps(
             core=arm.core, tool=arm.tool, driver=_Driver(self), worker=_Worker(self),
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
             clock=self.config.clock.value, arm=arm.name, arm_index=i,

@@ -82,11 +82,6 @@ class CartesianTarget:
         self._settle()
         return self._twist
 
-    @property
-    def twist_rate(self) -> np.ndarray:
-        self._settle()
-        return self._twist_rate
-
     def set_pose(self, O_T_EE_c: np.ndarray) -> None:
         self.pose = np.array(O_T_EE_c, dtype=float)
         poses = self._poses

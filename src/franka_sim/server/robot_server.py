@@ -16,11 +16,11 @@ import logging
 import threading
 
 from franka_sim.robot.session import Session
-from franka_sim.operations.arm import ControlOps
+from franka_sim.operations.arm import ArmOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.robot_endpoint import RobotEndpoint
+from franka_sim.server.fci_endpoint import FciEndpoint
 from franka_sim.server.tool_endpoint import ToolEndpoint
 from franka_sim.server.udp_endpoint import UdpEndpoint
 
@@ -45,7 +45,7 @@ class RobotServer:
         self.core, self.tool, self.tool_kind = parts.core, parts.tool, parts.tool_kind
         robot_taps = taps.robots[index]
         self.udp = UdpEndpoint(robot_taps)
-        self.robot = RobotEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
+        self.fci = FciEndpoint(self._make_session, self._on_handshake, self._on_disconnect,
                                    defer_replies=driver.after_next_state, lock=lock,
                                    replaceable=self._client_silent,
                                    on_request=driver.client_event, taps=robot_taps)
@@ -54,9 +54,9 @@ class RobotServer:
             self.tool_endpoint = ToolEndpoint(
                 self.tool_kind.service.name, self._make_tool_session, self._on_tool_disconnect,
                 lock=lock, on_request=driver.client_event, taps=robot_taps)
-        connected = lambda: self.robot.active is not None  # noqa: E731
+        connected = lambda: self.fci.active is not None  # noqa: E731
         if parts.kind == "arm":
-            self.control = ControlOps(
+            self.control = ArmOps(
                 core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
                 description=parts.description, q0=parts.q0, clock=config.clock.value,
                 client_connected=connected, arm=self.name, arm_index=index, faults=faults,
@@ -84,8 +84,8 @@ class RobotServer:
         config, host = self.config, self.host
         opened = []
         try:
-            await self._open(self.robot.start(host, config.robot_port), config.robot_port, "")
-            opened.append(self.robot.stop)
+            await self._open(self.fci.start(host, config.robot_port), config.robot_port, "")
+            opened.append(self.fci.stop)
             try:
                 self.udp.open(host)
             except OSError as exc:
@@ -127,7 +127,7 @@ class RobotServer:
             self._control_api = None
 
     async def stop_endpoints(self) -> None:
-        await self.robot.stop()
+        await self.fci.stop()
         if self.tool_endpoint is not None:
             await self.tool_endpoint.stop()
 
@@ -139,7 +139,7 @@ class RobotServer:
         return self.config.tool_port or self.tool_kind.port
 
     def has_client(self) -> bool:
-        return self.robot.active is not None or (
+        return self.fci.active is not None or (
             self.tool_endpoint is not None and self.tool_endpoint.active is not None)
 
     # -- the cycle -------------------------------------------------------------------------------
@@ -151,7 +151,7 @@ class RobotServer:
     def deliver(self, replies) -> None:
         """A cycle's replies (robot/cycle.py Replies), on the loop, once its state has left."""
         for reply in replies.robot:
-            self.robot.send(reply)
+            self.fci.send(reply)
         for tool_replies, tool_state in replies.tools:
             for reply in tool_replies:
                 self.tool_endpoint.send(reply)

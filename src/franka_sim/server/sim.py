@@ -151,8 +151,9 @@ class FrankaSim(EmbeddedOperations):
         return self.arms[0].control
 
     @property
-    def robot(self):
-        return self.arms[0].robot
+    def fci(self):
+        """The first arm's FCI endpoint (TCP 1337)."""
+        return self.arms[0].fci
 
     @property
     def udp(self):

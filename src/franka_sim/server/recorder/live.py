@@ -43,7 +43,7 @@ class Recordings:
         sim = self.sim
         if not fresh:
             connected = [what for robot in sim.robots
-                         for what, endpoint in (("an FCI client", robot.robot),
+                         for what, endpoint in (("an FCI client", robot.fci),
                                                 ("a Hand client", robot.tool_endpoint))
                          if endpoint is not None and endpoint.active is not None]
             if connected:

@@ -13,7 +13,7 @@ from franka_sim.robot.session import Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
-class RobotEndpoint(SingleClientEndpoint):
+class FciEndpoint(SingleClientEndpoint):
     def __init__(self, make_session: Callable[[], Session],
                  on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
