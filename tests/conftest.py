@@ -14,6 +14,22 @@ import pytest
 
 from franka_sim.testing import running_sim
 
+from capabilities import capability_of
+
+TESTS = __import__("pathlib").Path(__file__).resolve().parent
+
+
+def pytest_collection_modifyitems(items):
+    """Each test marked with its module's capability (tests/capabilities.py): `-m limits`."""
+    for item in items:
+        try:
+            module = item.path.relative_to(TESTS).as_posix()
+        except ValueError:  # a user's project the plugin's tests run
+            continue
+        capability = capability_of(module)
+        if capability is not None:
+            item.add_marker(capability)
+
 
 @pytest.fixture(autouse=True)
 def _ordinary_scheduling():
