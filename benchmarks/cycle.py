@@ -1,7 +1,7 @@
 """µs of one motion cycle's own work, in a tight loop, without sockets or threads.
 
-What the cycle thread does per cycle, through the server's own `ArmCycle`, section by
-section: `release` (the core closes the command window and decides the drives' task, MuJoCo
+What the cycle thread does per cycle, through the server's own world cycle (a `WorldCycle`
+of one arm's `ArmCycle`, as `franka-sim serve` runs it), section by section: `release` (the core closes the command window and decides the drives' task, MuJoCo
 steps, the desired-side kinematics, the core packs the state), `complete` (once the state is
 out: the rest of mj_step1 and the next g(q), and the limit checks that only log, none of which
 a client waits for), and the client's answer is decoded (`decode`) and taken by the cycle
@@ -43,6 +43,7 @@ from franka_sim.protocol.enums import Command
 from franka_sim.protocol.framing import Frame, decode_request
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
+from franka_sim.robot.world_cycle import WorldCycle
 
 SECTIONS = ("release", "complete", "decode", "receive")
 FLOOR_SECTIONS = ("decode", "step", "publish", "finish")
@@ -86,12 +87,12 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     q0 = np.array(READY_POSE)
     backend = MujocoBackend(desc, q0, scene_xml=default_scene_path(), tool=FINGERS)
     core = ArmCore(desc, q0)
-    cycle = ArmCycle(core, backend)
+    cycle = WorldCycle([ArmCycle(core, backend)], backend.world.step)
     cycle.complete(cycle.release())
     _move(core, *MOVES[mode])
     released = cycle.release()
     cycle.complete(released)
-    q_start = np.array(decode_state(released.state)["q_d"])
+    q_start = np.array(decode_state(released.states[0])["q_d"])
     clock = time.perf_counter
 
     def one_cycle(k: int) -> tuple[float, ...]:
@@ -109,7 +110,7 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
         t3 = clock()
         command = decode_command(answer)
         t4 = clock()
-        cycle.receive(command)
+        cycle.receive(0, command)
         t5 = clock()
         return t1 - t0, t2 - t1, t4 - t3, t5 - t4
 

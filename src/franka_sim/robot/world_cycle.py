@@ -17,6 +17,7 @@ pace as a lone robot's would.
 
 from __future__ import annotations
 
+from operator import attrgetter, methodcaller
 from typing import Callable, Sequence
 
 from franka_sim.robot.cycle import NO_REPLIES, Released, Replies, RobotPart
@@ -32,7 +33,10 @@ class WorldReleased:
     def __init__(self, robots: tuple[Released, ...]) -> None:
         self.robots = robots
         self.message_id = robots[0].message_id
-        self.states = tuple(released.state for released in robots)
+        self.states = tuple(map(_state, robots))
+
+
+_state = attrgetter("state")
 
 
 class WorldReplies:
@@ -48,6 +52,9 @@ class WorldReplies:
 
     def then(self, later: "WorldReplies") -> "WorldReplies":
         return WorldReplies(tuple(a.then(b) for a, b in zip(self.robots, later.robots)))
+
+
+_publish, _repeat = methodcaller("publish"), methodcaller("repeat")
 
 
 class WorldCycle:
@@ -68,41 +75,65 @@ class WorldCycle:
         self._awaited: set[int] = set()
         self.nothing = WorldReplies(tuple(NO_REPLIES for _ in self.parts))
 
-    # -- questions a clock asks, about the world -------------------------------------------------
+    # -- questions a clock asks, about the world (loops, not generators: asked every tick) -----
     @property
     def message_id(self) -> int:
         return self.parts[0].message_id
 
     @property
     def in_motion(self) -> bool:
-        return any(p.in_motion for p in self.parts)
+        for part in self.parts:
+            if part.core.motion is not None:
+                return True
+        return False
 
     @property
     def lockstep_applies(self) -> bool:
-        return any(p.lockstep_applies and not p.first_motion_state for p in self.parts)
+        for part in self.parts:
+            core = part.core
+            if core.streams_commands:
+                return True
+        return False
 
     @property
     def first_motion_state(self) -> bool:
         """A motion's first state is out and no other robot's client streams: the next goes one
         period after it, as for a lone robot."""
-        return (any(p.first_motion_state for p in self.parts)
-                and not self.lockstep_applies)
+        first = False
+        for part in self.parts:
+            core = part.core
+            if core.streams_commands:
+                return False
+            first = first or core.first_motion_state
+        return first
 
     @property
     def client_driven(self) -> bool:
-        return any(p.client_driven for p in self.parts)
+        for part in self.parts:
+            if part.core.motion_running:
+                return True
+        return False
 
     @property
     def busy(self) -> bool:
-        return any(p.busy for p in self.parts)
+        for part in self.parts:
+            if part.busy:
+                return True
+        return False
 
     @property
     def tool_busy(self) -> bool:
-        return any(p.tool_busy for p in self.parts)
+        for part in self.parts:
+            if part.tool_busy:
+                return True
+        return False
 
     @property
     def at_rest(self) -> bool:
-        return all(p.at_rest for p in self.parts)
+        for part in self.parts:
+            if not part.at_rest:
+                return False
+        return True
 
     @property
     def holds_start(self) -> bool:
@@ -110,7 +141,7 @@ class WorldCycle:
         way: lockstep may hold the world until it comes (`hold`)."""
         waiting = False
         for part in self.parts:
-            if part.awaiting_first_command and not part.tool_busy:
+            if part.core.awaiting_first_command and not part.tool_busy:
                 waiting = True
             elif part.busy:
                 return False
@@ -129,16 +160,17 @@ class WorldCycle:
         return not awaited
 
     def release(self) -> WorldReleased:
-        for part in self.parts:
+        parts = self.parts
+        for part in parts:
             part.drive()
         self.step()
-        released = WorldReleased(tuple(part.publish() for part in self.parts))
+        released = WorldReleased(tuple(map(_publish, parts)))
         self._await()
         self.events.released(released.message_id)
         return released
 
     def repeat(self) -> WorldReleased:
-        released = WorldReleased(tuple(part.repeat() for part in self.parts))
+        released = WorldReleased(tuple(map(_repeat, self.parts)))
         self._await()
         self.events.repeated(released.message_id)
         return released
@@ -160,17 +192,25 @@ class WorldCycle:
         return self.repeat()
 
     def complete(self, released: WorldReleased) -> WorldReplies:
-        replies = tuple(part.complete(robot) for part, robot in zip(self.parts, released.robots))
-        if any(replies):
-            return WorldReplies(replies)
+        replies, any_replies = [], False
+        for part, robot in zip(self.parts, released.robots):
+            part_replies = part.complete(robot)
+            replies.append(part_replies)
+            any_replies = any_replies or part_replies is not NO_REPLIES
+        if any_replies:
+            return WorldReplies(tuple(replies))
         return self.nothing
 
     def _await(self) -> None:
         """Whose answers the state just released waits for: every robot whose client streams;
         with none, the robots whose motion's first state it is (an answer is taken at once)."""
-        parts = self.parts
-        awaited = {i for i, p in enumerate(parts)
-                   if p.lockstep_applies and not p.first_motion_state}
-        awaited = awaited or {i for i, p in enumerate(parts) if p.first_motion_state}
+        streaming, first = set(), set()
+        for i, part in enumerate(self.parts):
+            core = part.core
+            if core.first_motion_state:
+                first.add(i)
+            elif core.streams_commands:
+                streaming.add(i)
+        awaited = streaming or first
         self.waits_for = frozenset(awaited)
         self._awaited = awaited
