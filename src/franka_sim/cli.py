@@ -288,17 +288,20 @@ def plot(
     end: float | None = typer.Option(None, "--to", help="To this robot time \\[s]."),
     fields: str | None = typer.Option(
         None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
+    robot: str | None = typer.Option(
+        None, help="The robot to draw, by name, in a recording of several (default: the first)."),
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
     rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
     from franka_sim.playback.plot import PlotError, parse_fields, parse_joints
     from franka_sim.playback.plot import plot as draw
+    from franka_sim.recording.reader import RecordingError
 
     try:
         chosen, extra = parse_joints(joints), parse_fields(fields)
         loaded = _open(recording)
-        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra)
-    except PlotError as exc:
+        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra, robot=robot)
+    except (PlotError, RecordingError) as exc:
         typer.echo(f"franka-sim: {exc}", err=True)
         raise typer.Exit(1) from None
     except OSError as exc:

@@ -53,8 +53,8 @@ def parse_fields(text: str | None) -> list[str]:
 
 
 def plot(recording: Recording, output: Path, *, joints: list[int], start: float | None = None,
-         end: float | None = None, fields: list[str] = ()) -> int:
-    """Write the PNG; the number of panels."""
+         end: float | None = None, fields: list[str] = (), robot: str | None = None) -> int:
+    """Write the PNG of one robot (None: the first, a lone arm); the number of panels."""
     try:
         import matplotlib
     except ImportError:
@@ -62,7 +62,7 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    states = recording.states()
+    states = recording.states(robot)
     t = states["message_id"].astype(float) * CYCLE_PERIOD
     keep = np.ones(len(t), bool)
     if start is not None:
@@ -104,14 +104,14 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
             ax.set_ylim(-0.05, 1.05)
             ax.set_ylabel("success rate")
         elif panel == "timeline":
-            _timeline(ax, recording, states, t, window)
+            _timeline(ax, recording, states, t, window, robot)
         else:
             values = np.asarray(states[panel], dtype=float).reshape(len(t), -1)
             ax.plot(t, values)
             ax.set_ylabel(panel)
         if panel in ("q", "dq", "tau", "wrench") and len(ax.get_lines()) <= 14:
             ax.legend(loc="upper right", fontsize=6, ncol=7)
-        _boundaries(ax, recording, window)
+        _boundaries(ax, recording, window, robot)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
     axes[0].set_title(f"{recording.path.name}: {len(states)} states")
@@ -121,16 +121,16 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
     return len(panels)
 
 
-def _boundaries(ax, recording: Recording, window) -> None:
-    for mark in motion_starts(recording):
+def _boundaries(ax, recording: Recording, window, robot) -> None:
+    for mark in motion_starts(recording, robot):
         if window[0] <= mark.cycle * CYCLE_PERIOD <= window[1]:
             ax.axvline(mark.cycle * CYCLE_PERIOD, color="g", lw=0.8)
-    for mark in motion_ends(recording):
+    for mark in motion_ends(recording, robot):
         if window[0] <= mark.cycle * CYCLE_PERIOD <= window[1]:
             ax.axvline(mark.cycle * CYCLE_PERIOD, color="g", lw=0.8, ls="--")
 
 
-def _timeline(ax, recording: Recording, states, t, window) -> None:
+def _timeline(ax, recording: Recording, states, t, window, robot) -> None:
     names = mode_names()
     modes = states["robot_mode"].astype(int)
     ax.step(t, modes, where="post", color="k")
@@ -142,12 +142,12 @@ def _timeline(ax, recording: Recording, states, t, window) -> None:
         ax.axvline(x, color="r", lw=1)
         ax.annotate(mark.label, (x, 0.95), xycoords=("data", "axes fraction"), rotation=90,
                     fontsize=6, va="top", color="r")
-    for mark in motion_starts(recording):
+    for mark in motion_starts(recording, robot):
         x = mark.cycle * CYCLE_PERIOD
         if window[0] <= x <= window[1]:
             ax.annotate(mark.label, (x, 0.05), xycoords=("data", "axes fraction"),
                         rotation=90, fontsize=6, va="bottom", color="g")
-    lost = [m for m in lost_cycles(recording) if window[0] <= m.cycle * CYCLE_PERIOD <= window[1]]
+    lost = [m for m in lost_cycles(recording, robot) if window[0] <= m.cycle * CYCLE_PERIOD <= window[1]]
     for extrapolated, color, label in ((True, "tab:orange", "lost: extrapolated"),
                                        (False, "tab:red", "lost: held, braked, ...")):
         xs = [m.cycle * CYCLE_PERIOD for m in lost if (m.label == "extrapolated") == extrapolated]

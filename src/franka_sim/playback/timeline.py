@@ -18,10 +18,10 @@ class Mark:
     label: str
 
 
-def motion_starts(recording: Recording) -> list[Mark]:
-    """Each robot Move request, at the cycle it was handled."""
+def motion_starts(recording: Recording, robot: str | None = None) -> list[Mark]:
+    """Each Move request of a robot (None: the first), at the cycle it was handled."""
     marks = []
-    for entry in recording.of("tcp"):
+    for entry in recording.of("tcp", robot):
         event = entry.json()
         for request in event["requests"]:
             if event["service"] == "robot" and request.get("command") == "Move":
@@ -30,10 +30,10 @@ def motion_starts(recording: Recording) -> list[Mark]:
     return marks
 
 
-def motion_ends(recording: Recording) -> list[Mark]:
+def motion_ends(recording: Recording, robot: str | None = None) -> list[Mark]:
     """Each Move's final reply (success, a reflex, aborted) at the cycle it left."""
     marks = []
-    for entry in recording.of("reply"):
+    for entry in recording.of("reply", robot):
         event = entry.json()
         for reply in event["replies"]:
             if (event["service"] == "robot" and reply.get("command") == "Move"
@@ -42,11 +42,11 @@ def motion_ends(recording: Recording) -> list[Mark]:
     return marks
 
 
-def lost_cycles(recording: Recording) -> list[Mark]:
+def lost_cycles(recording: Recording, robot: str | None = None) -> list[Mark]:
     """Each motion cycle that closed without an on-time command, labelled with how the robot
     filled it (`extrapolated`, `held`, `braked`, ...: robot/events.py)."""
     return [Mark(event["cycle"], event["filled"])
-            for event in (entry.json() for entry in recording.of("lost_cycle"))]
+            for event in (entry.json() for entry in recording.of("lost_cycle", robot))]
 
 
 def error_onsets(states: np.ndarray) -> list[Mark]:
