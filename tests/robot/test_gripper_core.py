@@ -269,11 +269,11 @@ def connect_bytes(version=GRIPPER_VERSION, udp_port=4242) -> bytes:
 
 def test_connect_checks_the_version():
     session = tool_session(GRIPPER, HandDevice())
-    (reply,) = session.receive(connect_bytes())
+    (reply,) = session.feed(connect_bytes())
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 0, 3)
     assert session.handshake.udp_port == 4242 and not session.closed
     old = tool_session(GRIPPER, HandDevice())
-    (reply,) = old.receive(connect_bytes(version=2))
+    (reply,) = old.feed(connect_bytes(version=2))
     assert struct.unpack("<HIIHH", reply) == (0, 0, 14, 1, 3)  # kIncompatibleLibraryVersion, v3
     assert old.closed and old.handshake is None
 
@@ -286,19 +286,19 @@ def test_connect_checks_the_version():
 ])
 def test_malformed_frames_end_the_session(data, why):
     session = tool_session(GRIPPER, HandDevice())
-    session.receive(connect_bytes())
+    session.feed(connect_bytes())
     with pytest.raises(SessionError):
-        session.receive(data)
+        session.feed(data)
     assert session.closed, why
 
 
 def test_commands_before_connect_end_the_session():
     with pytest.raises(SessionError):
-        tool_session(GRIPPER, HandDevice()).receive(build_gripper_request(Homing, 1))
+        tool_session(GRIPPER, HandDevice()).feed(build_gripper_request(Homing, 1))
 
 
 def test_split_and_batched_requests_are_all_answered():
     session = tool_session(GRIPPER, HandDevice())
     data = connect_bytes() + build_gripper_request(Stop, 1) + build_gripper_request(Stop, 2)
-    replies = [r for i in range(len(data)) for r in session.receive(data[i:i + 1])]
+    replies = [r for i in range(len(data)) for r in session.feed(data[i:i + 1])]
     assert [struct.unpack_from("<HI", r) for r in replies] == [(0, 0), (4, 1), (4, 2)]

@@ -183,7 +183,7 @@ class Replayer:
             session = self.sessions[robot, service]
             had_handshake = session.handshake is not None
             try:
-                session.receive(tcp_data(event))
+                session.feed(tcp_data(event))
             except SessionError:
                 pass  # the server closed that connection: its close follows
             if not had_handshake and session.handshake is not None:

@@ -40,7 +40,7 @@ class CommandWindow:
         self.open_id = message_id
         self._answered = False
 
-    def receive(self, message_id: int, command) -> bool:
+    def take(self, message_id: int, command) -> bool:
         """Take a command; True if it answers the open cycle in time (lockstep may go on)."""
         if message_id < self._latest_id:
             return False  # overtaken by a newer command already received

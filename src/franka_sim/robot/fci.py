@@ -182,7 +182,7 @@ class FciRobot:
             log.warning("%sRobotCommand for message_id %d dropped: non-finite %s",
                         self.label, message_id, ", ".join(bad))
             return False
-        on_time = self.window.receive(message_id, command)
+        on_time = self.window.take(message_id, command)
         if on_time and not self._window_closed:
             # The answer is in: the window closes now, so the next cycle's command is known
             # before its deadline (the server can release it without asking again).

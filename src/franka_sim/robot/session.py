@@ -82,7 +82,7 @@ class Session:
         """Bytes of a message begun but not complete."""
         return self._reader.buffered
 
-    def receive(self, data: bytes) -> list[bytes]:
+    def feed(self, data: bytes) -> list[bytes]:
         """Feed received bytes; return the replies to send, in order."""
         if self.closed:
             return []

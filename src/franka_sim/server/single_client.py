@@ -115,7 +115,7 @@ class ClientConnection(asyncio.Protocol):
         was_connected = self.session.handshake is not None
         requests = self.session.requests
         try:
-            replies = self.session.receive(data)
+            replies = self.session.feed(data)
         except SessionError as exc:
             log.warning("closing %s connection from %s:%s: %s", self.owner.what, *self.peer, exc)
             self.transport.close()

@@ -129,7 +129,7 @@ class _Target:
             return
         connected = session.handshake is not None
         try:
-            replies = session.receive(data)
+            replies = session.feed(data)
         except SessionError:
             assert session.closed, "a SessionError left the session open"
             replies = []
@@ -173,7 +173,7 @@ class _Target:
     def still_serves(self) -> None:
         """After anything, the next client is welcome: its Connect succeeds."""
         session = self._session()
-        (reply,) = session.receive(_connect(self.wire))
+        (reply,) = session.feed(_connect(self.wire))
         assert check_reply(self.wire, reply).status == self._success, "Connect refused"
 
 
