@@ -83,6 +83,7 @@ def test_an_invalid_frame_is_refused_by_name(enforcing):
     c = RawClient(enforcing.host)
     try:
         assert c.move(0, 2) == MOTION_STARTED
+        c.recv()  # the state after the modes flipped: lockstep waits for its answer
         T = np.reshape(np.array(c.state["O_T_EE"], dtype=float), (4, 4), order="F")
         T[:3, :3] *= 1.1  # scaled: not a rotation
         c.send(O_T_EE_c=T.ravel(order="F"))
