@@ -18,7 +18,6 @@ import multiprocessing
 import sys
 import threading
 
-import numpy as np
 
 SIDE = {"left": -1.0, "right": 1.0}  # the sign of y, in the arm's own base frame, of its object
 REACH = 0.45, 0.20  # m: x and |y| of the object in its arm's base frame (the scene's 0.45, ±0.15)

@@ -11,7 +11,6 @@ import time
 from pathlib import Path
 
 import pylibfranka
-import pytest
 
 from franka_sim.control import Control
 from franka_sim.faults import COMMANDS, FaultPlan, parse_spec

@@ -9,7 +9,7 @@ without one fails `test_every_program_says_how_to_run_it_on_one_arm_or_two`.
 How: each is served as its docstring says (a `franka-sim serve ...` line there gives its flags;
 the clock is the test's), recording, and run unmodified as a subprocess with ARGS, the
 shortest arguments that still exercise it (none: its own defaults). The server stops on
-SIGTERM, then `franka-sim replay` must find every recorded cycle identical.
+SIGTERM, then replay (what `franka-sim replay` runs) must find every recorded cycle identical.
 
 In realtime a program served with --enforce-comm-constraints may be aborted by a host that
 held its client up for 20 cycles: the run is no less a recording, and its replay is checked
@@ -27,6 +27,7 @@ from pathlib import Path
 
 import pytest
 
+from franka_sim.playback.replay import replay
 from franka_sim.recording.reader import open_recording
 from franka_sim.testing import running_sim
 
@@ -101,9 +102,7 @@ def test_the_recorded_program_replays_identical(program, clock, tmp_path):
                and set(re.findall(r'\["(\w+)"\]', out)) == {HELD_UP})
     assert done.returncode == 0 or held_up, out
 
-    replay = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
-                            capture_output=True, text=True, timeout=300)
-    cycles = len(open_recording(path).states())
+    recording = open_recording(path)  # replayed in this process: `franka-sim replay` runs the
+    cycles = len(recording.states())  # same (its CLI path: test_record_replay.py)
     assert cycles > 0
-    assert (replay.returncode, replay.stdout.strip()) == (0, f"identical ({cycles} cycles)"), \
-        replay.stdout + replay.stderr
+    assert replay(recording).line() == f"identical ({cycles} cycles)"
