@@ -21,7 +21,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from franka_sim.footprint import import_without_tls, leave_out_renderer, leave_out_tls
+from franka_sim.footprint import leave_out_renderer, leave_out_tls
 
 if TYPE_CHECKING:
     from franka_sim.config import Config
@@ -112,8 +112,6 @@ def main(blob: str) -> int:
     if args["rt_priority"]:
         _realtime_scheduling(args["rt_priority"])
     uvloop = _import_uvloop(blob)
-    if args["config"]["control_port"]:
-        import_without_tls("aiohttp.web")  # before the control API imports it
     try:
         uvloop.run(_serve(_config(args["config"]), viewer=args.get("viewer", False)))
     except _Failed as exc:

@@ -121,3 +121,22 @@ def test_the_serving_process_answers_its_control_api_without_openssl():
         assert Control(sim.host).state()["robot_mode"] == "Idle"
         maps = Path(f"/proc/{sim.pid}/maps").read_text()
     assert "libcrypto" not in maps and "_ssl." not in maps and "_hashlib." not in maps
+
+
+def test_the_control_api_costs_nothing_until_its_first_connection():
+    """Its port is held from the start; aiohttp is loaded when somebody connects to it."""
+    import pylibfranka
+
+    from franka_sim.control import Control
+    from franka_sim.testing import running_sim
+
+    def aiohttp_loaded(pid: int) -> bool:
+        return "aiohttp" in Path(f"/proc/{pid}/maps").read_text()  # its compiled parsers
+
+    with running_sim() as sim:
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        assert not aiohttp_loaded(sim.pid)
+        assert Control(sim.host).state()["robot_mode"] == "Idle"
+        assert aiohttp_loaded(sim.pid)
+        del robot

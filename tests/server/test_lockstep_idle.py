@@ -240,3 +240,20 @@ def test_a_world_that_only_trembles_is_left_as_it_is_while_the_client_is_away(mo
     rig.event()  # an event: its cycle, and the world gets its settling cycles again
     assert rig.ticks[-1][0] == 1 + TREMBLE_CYCLES
     assert rig.harness.backend.data.time > stepped
+
+
+def test_while_the_server_keeps_its_client_waiting_no_cycle_goes_without_its_answer():
+    """The control API's HTTP server loads on its first connection (server/control_port.py):
+    a lockstep client blocked in that request is not taken for one that stopped answering."""
+    rig = Rig()
+    assert rig.harness.move(0, 1) == MoveStatus.kMotionStarted
+    rig.event()
+    rig.on_socket.append(encode_command(message_id=rig.message_id, dq_c=[0.0] * 7))
+    rig.tick(False)  # the first answer: the motion's cycles now await theirs
+    waiting = rig.message_id
+    rig.clock.server_busy = 1
+    rig.wait(5 * LOCKSTEP_WINDOW)
+    assert rig.message_id == waiting  # five windows passed, nothing released
+    rig.clock.server_busy = 0
+    rig.wait(LOCKSTEP_WINDOW)
+    assert rig.message_id == waiting + 1  # then the window runs out as it always does

@@ -97,6 +97,9 @@ class Clock:
         self._served = 0
         self._frozen = False  # lockstep, idle: the world is left as it is until a client event
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
+        # Lockstep: the server itself keeps its client waiting (the control API's HTTP server
+        # being loaded on its first connection): no cycle goes without its answer meanwhile.
+        self.server_busy = 0
 
     # -- events ------------------------------------------------------------------------------------
     def client_event(self) -> None:
@@ -141,6 +144,9 @@ class Clock:
             return self.deadline  # woken, but nothing to release
         self.paused = False
         if due and lockstep and cycle.lockstep_applies and not answered:
+            if self.server_busy:  # the client waits for us, not we for it: wait on
+                self.deadline = self.pacer.extend(self.deadline)
+                return self.deadline
             self.watcher.window_ran_out()
         self._served = self._events
         released, self.prepared = self.prepared, None

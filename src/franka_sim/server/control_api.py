@@ -10,7 +10,8 @@ resource.
 
 aiohttp because it is a well-kept asyncio HTTP server that runs on the loop the simulator
 already has (uvloop under `franka-sim serve`): no thread of its own, and a request costs the
-1 kHz stream nothing but the job it submits to the cycle thread.
+1 kHz stream nothing but the job it submits to the cycle thread. It is imported on the first
+connection to the port (server/control_port.py), not before.
 """
 
 from __future__ import annotations
@@ -83,11 +84,12 @@ class ControlApi:
                 app.router.add_route(operation.method, route_path(operation), handler)
         self.app = app
 
-    async def start(self, host: str, port: int) -> None:
+    async def serve_socket(self, sock) -> None:
+        """Serve on `sock`, a listening socket (server/control_port.py binds it at start)."""
         runner = web.AppRunner(self.app, access_log=None, shutdown_timeout=1.0)
         await runner.setup()
         try:
-            await web.TCPSite(runner, host, port).start()
+            await web.SockSite(runner, sock).start()
         except BaseException:
             await runner.cleanup()
             raise

@@ -50,6 +50,7 @@ class CycleDriver:
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop: (cycle, deliver)
         self._loop: asyncio.AbstractEventLoop | None = None
         self._running = False
+        self._busy = 0  # server_busy's count
 
     # -- the loop's side -------------------------------------------------------------------------
     async def start(self, endpoints: Sequence) -> None:
@@ -62,6 +63,7 @@ class CycleDriver:
             self.clock = Clock(self.cycle, lockstep=self.lockstep, send=self._send,
                                post=self._post, has_client=self.has_client)
             self.clock.watcher = self.watcher
+            self.clock.server_busy = self._busy
         self._sockets = tuple(endpoint.sock for endpoint in self.endpoints)
         self._running = True
         await self.thread.run_clock(self._tick)
@@ -89,6 +91,14 @@ class CycleDriver:
         self.clock.world_changed()
         if self.lockstep or self.clock.paused:
             self.thread.wake()
+
+    def server_busy(self, busy: bool) -> None:
+        """Lockstep: the server keeps its clients waiting (`busy`) or no longer; a cycle's
+        window does not run out meanwhile (Clock.server_busy). From the loop."""
+        with self.lock:
+            self._busy += 1 if busy else -1
+            if self.clock is not None:
+                self.clock.server_busy = self._busy
 
     def withdraw_prepared(self) -> int | None:
         """Cycle thread, lock held, before a reset (Clock.withdraw_prepared)."""

@@ -46,3 +46,8 @@ class Pacer:
             self._t0, self._k = sent_at, 1
             deadline = sent_at + self.period
         return max(deadline, sent_at + self.min_spacing)
+
+    @staticmethod
+    def extend(deadline: float) -> float:
+        """Lockstep: a window that ran out while the server kept its client waiting, again."""
+        return deadline + LOCKSTEP_WINDOW

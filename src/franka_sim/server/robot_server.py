@@ -19,6 +19,7 @@ from franka_sim.robot.session import Session
 from franka_sim.operations.arm import ArmOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.server.control_port import ControlPort
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server.fci_endpoint import FciEndpoint
 from franka_sim.server.tool_endpoint import ToolEndpoint
@@ -64,7 +65,7 @@ class RobotServer:
         else:
             self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
                                    robot_index=index, faults=faults)
-        self._control_api = None  # the HTTP server, while it serves (server/control_api.py)
+        self._control_api = None  # its port, while it is open (server/control_port.py)
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
@@ -115,9 +116,8 @@ class RobotServer:
             raise OSError(exc.errno, f"{where} cannot be served: {exc.strerror or exc}") from exc
 
     async def _start_control_api(self) -> None:
-        from franka_sim.server.control_api import ControlApi  # aiohttp: only when served
-
-        api = ControlApi(self.control, token=self.config.control_token)
+        api = ControlPort(self.control, token=self.config.control_token,
+                          busy=self.driver.server_busy)
         await api.start(self.host, self.config.control_port)
         self._control_api = api
 

@@ -38,12 +38,13 @@ def _normal_scheduling() -> None:
 
 
 class ServerProcess:
-    """`python -m franka_sim serve --host H *args` (or another `command` that logs "serving on"
-    to stderr, such as a benchmark's reference server); a thread collects its stderr lines."""
+    """`python -m franka_sim serve --host H *args` (or another `command` that logs `ready`,
+    "serving on", to stderr, such as a benchmark's reference server or another simulator); a
+    thread collects its stderr lines."""
 
     def __init__(self, host: str, *args: str, env: dict | None = None,
-                 command: list[str] | None = None) -> None:
-        self.host = host
+                 command: list[str] | None = None, ready: str = "serving on") -> None:
+        self.host, self.ready = host, ready
         self.lines: list[str] = []
         self.serving_at: float | None = None  # perf_counter() when "serving on" was read
         self._ready = threading.Event()
@@ -60,7 +61,7 @@ class ServerProcess:
 
     def _drain(self) -> None:
         for line in self.proc.stderr:
-            serving = self.serving_at is None and "serving on" in line
+            serving = self.serving_at is None and self.ready in line
             if serving:
                 self.serving_at = time.perf_counter()
             self.lines.append(line.rstrip("\n"))

@@ -17,14 +17,19 @@ answers (its port refuses connections), as on a robot whose Hand is not in use.
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from franka_sim.physics.tool import ToolMount
-from franka_sim.robot.session import Service
-from franka_sim.robot.tool import ToolDevice
+if TYPE_CHECKING:
+    from franka_sim.physics.tool import ToolMount
+    from franka_sim.robot.session import Service
+    from franka_sim.robot.tool import ToolDevice
 
 NO_TOOL = "none"
+# Every tool: its name, and the module holding its row (a `ToolKind` named in capitals). Only
+# names here, so that checking a --tool costs no import of the layers a row brings.
+TOOL_MODULES = {"hand": "franka_sim.tools.hand"}
 
 
 @dataclass(frozen=True)
@@ -39,20 +44,24 @@ class ToolKind:
 
 def tool_kinds() -> dict[str, ToolKind]:
     """Every tool by name (imported here, not at import: the rows bring their layers)."""
-    from franka_sim.tools.hand import HAND
+    return {name: _row(name) for name in TOOL_MODULES}
 
-    return {HAND.name: HAND}
+
+def _row(name: str) -> ToolKind:
+    module = importlib.import_module(TOOL_MODULES[name])
+    rows = [row for row in vars(module).values() if isinstance(row, ToolKind)]
+    assert len(rows) == 1 and rows[0].name == name, f"{module.__name__}: one row named {name!r}"
+    return rows[0]
 
 
 def tool_names() -> tuple[str, ...]:
-    return (*tool_kinds(), NO_TOOL)
+    return (*TOOL_MODULES, NO_TOOL)
 
 
 def tool_kind(name: str) -> ToolKind | None:
     """The tool of that name (None: `none`); KeyError naming the choices."""
     if name == NO_TOOL:
         return None
-    kinds = tool_kinds()
-    if name not in kinds:
+    if name not in TOOL_MODULES:
         raise KeyError(f"no tool {name!r} (one of {', '.join(tool_names())})")
-    return kinds[name]
+    return _row(name)
