@@ -63,6 +63,9 @@ class Arm:
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self.qs], data.qvel[self.vs]
         self._applied = data.qfrc_applied[self.vs]
+        # The motors' torque limits (the URDF's effort): a drive torque beyond them saturates.
+        self._tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
+        self._tau_min = -self._tau_max
         self._gcomp = gravity[self.vs]
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
@@ -135,9 +138,19 @@ class Arm:
             self._feed_forward(cmd.ddq_d)
         if cmd.load is not None:
             applied += self.declared_load.gravity
+        self._saturate(applied)
         if self.tool is not None:
             self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
+
+    def _saturate(self, applied: np.ndarray) -> None:
+        """The motors saturate at their torque limits, whatever the command asked (an absurd
+        but finite one, applied when limits are only logged, must not blow up the physics);
+        a torque no motor could take a sign from (NaN: inf − inf in an absurd reference) is 0."""
+        np.clip(applied, self._tau_min, self._tau_max, out=applied)
+        total = applied.sum()
+        if total != total:
+            np.nan_to_num(applied, copy=False, nan=0.0)
 
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
         """Add M(q)·ddq_d + c(q, dq): the inverse dynamics of the reference's acceleration, on
