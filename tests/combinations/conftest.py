@@ -21,6 +21,6 @@ def pytest_report_header(config):
 
 @pytest.fixture(scope="session")
 def x_display():
-    """A DISPLAY for `serve --viewer`: an Xvfb of this session."""
+    """A DISPLAY for `serve --viewer`: one Xvfb for the whole test run."""
     with xvfb() as display:
         yield display
