@@ -32,10 +32,23 @@ def two_arms(*args: str, left_at: str = "", right_at: str = "", clock: str = "lo
         server.stop()
 
 
-def start(host: str, delta, seconds: float, threshold: float = 20.0) -> subprocess.Popen:
+def start(host: str, delta, seconds: float, threshold: float = 20.0,
+          together: bool = False) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, str(PROGRAM), host, json.dumps(list(delta)),
-                             str(seconds), str(threshold)], stdout=subprocess.PIPE,
+                             str(seconds), str(threshold)] + (["--together"] if together else []),
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+
+
+def at_once(*programs: subprocess.Popen) -> list[subprocess.Popen]:
+    """Programs started `together`: once every one is connected, their motions start at once
+    (a process that took longer to start would otherwise move its arm after the other's)."""
+    for program in programs:
+        assert program.stdout.readline().strip() == "ready"
+    for program in programs:
+        program.stdin.write("\n")
+        program.stdin.flush()
+    return list(programs)
 
 
 def result(program: subprocess.Popen) -> dict:
@@ -75,7 +88,8 @@ def test_arms_driven_into_each_other_both_feel_it_and_the_reflex_stops_them():
     # Bases 0.6 m apart; turning joint 1 by 0.9 rad towards each other brings the Hands
     # together at about 0.75 rad.
     with two_arms(left_at="@0,0.3,0", right_at="@0,-0.3,0") as (server, left, right):
-        programs = [start(left, joint1(-0.9), 2.0), start(right, joint1(0.9), 2.0)]
+        programs = at_once(start(left, joint1(-0.9), 2.0, together=True),
+                           start(right, joint1(0.9), 2.0, together=True))
         outcomes = [result(p) for p in programs]
         states = [Control(host).state() for host in (left, right)]
     for outcome, state in zip(outcomes, states):
@@ -92,8 +106,8 @@ def test_contact_is_judged_with_each_arms_own_thresholds():
     # press reaches: only the right arm stops with a reflex; the left one feels the contact in
     # its external torque and ends its motion without an error (pushing the stopped arm aside).
     with two_arms(left_at="@0,0.3,0", right_at="@0,-0.3,0") as (server, left, right):
-        programs = [start(left, joint1(-0.9), 2.0, threshold=1000.0),
-                    start(right, joint1(0.9), 2.0)]
+        programs = at_once(start(left, joint1(-0.9), 2.0, threshold=1000.0, together=True),
+                           start(right, joint1(0.9), 2.0, together=True))
         outcomes = [result(p) for p in programs]
         states = [Control(host).state() for host in (left, right)]
     held_on, stopped = outcomes

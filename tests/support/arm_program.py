@@ -10,6 +10,10 @@ q, the smallest success rate seen after the motion's first states, the largest e
 torque felt (|tau_ext_hat_filtered|, Nm), and the error a ControlException reported ("" if
 none).
 
+--together: connected and configured, print "ready" and wait for a line on stdin before the
+motion starts (so a test starts several arms' motions at once, however long each process took
+to start).
+
 --push BODY: halfway through the motion, push BODY (5 N along +x for 50 ms) through the
 simulator's control API on HOST, from within the control loop (between reading a state and
 answering it), so that in lockstep it lands on the same cycle in every run. --hand WIDTH: after
@@ -22,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
 import numpy as np
 import pylibfranka
@@ -31,13 +36,16 @@ PUSH_SECONDS = 0.05
 
 
 def run(host: str, delta, seconds: float, threshold: float = 20.0, *, push: str = "",
-        hand: float | None = None) -> dict:
+        hand: float | None = None, together: bool = False) -> dict:
     # Ready before the motion: importing it inside the loop would hold the loop up for tens of
     # ms, which in realtime loses 20 cycles in a row; the push itself takes a few ms.
     pusher = _pusher(host, push) if push else None
     robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
     robot.set_collision_behavior([threshold] * 7, [threshold] * 7, [threshold] * 6,
                                  [threshold] * 6)
+    if together:
+        print("ready", flush=True)
+        sys.stdin.readline()
     control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
     state, _ = control.readOnce()
     q0 = np.array(state.q_d)
@@ -92,9 +100,10 @@ def main() -> None:
     parser.add_argument("threshold", type=float, nargs="?", default=20.0)
     parser.add_argument("--push", default="")
     parser.add_argument("--hand", type=float)
+    parser.add_argument("--together", action="store_true")
     a = parser.parse_args()
-    print(json.dumps(run(a.host, a.delta, a.seconds, a.threshold, push=a.push, hand=a.hand)),
-          flush=True)
+    print(json.dumps(run(a.host, a.delta, a.seconds, a.threshold, push=a.push, hand=a.hand,
+                         together=a.together)), flush=True)
 
 
 if __name__ == "__main__":
