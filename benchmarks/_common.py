@@ -39,6 +39,23 @@ def responder_command(host: str, clock: str, physics: bool = False) -> list[str]
             "--host", host, "--clock", clock] + (["--physics"] if physics else [])
 
 
+# What franka-sim 1.1.7 logs once it takes a client (docs/benchmarks.md, "Beside franka-sim 1.1.7").
+ALTERNATIVE_READY = "ready for new client connection"
+
+
+def start_server(host: str, alternative: str | None = None, *args: str):
+    """`franka-sim serve --host host *args`, or with `alternative` that simulator's command
+    line ("{host}": the address), started and serving (franka_sim.testing.ServerProcess)."""
+    import shlex
+
+    from franka_sim.testing import ServerProcess
+
+    if alternative is None:
+        return ServerProcess(host, *args).wait_ready()
+    command = shlex.split(alternative.replace("{host}", host))
+    return ServerProcess(host, command=command, ready=ALTERNATIVE_READY).wait_ready()
+
+
 def _stat(path: str) -> tuple[str, float]:
     """(comm, utime + stime in seconds) of a /proc stat file (a process's or a thread's)."""
     with open(path) as f:

@@ -29,24 +29,21 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shlex
 import signal
 import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
-from _common import Load, cpu_seconds, idle_behaviour, memory_mib, thread_cpu_seconds, verdict
+from _common import (Load, cpu_percent, cpu_seconds, idle_behaviour, memory_mib, start_server,
+                     thread_cpu_seconds, verdict)
+from franka_sim.control import Control
 from franka_sim.server.cycle_thread import OS_THREAD_NAME
-from franka_sim.testing import ServerProcess
 
 HOST = "127.0.0.204"
 CYCLE_THREAD = OS_THREAD_NAME.decode()
 HERE = Path(__file__).parent
-# What franka-sim 1.1.7 logs once it takes a client (docs/benchmarks.md: how to run it).
-ALTERNATIVE_READY = "ready for new client connection"
 TARGETS = {"speed": 6.0, "cpu_cycle": 60.0, "vs_alternative": 0.5, "rss": 62.0, "cxx": 15.0}
 
 CLIENT = r'''
@@ -120,13 +117,9 @@ class Client:
         return out
 
 
-def health_cycle(host: str) -> int | None:
-    """The server's message_id (the control API's /health), None without one."""
-    try:
-        with urllib.request.urlopen(f"http://{host}:1340/health", timeout=5) as r:
-            return json.load(r)["cycle"]
-    except OSError:
-        return None
+def health_cycle(host: str) -> int:
+    """The server's message_id (the control API's /health)."""
+    return Control(host).health()["cycle"]
 
 
 def profile(pid: int, out: Path) -> subprocess.Popen:
@@ -191,7 +184,7 @@ def print_profile(raw: Path) -> None:
 
 
 def lockstep(args) -> None:
-    server = ServerProcess(HOST, "--clock", "lockstep").wait_ready()
+    server = start_server(HOST, None, "--clock", "lockstep")
     try:
         client = Client(HOST, "lockstep", args.motions, args.seconds)
         client.expect("ready")
@@ -208,7 +201,7 @@ def lockstep(args) -> None:
         threads = thread_cpu_seconds(server.pid)
         cycle_cpu = threads.get(CYCLE_THREAD, 0.0) - threads0.get(CYCLE_THREAD, 0.0)
         other_cpu, pressure = load.stop()
-        cycles_run = None if cycle0 is None else health_cycle(HOST) - cycle0
+        cycles_run = health_cycle(HOST) - cycle0
         client.go()
         result = client.result()
         if spy is not None:
@@ -246,14 +239,12 @@ def cycle_floor() -> str:
     return lines[0] if lines else "(no figure)"
 
 
-def realtime_once(command: list[str] | None, seconds: float) -> dict:
+def realtime_once(alternative: str | None, seconds: float) -> dict:
     """Server CPU % while a joint loop + Gripper run, with the client idle, and with none."""
-    server = ServerProcess(HOST, command=command, ready=ALTERNATIVE_READY) if command \
-        else ServerProcess(HOST)
-    server.wait_ready()
+    server = start_server(HOST, alternative)
     try:
         time.sleep(1.0)
-        none = _cpu_over(server.pid, 3.0)
+        none = cpu_percent(server.pid, 3.0)
         client = Client(HOST, "realtime", 1, seconds)
         client.expect("ready")
         cpu0, t0 = cpu_seconds(server.pid), time.perf_counter()
@@ -262,7 +253,7 @@ def realtime_once(command: list[str] | None, seconds: float) -> dict:
         control = 100 * (cpu_seconds(server.pid) - cpu0) / (time.perf_counter() - t0)
         client.go()
         client.expect("idle")
-        idle = _cpu_over(server.pid, 3.0)
+        idle = cpu_percent(server.pid, 3.0)
         rss, _ = memory_mib(server.pid)
         client.go()
         result = client.result()
@@ -272,15 +263,8 @@ def realtime_once(command: list[str] | None, seconds: float) -> dict:
             "states": result["cycles"] / result["wall"], "rate": result["min_rate"]}
 
 
-def _cpu_over(pid: int, seconds: float) -> float:
-    c0, t0 = cpu_seconds(pid), time.perf_counter()
-    time.sleep(seconds)
-    return 100 * (cpu_seconds(pid) - c0) / (time.perf_counter() - t0)
-
-
 def realtime(args) -> None:
-    alternative = shlex.split(args.alternative.replace("{host}", HOST)) \
-        if args.alternative else None
+    alternative = args.alternative
     runs: dict[str, list[dict]] = {"franka-sim": [], "alternative": []}
     for _ in range(args.runs):
         runs["franka-sim"].append(realtime_once(None, args.seconds))
@@ -305,7 +289,7 @@ def realtime(args) -> None:
 
 
 def cxx_example(path: str) -> None:
-    server = ServerProcess(HOST, "--clock", "lockstep").wait_ready()
+    server = start_server(HOST, None, "--clock", "lockstep")
     try:
         cycle0, t0 = health_cycle(HOST), time.perf_counter()
         done = subprocess.run([path, HOST], input="\n", capture_output=True, text=True,

@@ -11,23 +11,20 @@ the same run, alternated with ours, and prints its spawn → first RobotState be
 from __future__ import annotations
 
 import argparse
-import shlex
 import statistics
 import time
 
-from _common import PRIVATE_HOST
-from franka_sim.testing import RawClient, ServerProcess
+from _common import PRIVATE_HOST, start_server
+from franka_sim.testing import RawClient
 
 FIRST_STATE_TARGET = 0.25  # s, spawn → first RobotState
-ALTERNATIVE_READY = "ready for new client connection"  # franka-sim 1.1.7's line
 
 
-def once(host: str, command: list[str] | None) -> tuple[float, float, float]:
+def once(host: str, alternative: str | None) -> tuple[float, float, float]:
     """(spawn → ready line, spawn → first state, SIGTERM → exit) of one start."""
-    server = ServerProcess(host, command=command, ready=ALTERNATIVE_READY) if command \
-        else ServerProcess(host)
+    server = start_server(host, alternative)
     try:
-        serving = server.wait_ready().serving_after
+        serving = server.serving_after
         client = RawClient(host, first_state=False)
         client.recv_timed()
         first = time.perf_counter() - server.spawned_at
@@ -44,14 +41,11 @@ def main() -> None:
     ap.add_argument("--host", default=PRIVATE_HOST, help=f"address to serve on ({PRIVATE_HOST})")
     ap.add_argument("--alternative", help="another simulator's command ({host}: the address)")
     args = ap.parse_args()
-    alternative = shlex.split(args.alternative.replace("{host}", args.host)) \
-        if args.alternative else None
-
     ours, theirs = [], []
     for _ in range(args.runs):
         ours.append(once(args.host, None))
-        if alternative:
-            theirs.append(once(args.host, alternative))
+        if args.alternative:
+            theirs.append(once(args.host, args.alternative))
 
     print(f"franka-sim serve start/stop, {args.runs} runs on {args.host}")
     serving, first, stop = zip(*ours)
