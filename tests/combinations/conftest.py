@@ -8,7 +8,7 @@ import pytest
 
 from combinations.factors import factors
 from combinations.matrix import runs
-from support.xserver import xvfb
+from support.xserver import opengl_display
 
 
 def pytest_report_header(config):
@@ -21,6 +21,7 @@ def pytest_report_header(config):
 
 @pytest.fixture(scope="session")
 def x_display():
-    """A DISPLAY for `serve --viewer`: one Xvfb for the whole test run."""
-    with xvfb() as display:
+    """A DISPLAY for `serve --viewer`: one Xvfb for the whole test run, on which OpenGL
+    windows are known to reach the screen."""
+    with opengl_display() as display:
         yield display

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import threading
 import time
 
 log = logging.getLogger(__name__)
 
 FRAME_PERIOD = 1 / 60  # s
+OPEN_WITHIN = 30.0  # s a window may take to appear (software GL on a loaded machine)
 
 
 class NoDisplay(RuntimeError):
@@ -35,13 +37,30 @@ class LiveViewer:
         self._thread = threading.Thread(target=self._run, name="fsim-viewer", daemon=True)
         self._ready = threading.Event()
         self.error: Exception | None = None
+        self._gui_failure: BaseException | None = None
 
-    def start(self, timeout: float = 10.0) -> None:
-        """Open the window (NoDisplay / RuntimeError if it cannot)."""
+    def start(self, timeout: float = OPEN_WITHIN) -> None:
+        """Open the window, or raise RuntimeError saying why not.
+
+        MuJoCo's launch_passive hands its handle back only once its GUI thread has made the
+        window; should that thread fail (no GLX on the display, GLFW refusing), it never does
+        and the caller would wait forever. So the GUI thread's exception is caught on its way
+        out, and a window that has not come within `timeout` counts as one that cannot open."""
+        _catch_gui_failures(self)
         self._thread.start()
-        self._ready.wait(timeout)
+        deadline = time.monotonic() + timeout
+        while not self._ready.wait(0.05):
+            if self._gui_failure is not None:
+                exc = self._gui_failure
+                self.error = RuntimeError(f"the viewer cannot open: {type(exc).__name__}: {exc}")
+                break
+            if time.monotonic() > deadline:
+                self.error = RuntimeError(f"the viewer cannot open: no window within "
+                                          f"{timeout:.0f} s (MuJoCo's GUI thread did not start)")
+                break
         if self.error is not None:
             raise self.error
+        log.info("the viewer shows the world")
 
     def stop(self) -> None:
         """Close the window and wait until MuJoCo's GUI thread has let go of GLFW: the
@@ -55,6 +74,11 @@ class LiveViewer:
 
         model = self.model
         data = mujoco.MjData(model)
+        refused = _glfw_refusal()
+        if refused:  # MuJoCo's own GUI thread would end the process with a bare "ERROR"
+            self.error = RuntimeError(f"the viewer cannot open: {refused}")
+            self._ready.set()
+            return
         before = set(threading.enumerate())
         try:
             handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False,
@@ -74,3 +98,37 @@ class LiveViewer:
                 time.sleep(FRAME_PERIOD)
         for thread in gui:
             thread.join(4.0)
+
+
+def _glfw_refusal() -> str | None:
+    """What GLFW said when it would not initialise on this display (None when it did)."""
+    import warnings
+
+    import glfw
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        if glfw.init():
+            return None
+    # GLFW's warnings read "(65550) b'X11: Failed to open display :9'": keep the words
+    words = [re.sub(r"^\(\d+\) b['\"](.*)['\"]$", r"\1", str(w.message)) for w in said]
+    return "; ".join(words) or "GLFW does not initialise"
+
+
+_watched: list[LiveViewer] = []
+
+
+def _catch_gui_failures(viewer: LiveViewer) -> None:
+    """Route an exception that ends MuJoCo's GUI thread (its target is `_launch_internal`) to
+    the viewer waiting for it; every other thread's goes on to the previous hook unchanged."""
+    if not _watched:
+        previous = threading.excepthook
+
+        def hook(args) -> None:
+            if args.thread is not None and "_launch_internal" in args.thread.name:
+                for waiting in _watched:
+                    waiting._gui_failure = args.exc_value
+            previous(args)
+
+        threading.excepthook = hook
+    _watched.append(viewer)
