@@ -40,8 +40,10 @@ def test_plot_writes_a_png_of_the_expected_size_with_no_blank_panel(lockstep_run
 def test_plot_window_from_to(lockstep_run, tmp_path):
     pytest.importorskip("matplotlib")
     path, _ = lockstep_run
-    done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "0.2",
-                      "--to", "0.4")
+    t = open_recording(path).states()["message_id"] / 1000  # the robot's time, s
+    start = t[len(t) // 3]  # a window of 0.2 s from a state of the recorded session
+    done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", f"{start}",
+                      "--to", f"{start + 0.2}")
     assert done.returncode == 0, done.stderr
     done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "1e6")
     assert done.returncode == 1 and done.stderr.count("\n") == 1

@@ -23,7 +23,7 @@ from franka_sim.protocol.gripper_messages import GRIPPER_REQUEST_STRUCTS, build_
 from franka_sim.robot.hand import Hand
 from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.world_cycle import WorldCycle
-from franka_sim.server.clock import TREMBLE_CYCLES, Clock
+from franka_sim.server.clock import IDLE_QUANTUM, TREMBLE_CYCLES, Clock
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD
 
 from support.harness import Harness, reply_status
@@ -60,6 +60,11 @@ class Rig:
         self.world = WorldCycle([self.harness.robot_cycle], self.harness.backend.world.step)
         self.clock = Clock(self.world, lockstep=True, send=self._send, post=self._post,
                            has_client=lambda: True)
+        self.skipped = 0  # ids the clock moved on over with no state (idle gaps rounded up)
+        self.clock.watcher.skipped = self._skipped
+
+    def _skipped(self, cycles: int) -> None:
+        self.skipped += cycles
 
     def _send(self, states: tuple) -> float:
         self.states.append(states[0])
@@ -79,13 +84,14 @@ class Rig:
 
     def tick(self, due: bool) -> float | None:
         """The cycle thread's tick: the answers that came, handed to the world, then the clock."""
-        cycles, states = self.cycle.message_id, len(self.states)
+        cycles, states = self.cycle.message_id - self.skipped, len(self.states)
         awaited = self.clock.answer_awaited
         answered = False
         while self.on_socket:
             answered = self.world.receive(0, decode_command(self.on_socket.pop(0))) or answered
         deadline = self.clock.tick(due, answered, awaited)
-        self.ticks.append((self.cycle.message_id - cycles, len(self.states) - states))
+        self.ticks.append((self.cycle.message_id - self.skipped - cycles,
+                           len(self.states) - states))
         return deadline
 
     def event(self) -> float | None:
@@ -158,11 +164,33 @@ def _program(rig: Rig, pauses: tuple[float, float]) -> bytes:
 
 def test_a_program_ends_in_the_same_bits_however_long_the_client_paused():
     quick = _program(Rig(), (0.0, 0.0))
-    slow_rig = Rig()
-    slow = _program(slow_rig, (0.05, 1.3))
+    slow = _program(Rig(), (0.05, 1.3))
     assert quick[8:] == slow[8:]  # everything but message_id
     later = int(decode_state(slow)["message_id"]) - int(decode_state(quick)["message_id"])
-    assert later == pytest.approx(1200, abs=2)  # the wall time past the window, at rest
+    assert later == 2 * IDLE_QUANTUM  # 1.2 s past the window: two whole quanta of idle time
+
+
+def test_every_message_id_is_the_same_whichever_pause_within_the_quantum():
+    """A pause within the window, and pauses past it that the quantum rounds up alike, give
+    the same message_id to every state of the motion after them, not only the same bits."""
+    def last_motion(pauses):
+        rig = Rig()
+        rig.motion(_swing())
+        rig.wait(pauses[0])
+        rig.event()
+        frozen = rig.message_id
+        rig.wait(pauses[1])
+        idle_states, last_idle = len(rig.states), rig.message_id
+        rig.motion(_swing(200))
+        return idle_states, last_idle, frozen, [int(decode_state(state)["message_id"])
+                                                for state in rig.states[idle_states:]]
+
+    (shorter, last_idle, frozen, ids), (longer, later_idle, _, later_ids) = (
+        last_motion((0.02, 0.3)), last_motion((0.05, 0.9)))
+    assert longer > shorter + 500  # the longer pause saw more idle states go by,
+    assert later_idle > last_idle  # and the last of them had a later message_id,
+    assert later_ids == ids and len(ids) > 200  # yet the motion after it is numbered alike:
+    assert ids[0] == frozen + IDLE_QUANTUM + 1  # from one quantum after the pause began
 
 
 def _gripper_move(width: float) -> object:

@@ -83,6 +83,9 @@ class Replayer:
         runs = sorted((e.json()["first"], e.json()["last"]) for e in recording.of("repeated"))
         self._repeat_firsts = [first for first, _ in runs]
         self._repeat_runs = runs
+        # first id -> how many: the cycles the server's clock moved on over with no state
+        self._skips = {e.json()["first"]: e.json()["last"] - e.json()["first"] + 1
+                       for e in recording.of("skipped")}
         self.ops = {i: ArmOps(
             core=arm.core, tool=arm.tool, driver=_Driver(self), worker=_Worker(self),
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
@@ -104,6 +107,8 @@ class Replayer:
             if not done:
                 cycle.complete(self.released)
                 self.released = None
+            elif here + 1 in self._skips:
+                cycle.skip(self._skips[here + 1])
             elif self._repeated(here + 1):
                 self.released = (cycle.hold() if cycle.holds_start else None) or cycle.repeat()
             else:

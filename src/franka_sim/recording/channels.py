@@ -75,7 +75,7 @@ def _json(topic: str, name: str, schema: bytes) -> Channel:
 
 ROBOT_KEYS = ("robot_state", "command", "gripper_state", "command_rejected", "lost_cycle", "tcp",
               "reply", "control")
-WORLD_KEYS = ("bodies", "repeated", "log")
+WORLD_KEYS = ("bodies", "repeated", "skipped", "log")
 
 
 def robot_channels(robot: str) -> dict[str, Channel]:
@@ -110,6 +110,10 @@ def world_channels() -> dict[str, Channel]:
         # Cycles that left the world as it was (lockstep's idle time, a motion's start held
         # for its client's first command): replay repeats them instead of stepping.
         "repeated": _json("/world/repeated", "franka_sim/RepeatedCycles", _object(
+            first=_INT, last=_INT)),
+        # Cycles that went by with no state (lockstep rounds an idle gap up to whole
+        # IDLE_QUANTUM cycles): replay moves the clock on over them.
+        "skipped": _json("/world/skipped", "franka_sim/SkippedCycles", _object(
             first=_INT, last=_INT)),
         "log": _json("/log", "franka_sim/LogLine", _object(
             level=_STR, logger=_STR, message=_STR)),

@@ -90,6 +90,11 @@ class ArmCycle(PacerQuestions):
             state = None
         return Released(core.message_id, state, measured)
 
+    def skip(self, cycles: int) -> None:
+        self.core.skip(cycles)
+        if self.tool is not None:
+            self.tool.skip(cycles)
+
     def repeat(self) -> Released:
         """A cycle that leaves the world as it is: the last state again under the next
         message_id, nothing stepped (complete it as any other). At rest it is the cycle that

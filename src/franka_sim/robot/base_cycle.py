@@ -51,6 +51,9 @@ class BaseCycle(PacerQuestions):
         state = self.core.publish()
         return Released(self.core.message_id, state, None)
 
+    def skip(self, cycles: int) -> None:
+        self.core.skip(cycles)
+
     def repeat(self) -> Released:
         state = self.core.republish()
         return Released(self.core.message_id, state, None)

@@ -134,6 +134,9 @@ class RobotPart(Protocol):
     def repeat(self) -> Released:
         """Its last state again under the next message_id, nothing stepped."""
 
+    def skip(self, cycles: int) -> None:
+        """Its clock (and its tools') moves on `cycles` ids, no state, nothing stepped."""
+
     def complete(self, released: Released) -> Replies:
         """After the state has left: its tools, the rest of the step, its replies."""
 
@@ -161,5 +164,8 @@ class Cycle(Protocol):
 
     def hold(self):
         """repeat() while a motion awaits its client's first command; None: release instead."""
+
+    def skip(self, cycles: int) -> None:
+        """The clock moves on `cycles` ids, no state sent, nothing stepped (idle only)."""
 
     def complete(self, released): ...

@@ -26,6 +26,9 @@ class WorldEvents:
     def repeated(self, message_id: int) -> None:
         """Cycle `message_id` left the world as it was (lockstep's idle time or hold)."""
 
+    def skipped(self, first: int, last: int) -> None:
+        """Cycles `first`..`last` went by with no state (an idle gap rounded up)."""
+
 
 NO_ROBOT_EVENTS, NO_WORLD_EVENTS = RobotEvents(), WorldEvents()
 

@@ -150,6 +150,12 @@ class FciRobot:
             self.window.opened(self.message_id)
         return motion
 
+    def skip(self, cycles: int) -> None:
+        """The clock moves on `cycles` ids with no state: lockstep rounds an idle gap up to
+        whole IDLE_QUANTUM cycles (server/clock.py). Only while nothing is under way, so no
+        motion's window opens for them."""
+        self.message_id += cycles
+
     def republish(self) -> bytes:
         """The last state again as the next cycle's, nothing stepped or estimated: a cycle of
         a world left as it was (lockstep's idle time, or a motion awaiting its client's first

@@ -110,6 +110,11 @@ class Hand:
         else:  # stay where the fingers stopped (a missed grasp stops squeezing)
             self._hold(fingers.width)
 
+    def skip(self, cycles: int) -> None:
+        self.cycle += cycles
+        if self._action is not None:  # requested in the idle gap, not yet begun
+            self._action.ramp.first += cycles
+
     def state_due(self, cycle: int) -> bool:
         return cycle % self.state_period == 0
 

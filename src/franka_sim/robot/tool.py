@@ -29,6 +29,10 @@ class ToolDevice(Protocol):
     def take_replies(self) -> list[bytes]:
         """Answers to actions that completed, in order."""
 
+    def skip(self, cycles: int) -> None:
+        """The clock moved on `cycles` ids with no step (robot/fci.py `skip`): an action
+        requested meanwhile starts after them."""
+
     def state_due(self, cycle: int) -> bool:
         """Whether cycle `cycle` sends its state datagram."""
 

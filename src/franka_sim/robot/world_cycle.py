@@ -175,6 +175,14 @@ class WorldCycle:
         self.events.repeated(released.message_id)
         return released
 
+    def skip(self, cycles: int) -> None:
+        """Every robot's clock moves on `cycles` ids with no state and nothing stepped (the
+        world at rest, nothing under way: what `cycles` repeats would leave, unsent)."""
+        first = self.message_id + 1
+        for part in self.parts:
+            part.skip(cycles)
+        self.events.skipped(first, first + cycles - 1)
+
     def hold(self) -> WorldReleased | None:
         """A motion awaits its client's first command: its window closes as at any release
         (the miss is counted, and enforcement may end the motion); while that changes nothing,
@@ -203,11 +211,12 @@ class WorldCycle:
 
     def _await(self) -> None:
         """Whose answers the state just released waits for: every robot whose client streams;
-        with none, the robots whose motion's first state it is (an answer is taken at once)."""
+        with none, the robots whose motion's first state it is or whose motion still awaits
+        its client's first command (an answer is taken at once)."""
         streaming, first = set(), set()
         for i, part in enumerate(self.parts):
             core = part.core
-            if core.first_motion_state:
+            if core.first_motion_state or core.awaiting_first_command:
                 first.add(i)
             elif core.streams_commands:
                 streaming.add(i)

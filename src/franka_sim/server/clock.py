@@ -56,6 +56,9 @@ PAUSE_AFTER = 2000  # cycles without a client before the clock pauses (the world
 # cycles one tick runs: work under way that takes longer goes on in the next tick.
 TREMBLE_CYCLES = 2000
 MAX_SETTLE_CYCLES = 20_000
+# Lockstep, idle: a gap in which the clock repeated states (the client lingered past the
+# window) counts as a whole number of these cycles (1 s), whatever its wall time decided.
+IDLE_QUANTUM = 1000
 
 
 class ClockWatcher:
@@ -74,6 +77,9 @@ class ClockWatcher:
 
     def window_ran_out(self) -> None:
         """A lockstep cycle went without the answer it waited for."""
+
+    def skipped(self, cycles: int) -> None:
+        """An idle gap a client lingered in was rounded up by `cycles` ids sent no state."""
 
 
 class Clock:
@@ -96,6 +102,8 @@ class Clock:
         self._events = 0
         self._served = 0
         self._frozen = False  # lockstep, idle: the world is left as it is until a client event
+        self._gap = 0  # lockstep: states repeated since the world froze (the idle gap)
+        self._gap_watched = False  # a client was connected through it
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         # Lockstep: the server itself keeps its client waiting (the control API's HTTP server
         # being loaded on its first connection): no cycle goes without its answer meanwhile.
@@ -128,7 +136,8 @@ class Clock:
         motion's first state, which nothing waits for beyond a period: libfranka never answers
         it, but a client that does has its answer taken at once all the same."""
         cycle = self.cycle
-        return self.lockstep and (cycle.lockstep_applies or cycle.first_motion_state)
+        return self.lockstep and (cycle.lockstep_applies or cycle.first_motion_state
+                                  or cycle.holds_start)
 
     # -- the tick ----------------------------------------------------------------------------------
     def tick(self, due: bool, answered: bool, awaited: bool) -> float | None:
@@ -171,6 +180,12 @@ class Clock:
             # goes one period after it, not a lockstep window. A period, not less, so that the
             # handshake has read the first state alone before the second arrives.
             self.deadline = sent_at + self.pacer.period
+        elif lockstep and cycle.holds_start:
+            # The world held for the client's first command (libfranka answers the state
+            # after the first): that command releases the next cycle when it comes; another
+            # held state goes only after a window, so a slow client reads no more of them
+            # than a fast one and the message_ids after the start are the same in every run.
+            self.deadline = self.pacer.next_deadline(sent_at, lockstep=True)
         else:
             self.deadline = self.pacer.next_deadline(
                 sent_at, lockstep=lockstep and cycle.lockstep_applies)
@@ -181,9 +196,13 @@ class Clock:
         cycle = self.cycle
         if self.lockstep:
             if self._frozen and not requested:  # lockstep's idle time, the client away
-                if self.has_client():  # (before a client comes their count is fixed)
+                self._gap_watched = self.has_client()
+                if self._gap_watched:  # (before a client comes their count is fixed)
                     self.watcher.repeated()
+                self._gap += 1
                 return cycle.repeat()
+            if self._gap:
+                self._round_up_gap()
             if cycle.holds_start:
                 held = cycle.hold()
                 if held is not None:
@@ -194,6 +213,17 @@ class Clock:
         if cycle.first_motion_state:
             self.watcher.motion_started()
         return released
+
+    def _round_up_gap(self) -> None:
+        """An event ends an idle gap: the clock moves on to the next whole IDLE_QUANTUM of
+        cycles since the gap began, no state sent, so the message_id (the client's `time`)
+        after it is the same however long the client lingered (up to the quantum)."""
+        gap, self._gap = self._gap, 0
+        cycles = -gap % IDLE_QUANTUM
+        if cycles:
+            self.cycle.skip(cycles)
+            if self._gap_watched:
+                self.watcher.skipped(cycles)
 
     def _idle_in_lockstep(self, released, sent_at: float, replies, event: bool) -> float | None:
         """Lockstep, no client motion: idle time is not wall time (see the module docstring).

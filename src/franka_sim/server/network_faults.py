@@ -50,6 +50,9 @@ class NetworkFaults(ClockWatcher):
     def repeated(self) -> None:
         self.repeats += 1
 
+    def skipped(self, cycles: int) -> None:  # what the repeats of an idle gap were rounded up by
+        self.repeats += cycles
+
     def motion_started(self) -> None:
         self.key_offset = self.repeats
 

@@ -4,7 +4,8 @@
     wall | REJECTED robot reason source data wall | TCP robot service event data n completed wall
     | REPLY robot service data n wall | TOOL_STATE robot data wall | CONTROL robot operation
     arguments status result n completed wall | POSES n qpos wall | REPEATED n wall | LOG wall
-    level logger message
+    level logger message | SKIPPED first last wall
 """
 
-SENT, COMMAND, LOST, REJECTED, TCP, REPLY, TOOL_STATE, CONTROL, POSES, REPEATED, LOG = range(11)
+(SENT, COMMAND, LOST, REJECTED, TCP, REPLY, TOOL_STATE, CONTROL, POSES, REPEATED, LOG,
+ SKIPPED) = range(12)

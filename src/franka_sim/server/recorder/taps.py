@@ -75,6 +75,11 @@ class Taps(WorldEvents):
         if recorder is not None:
             recorder.put((ev.REPEATED, message_id, time.time_ns()))
 
+    def skipped(self, first: int, last: int) -> None:
+        recorder = self.recorder
+        if recorder is not None:
+            recorder.put((ev.SKIPPED, first, last, time.time_ns()))
+
     def control(self, robot: int, operation: str, arguments: dict, at: tuple[int, bool],
                 status: int, result) -> None:
         """A control operation ran (cycle thread) at `at` (position() before it ran)."""

@@ -130,6 +130,9 @@ class RecordingWriter:
             _, robot, command, on_time, n, completed, wall = event
             self._add((robot, "command"), wall, COMMAND_PREFIX.pack(n, completed, on_time)
                       + command.tobytes(), n)
+        elif kind == ev.SKIPPED:
+            _, first, last, wall = event
+            self._json("skipped", wall, {"first": first, "last": last}, first)
         elif kind == ev.TOOL_STATE:
             _, robot, data, wall = event
             self._add((robot, "gripper_state"), wall, data, 0)
