@@ -32,7 +32,7 @@ MODULES = {
                "robot/test_consecutive_motions.py", "robot/test_motion.py",
                "robot/test_motion_cartesian.py", "server/test_pacing.py",
                "server/test_lockstep_idle.py", "server/test_determinism.py",
-               "server/test_cycle_thread.py"],
+               "server/test_cycle_thread.py", "clients/test_lockstep_time.py"],
     "limits": ["robot/test_limits.py", "robot/test_limits_raw.py", "robot/test_ik_limits.py",
                "robot/test_safety.py", "clients/test_limits_client.py",
                "clients/test_examples_strict.py"],

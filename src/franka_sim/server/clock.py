@@ -34,12 +34,14 @@ reproduces to the bit however long the client takes between them:
 - a motion's first state goes one period after its request's (libfranka never answers it), and
   until the client's first command the world is held (`hold`): however many states the client's
   start-motion handshake read, its first command meets the same world.
-So every state a client can see after an event is the same bits in every run; only message_id
-counts wall time, and only the wall time a client spends longer than the window between events.
+So every state a client can see after an event is the same bits in every run. message_id too: a
+gap in which the last state went again (the client lingered past the window) is rounded up to
+whole IDLE_QUANTUM cycles when the event that ends it comes, the ids in between sent nothing.
 
-The clock pauses while nobody is connected and the world has settled (PAUSE_AFTER cycles after
-the last client left): nothing can observe it, and an idle fleet of simulators then costs no
-CPU. The next client resumes it at once; message_id carries on from where it stopped.
+The clock pauses while nobody is connected and the world has settled (realtime: PAUSE_AFTER
+cycles after the last client left; lockstep: as soon as the world is left as it is): nothing
+can observe it, and an idle fleet of simulators then costs no CPU. The next client resumes it
+at once (lockstep: its first request); message_id carries on from where it stopped.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ MAX_SETTLE_CYCLES = 20_000
 # Lockstep, idle: a gap in which the clock repeated states (the client lingered past the
 # window) counts as a whole number of these cycles (1 s), whatever its wall time decided.
 IDLE_QUANTUM = 1000
+HELD_AT_PERIOD = 2  # held states a motion's start sends a period apart before it waits
 
 
 class ClockWatcher:
@@ -103,6 +106,7 @@ class Clock:
         self._served = 0
         self._frozen = False  # lockstep, idle: the world is left as it is until a client event
         self._gap = 0  # lockstep: states repeated since the world froze (the idle gap)
+        self._held = 0  # lockstep: held states since the last step (a motion's start)
         self._gap_watched = False  # a client was connected through it
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
         # Lockstep: the server itself keeps its client waiting (the control API's HTTP server
@@ -151,6 +155,8 @@ class Clock:
         requested = self._events != self._served and lockstep and not cycle.client_driven
         if not due and not self.paused and not (answered and awaited) and not requested:
             return self.deadline  # woken, but nothing to release
+        if self.paused and lockstep and not requested:
+            return None  # a connection alone is no event: its first request resumes lockstep
         self.paused = False
         if due and lockstep and cycle.lockstep_applies and not answered:
             if self.server_busy:  # the client waits for us, not we for it: wait on
@@ -180,11 +186,12 @@ class Clock:
             # goes one period after it, not a lockstep window. A period, not less, so that the
             # handshake has read the first state alone before the second arrives.
             self.deadline = sent_at + self.pacer.period
-        elif lockstep and cycle.holds_start:
-            # The world held for the client's first command (libfranka answers the state
-            # after the first): that command releases the next cycle when it comes; another
-            # held state goes only after a window, so a slow client reads no more of them
-            # than a fast one and the message_ids after the start are the same in every run.
+        elif lockstep and cycle.holds_start and self._held >= HELD_AT_PERIOD:
+            # The world held for the client's first command: libfranka's loop answers the
+            # state after the first, a pylibfranka program that reads once before its loop
+            # the one after that, and those go a period apart. Then the first command
+            # releases the next cycle when it comes, and another held state goes only after
+            # a window: a client slow over its first command reads no more of them.
             self.deadline = self.pacer.next_deadline(sent_at, lockstep=True)
         else:
             self.deadline = self.pacer.next_deadline(
@@ -206,10 +213,12 @@ class Clock:
             if cycle.holds_start:
                 held = cycle.hold()
                 if held is not None:
+                    self._held += 1
                     self.watcher.held()
                     return held
         self._frozen = False
         released = cycle.release()
+        self._held = 0
         if cycle.first_motion_state:
             self.watcher.motion_started()
         return released
@@ -269,6 +278,8 @@ class Clock:
         if cycle.at_rest:
             self._trembling = 0
         self._frozen = True
+        if not self.has_client():
+            return self._pause()  # nobody could read a state: none goes until an event
         # After the client's event, or the world it disturbed come to rest: hold for its next
         # one (LOCKSTEP_WINDOW). Once that ran out: the world as it is each ms, on the wall clock.
         self.deadline = self.pacer.next_deadline(sent_at, lockstep=bool(event or settled))

@@ -54,7 +54,10 @@ class RobotServer:
         if self.tool is not None:
             self.tool_endpoint = ToolEndpoint(
                 self.tool_kind.service.name, self._make_tool_session, self._on_tool_disconnect,
-                lock=lock, on_request=driver.client_event, taps=robot_taps)
+                lock=lock, on_request=driver.client_event, taps=robot_taps,
+                # as the robot's: a request's answer follows the cycle it landed on, so a
+                # client's next request lands on a later one (lockstep numbers each alike)
+                defer_replies=driver.after_next_state)
         connected = lambda: self.fci.active is not None  # noqa: E731
         if parts.kind == "arm":
             self.control = ArmOps(

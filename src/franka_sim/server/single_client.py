@@ -120,11 +120,12 @@ class ClientConnection(asyncio.Protocol):
             log.warning("closing %s connection from %s:%s: %s", self.owner.what, *self.peer, exc)
             self.transport.close()
             return
+        if not was_connected and self.session.handshake is not None:
+            # before its Connect counts as an event: the cycle that follows sees a client
+            self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
         if self.session.requests != requests:
             self.owner.on_request()
         self._watch(restart=self.session.requests != requests)
-        if not was_connected and self.session.handshake is not None:
-            self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
         closed = self.session.closed
 
         def deliver() -> None:

@@ -22,9 +22,12 @@ class ToolEndpoint(SingleClientEndpoint):
     def __init__(self, what: str, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None],
                  lock: AbstractContextManager | None = None,
-                 on_request: Callable[[], None] = lambda: None, taps=None) -> None:
+                 on_request: Callable[[], None] = lambda: None, taps=None,
+                 defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False
+                 ) -> None:
         super().__init__(what, make_session, self._on_handshake, self._on_disconnect,
-                         lock=lock, on_request=on_request, taps=taps)
+                         defer_replies=defer_replies, lock=lock, on_request=on_request,
+                         taps=taps)
         self._client_gone = on_disconnect
         self.state_target: tuple[str, int] | None = None
         self.udp: asyncio.DatagramTransport | None = None
