@@ -202,7 +202,7 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
                                               quat=quat(flange.offset[:3, :3]))
     _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY, prefix, extra_bits)
     if tool is not None:
-        tool.build(hand_body, prefix, extra_bits)
+        tool.build(spec, hand_body, prefix, extra_bits)
     else:
         set_inertial(hand_body, hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
 

@@ -7,12 +7,19 @@ Finger 2 is finger 1 turned half a turn about the hand axis, so both share one l
 homing (which opens to the stops) measures a max_width of 0.081 m, inside the 0.080–0.082 m real
 hands report. At joint position 0 the pads' inner faces meet: width = x1 + x2 exactly.
 
-Drive. Each finger joint gets F = clip(K·(x_d − x) + D·(v_d − v), −F_lim, F_lim) plus its own
-gravity load (so a resting finger is exactly at rest, like the arm), where F_lim is the command's
-force (at most MAX_FINGER_FORCE). Both joints get the same command: the real Hand couples them
-through one motor; two equally driven joints agree with it at rest and let an off-centre object
-push each finger separately. A finger blocked by an object saturates at F_lim, so a grasp
-squeezes with the commanded force. Gains and the drive's reflected
+Coupling. The real Hand drives both fingers with one motor through one mechanism, so they move
+as mirror images about the hand's axis: here a stiff, damped coupling between the two joint
+positions (finger 2 is finger 1 turned half a turn, so equal positions are mirrored fingers)
+stands for that mechanism. A finger that meets an off-centre object first pushes it towards the
+axis until the other finger meets it too: a grasp ends centred between the pads, as on the
+robot. The coupling is part of the drive's forces, not a solver constraint: with the fingers
+mirrored it is exactly zero, so a Hand at rest stays bit-exact at rest.
+
+Drive. One force F = clip(K·(x_d − x̄) + D·(v_d − v̄), −F_lim, F_lim) on the fingers' mean
+position x̄ (half the width) goes to each finger joint, plus each finger's own gravity load (so
+resting fingers are exactly at rest, like the arm), where F_lim is the command's force (at most
+MAX_FINGER_FORCE). Fingers blocked by an object saturate at F_lim, so a grasp squeezes with the
+commanded force. Gains and the drive's reflected
 inertia along the stroke are our choice (not published): stiff enough to track 0.1 m/s of width
 within a fraction of a millimetre, critically damped, and well inside the explicit 1 kHz
 stability bound.
@@ -63,6 +70,11 @@ PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
 SOLE_THICKNESS = 0.002  # m
 
 FINGER_ARMATURE = 0.1  # kg along the stroke: the drive's reflected inertia (our choice)
+# The mechanism that mirrors the fingers: N/m and N·s/m on the difference of the two finger
+# positions. 1 N of off-centre load (a cube dragged over the table) leaves 50 µm of asymmetry;
+# the relative mode (ω·dt ≈ 0.8, damping ratio 0.7) is well inside the 1 kHz explicit bound.
+COUPLING_KP = 20_000.0
+COUPLING_KD = float(0.7 * 2.0 * np.sqrt(COUPLING_KP * (FINGER_MASS + FINGER_ARMATURE)))
 FINGER_KP = 3000.0  # N/m per finger
 # Critical damping, N·s/m; a Python float, as the drive's per-step arithmetic is on scalars.
 FINGER_KD = float(2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE)))
@@ -201,11 +213,12 @@ class Fingers:
         target, velocity = 0.5 * c.width, 0.5 * c.speed
         limit = max(0.0, min(c.force, MAX_FINGER_FORCE))
         (x1, x2), (v1, v2) = self._q.tolist(), self._v.tolist()
-        f1 = _clip(FINGER_KP * (target - x1) + FINGER_KD * (velocity - v1), limit)
-        f2 = _clip(FINGER_KP * (target - x2) + FINGER_KD * (velocity - v2), limit)
+        f = _clip(FINGER_KP * (target - 0.5 * (x1 + x2))
+                  + FINGER_KD * (velocity - 0.5 * (v1 + v2)), limit)
+        mirror = COUPLING_KP * (x2 - x1) + COUPLING_KD * (v2 - v1)  # 0 when mirrored
         g1, g2 = self._gravity.tolist()
-        self._applied[0], self._applied[1] = f1 + g1, f2 + g2
-        self._drive = (f1, f2)
+        self._applied[0], self._applied[1] = f + mirror + g1, f - mirror + g2
+        self._drive = (f, f)
 
     def settle(self, command: FingerCommand | None, band: float) -> bool:
         """A finger within `band` of a standing command's opening, and slower than `band`, is
@@ -258,9 +271,9 @@ class Fingers:
 class FingersMount:
     """The Hand's fingers as a tool on an arm (physics/tool.py ToolMount)."""
 
-    def build(self, hand_body, prefix: str, bits: tuple[int, int]) -> None:
+    def build(self, spec, hand_body, prefix: str, bits: tuple[int, int]) -> None:
         """Palm inertial (composite minus open fingers) and the two finger bodies with their
-        joints."""
+        joints (the coupling that mirrors them is the drive's)."""
         half = OPEN_WIDTH / 2
         palm = Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
         set_inertial(hand_body, palm.mass, *palm.inertial(half, half))

@@ -52,9 +52,11 @@ class ToolAttachment(Protocol):
 class ToolMount(Protocol):
     """How a tool is built into an arm's model and attached to the world's data."""
 
-    def build(self, hand_body: mujoco.MjsBody, prefix: str, bits: tuple[int, int]) -> None:
-        """Its bodies, joints and the flange body's own inertial on the hand body (`bits`: the
-        arm's extra contype/conaffinity, OR'ed into the tool's geoms)."""
+    def build(self, spec: mujoco.MjSpec, hand_body: mujoco.MjsBody, prefix: str,
+              bits: tuple[int, int]) -> None:
+        """Its bodies, joints and the flange body's own inertial on the hand body, and any
+        constraint of its own in `spec` (`bits`: the arm's extra contype/conaffinity, OR'ed
+        into the tool's geoms)."""
 
     def attach(self, model: mujoco.MjModel, data: mujoco.MjData, gravity: np.ndarray,
                prefix: str, hand_body: int) -> ToolAttachment:
