@@ -1,8 +1,9 @@
 """The served FR3 description: what libfranka requires of it, and that it is the FR3.
 
-Expected figures are restated here as data (protocol_v10.md §7 and §9, fr3_facts.md §1 and §6)
-and the kinematics are checked against an independent modified-DH chain, so a typo in the URDF
-or in the parser cannot hide behind the code that consumes it.
+Expected figures are restated here as data (tests/data/fr3_limits.md, and docs/figures.md: the
+kinematics, link masses, accelerometer frames and the served URDF's rules) and the kinematics are
+checked against an independent modified-DH chain, so a typo in the URDF or in the parser cannot
+hide behind the code that consumes it.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from franka_sim.description.urdf import DescriptionError, default_urdf_text, loa
 URDF = default_urdf_text()
 PI = math.pi
 
-# protocol_v10 §7: lower, upper, velocity, effort, deceleration, velocity offset.
+# tests/data/fr3_limits.md: lower, upper, velocity, effort, deceleration, velocity offset.
 LIMITS = [
     (-2.7501, 2.7501, 2.62, 87, 6.0, 0.30),
     (-1.7918, 1.7918, 2.62, 87, 2.585, 0.20),
@@ -32,13 +33,13 @@ LIMITS = [
 ]
 DATASHEET = [(-2.9007, 2.9007), (-1.8361, 1.8361), (-2.9007, 2.9007), (-3.0770, -0.1169),
              (-2.8763, 2.8763), (0.4398, 4.6216), (-3.0508, 3.0508)]
-# fr3_facts §1.1, Craig's modified DH: (a, d, alpha) per joint, then the flange.
+# docs/figures.md, "Kinematics (modified DH)": (a, d, alpha) per joint, then the flange.
 DH = [(0, 0.333, 0), (0, 0, -PI / 2), (0, 0.316, PI / 2), (0.0825, 0, PI / 2),
       (-0.0825, 0.384, -PI / 2), (0, 0, PI / 2), (0.088, 0, PI / 2)]
 FLANGE_D = 0.107
-# fr3_facts §1.2 masses, links 0..7.
+# docs/figures.md, "Link masses and inertials": masses, links 0..7.
 MASSES = [2.3966, 2.92747, 2.93554, 2.24490, 2.61560, 2.32712, 1.81704, 0.627143]
-# fr3_facts §6: (xyz, roll) of each accelerometer frame in its link, top then bottom.
+# docs/figures.md, "Accelerometer frames": (xyz, roll) of each frame in its link, top then bottom.
 ACCELEROMETERS = {
     0: (((0, 0, 0.05), PI), ((0, 0, 0.06), 0)),
     1: (((0, -0.10, 0), PI / 2), ((0, -0.09, 0), -PI / 2)),
@@ -71,7 +72,7 @@ def random_poses(desc, n, seed=1):
     return [rng.uniform(desc.lower, desc.upper) for _ in range(n)]
 
 
-# -- what libfranka requires (protocol_v10 §9), checked on the XML itself --------------------------
+# -- docs/figures.md, "What libfranka requires of the served URDF", checked on the XML itself --
 def test_served_urdf_satisfies_libfranka_rules():
     robot = ET.fromstring(URDF)
     assert robot.tag == "robot" and robot.get("name") == "fr3"

@@ -2,8 +2,9 @@
 holds still when the robot holds, and its sensors read what a resting FR3's would.
 
 Reference quantities are computed independently of MuJoCo and of our kinematics module: a
-modified-DH chain (fr3_facts §1.1) carrying the description's inertials, with gravity from the
-complex-step derivative of the potential energy and the mass matrix from link Jacobians.
+modified-DH chain (docs/figures.md, "Kinematics (modified DH)") carrying the description's
+inertials, with gravity from the complex-step derivative of the potential energy and the mass
+matrix from link Jacobians.
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ from franka_sim.protocol import (
     errors_to_names,
 )
 
-# protocol_v10.md section 3, restated: (offset, field, element count, element size)
+# protocol_specs/robot_v10.md "RobotState", restated: (offset, field, element count, element size)
 ROBOT_STATE_OFFSETS = [
     (0, "message_id", 1, 8), (8, "O_T_EE", 16, 4), (72, "O_T_EE_d", 16, 4),
     (136, "F_T_EE", 16, 4), (200, "EE_T_K", 16, 4), (264, "F_T_NE", 16, 4),
@@ -56,7 +56,7 @@ ROBOT_STATE_OFFSETS = [
     (1373, "control_command_success_rate", 1, 4),
 ]
 
-# protocol_v10.md section 4
+# protocol_specs/robot_v10.md, "RobotCommand"
 ROBOT_COMMAND_OFFSETS = [
     (0, "message_id", 1, 8), (8, "q_c", 7, 8), (64, "dq_c", 7, 8), (120, "O_T_EE_c", 16, 8),
     (248, "O_dP_EE_c", 6, 8), (296, "elbow_c", 2, 8), (312, "valid_elbow", 1, 1),

@@ -1,9 +1,9 @@
 """The limit tables: the datasheet figures, libfranka's constants and the served URDF agree.
 
-The published figures are restated here as data (FR3 datasheet figures as listed in fr3_facts.md
-§1.3–§1.4, and libfranka's constants from protocol_v10.md §7), so a typo in the checks' figures or in
-the URDF cannot hide behind the code that consumes it. The restatement itself is checked against
-the same figures as tables in tests/data/fr3_limits.md, so a typo there shows too.
+The published figures are restated here as data (the FR3 datasheet figures, and libfranka's
+constants as docs/figures.md, "Joint and Cartesian limits", gives them), so a typo in the checks'
+figures or in the URDF cannot hide behind the code that consumes it. The restatement itself is
+checked against the same figures as tables in tests/data/fr3_limits.md, so a typo there shows too.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from franka_sim.robot.checks.measuring import frame_defect
 DESC = load_arm_description(default_urdf_text())
 FACTS = Path(__file__).resolve().parents[1] / "data" / "fr3_limits.md"
 
-# FR3 datasheet figures as listed in fr3_facts.md §1.3, per joint: q range of libfranka's test
-# URDF <limit> (pre-5.9), q̇ max, q̈ max, jerk max, τ max, τ̇ max.
+# FR3 datasheet figures (tests/data/fr3_limits.md, "Joint limits"), per joint: q range of
+# libfranka's test URDF <limit> (pre-5.9), q̇ max, q̈ max, jerk max, τ max, τ̇ max.
 JOINTS = [
     (-2.7501, 2.7501, 2.62, 10, 5000, 87, 1000),
     (-1.7918, 1.7918, 2.62, 10, 5000, 87, 1000),
@@ -34,15 +34,17 @@ JOINTS = [
     (0.54092, 4.5205, 4.18, 10, 5000, 12, 1000),
     (-3.0196, 3.0196, 5.26, 10, 5000, 12, 1000),
 ]
-# fr3_facts §1.4, libfranka set: deceleration, velocity offset, where the upper law reaches 0.
+# tests/data/fr3_limits.md, "Position-based velocity limits", libfranka's set: deceleration,
+# velocity offset, where the upper law reaches 0.
 VELOCITY_LAW = [(6.0, 0.30, 2.7426), (2.585, 0.20, 1.7841), (3.5, 0.20, 2.9008),
                 (4.0, 0.30, -0.1571), (17.0, 0.35, 2.8065), (5.5, 0.35, 4.5094),
                 (17.0, 0.35, 3.0160)]
-# fr3_facts §1.3 "Cartesian limits, FR3": velocity, acceleration, jerk.
+# tests/data/fr3_limits.md, "Cartesian limits": velocity, acceleration, jerk.
 CARTESIAN = {"Translation": (3.0, 9.0, 4500), "Rotation": (2.5, 17, 8500),
              "Elbow": (2.62, 10, 5000)}
-# protocol_v10 §7: libfranka's rate-limiter constants (before its 1e-3 is subtracted), which
-# must equal the robot's figures, except the elbow velocity it deliberately keeps lower.
+# docs/figures.md, "Joint and Cartesian limits": libfranka's rate-limiter constants (before its
+# 1e-3 is subtracted), which must equal the robot's figures, except the elbow velocity it
+# deliberately keeps lower.
 LIBFRANKA = {"joint": (10, 5000), "torque rate": 1000, "translation": (3, 9, 4500),
              "rotation": (2.5, 17, 8500), "elbow": (1.5, 10, 5000)}
 
@@ -88,7 +90,8 @@ def test_a_different_served_urdf_means_different_limits():
 
 
 def _law(q, lower, upper, v_max, decel, offset):
-    """fr3_facts §1.4 written out per joint, independently of the vectorised table."""
+    """The law of docs/figures.md ("The position-based velocity limit law") written out per joint,
+    independently of the vectorised table."""
     up = min(v_max, max(0.0, -offset + math.sqrt(max(0.0, 2 * decel * (upper - q)))))
     low = max(-v_max, min(0.0, offset - math.sqrt(max(0.0, 2 * decel * (q - lower)))))
     return low, up
@@ -158,7 +161,7 @@ def _numbers(cell: str) -> list[float]:
     return [-values[0], values[0]] if cell.startswith("±") else values
 
 
-def test_the_restated_figures_are_those_of_fr3_facts():
+def test_the_restated_figures_are_those_of_the_datasheet():
     text = FACTS.read_text(encoding="utf-8")
     joints = _table(text, "| Joint | q min/max")
     assert len(joints) == 7

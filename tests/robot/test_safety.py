@@ -1,8 +1,9 @@
 """Motion-limit checking, as a specification: which command streams the robot refuses, and how
 it names them (sans-IO: crafted RobotCommand records in, Violations out, no server).
 
-Figures come from fr3_facts.md §1.3–1.4 and protocol_v10.md §3/§7. Streams are built at 1 ms
-cycles; `cycles` > 1 means the server saw that many cycles between two applied commands.
+Figures come from tests/data/fr3_limits.md and docs/figures.md ("Joint and Cartesian limits"),
+error names from protocol_specs/robot_v10.md ("Error bits"). Streams are built at 1 ms cycles;
+`cycles` > 1 means the server saw that many cycles between two applied commands.
 """
 
 from __future__ import annotations

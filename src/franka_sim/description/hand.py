@@ -1,4 +1,4 @@
-"""The Franka Hand as the robot reports it to libfranka (fr3_facts §3).
+"""The Franka Hand as the robot reports it to libfranka (docs/figures.md, "The Franka Hand").
 
 These are the figures a real FR3 with a Hand, configured in Desk, puts into every RobotState
 (m_ee, F_x_Cee, I_ee, F_T_NE): they come from the echo_robot_state dump published in Franka's

@@ -13,7 +13,8 @@ import numpy as np
 
 from franka_sim.description.urdf import FLANGE_LINK, ArmDescription
 
-# Joint-4 angle at which the elbow flips (fr3_facts §1.1): elbow[1] is +1 above, −1 below.
+# Joint-4 angle at which the elbow flips: elbow[1] is +1 above, −1 below (docs/figures.md,
+# "Kinematics (modified DH)").
 ELBOW_FLIP_Q4 = -0.467002423653011
 
 

@@ -3,9 +3,9 @@
 The same text goes to the client (libfranka builds its Pinocchio `Model` from it) and, through
 this module, into our MuJoCo scene and our numpy kinematics, so both sides agree by
 construction. The parser therefore also enforces what libfranka itself requires of a served
-URDF (protocol_v10.md §9): a description that would make the client throw is rejected here,
-at start-up, with a `DescriptionError` that says why, instead of surfacing later as an opaque
-client-side failure.
+URDF (docs/figures.md, "What libfranka requires of the served URDF"): a description that would
+make the client throw is rejected here, at start-up, with a `DescriptionError` that says why,
+instead of surfacing later as an opaque client-side failure.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class JointLimits:
     upper: float
     effort: float
     velocity: float
-    velocity_offset: float  # position-based velocity law (fr3_facts §1.4)
+    velocity_offset: float  # position-based velocity law (tests/data/fr3_limits.md)
     deceleration_limit: float
     soft_lower: float | None = None  # <safety_controller>: the datasheet range
     soft_upper: float | None = None

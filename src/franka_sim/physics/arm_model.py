@@ -26,9 +26,9 @@ from franka_sim.physics.tool import ToolMount
 # Motor rotor inertia reflected through the gearbox, kg·m², per joint. libfranka's Model (the
 # URDF's rigid bodies) leaves it out, but the physics needs it: without it joint 7 is so light
 # that an explicit 1 kHz impedance loop diverges. Figures: the MuJoCo Menagerie FR3 model's
-# armature (identified in torque control per its changelog, fr3_facts §2). Drake quotes ~3×
-# larger "reflected inertia provided by Franka"; the sources are not reconciled, and we take
-# the smaller, torque-control-identified set.
+# armature (identified in torque control per its changelog). Drake quotes ~3× larger
+# "reflected inertia provided by Franka"; the sources are not reconciled, and we take the
+# smaller, torque-control-identified set (docs/figures.md, "Joint elasticity and rotor inertia").
 ROTOR_INERTIA_FR3 = (0.195, 0.195, 0.195, 0.195, 0.074, 0.074, 0.074)
 
 FLANGE_SITE = "flange"

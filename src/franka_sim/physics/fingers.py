@@ -1,7 +1,8 @@
 """The Franka Hand's two fingers: geometry, drive, and the palm that keeps the hand exact.
 
-Mechanics (fr3_facts §3). Two prismatic joints on the hand, 0.0584 m along the hand axis, each
-opening one finger along the hand's y axis (the NE frame's y, the flange's turned −45° about z).
+Mechanics (docs/figures.md, "The Franka Hand"). Two prismatic joints on the hand, 0.0584 m along
+the hand axis, each opening one finger along the hand's y axis (the NE frame's y, the flange's
+turned −45° about z).
 Finger 2 is finger 1 turned half a turn about the hand axis, so both share one local geometry and
 "+y opens". The datasheet stroke is 0–0.04 m per finger; our mechanical stop sits at 0.0405 m, so
 homing (which opens to the stops) measures a max_width of 0.081 m, inside the 0.080–0.082 m real
@@ -48,7 +49,7 @@ FINGER_STROKE = 0.0405  # m per finger: the mechanical stop (joint range [0, FIN
 OPEN_WIDTH = 0.08  # m: the datasheet opening; the fingers start here
 
 # Our own finger: a knuckle box under the hand, then a pad whose centre is the TCP (0.1034 m).
-FINGER_MASS = 0.03  # kg (the CAD fingers weigh ~0.029 kg, fr3_facts §3)
+FINGER_MASS = 0.03  # kg (the CAD fingers weigh ~0.029 kg: docs/figures.md, "The Franka Hand")
 FINGER_COM = np.array([0.0, 0.012, 0.028])  # in the finger frame
 FINGER_INERTIA = np.diag([9.8e-6, 1.0e-5, 2.0e-6])  # about the CoM, finger axes (a box's)
 PAD_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
@@ -78,7 +79,7 @@ COUPLING_KD = float(0.7 * 2.0 * np.sqrt(COUPLING_KP * (FINGER_MASS + FINGER_ARMA
 FINGER_KP = 3000.0  # N/m per finger
 # Critical damping, N·s/m; a Python float, as the drive's per-step arithmetic is on scalars.
 FINGER_KD = float(2.0 * np.sqrt(FINGER_KP * (FINGER_MASS + FINGER_ARMATURE)))
-MAX_FINGER_FORCE = 100.0  # N per finger (the description's effort limit, fr3_facts §3)
+MAX_FINGER_FORCE = 100.0  # N per finger (the URDF effort limit: docs/figures.md, "The Franka Hand")
 
 
 @dataclass(frozen=True)

@@ -26,9 +26,9 @@ from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.robot.cartesian import ee_jacobian
 from franka_sim.robot.settings import CollisionThresholds, RobotSettings
 
-# The robot's estimator cutoff is unpublished (fr3_facts §8). 20 Hz: a step in force is 95 % in
-# after 24 ms, fast enough for the reflex to follow an impact within a few cycles, and it smooths
-# MuJoCo's contact solver from step to step.
+# The robot's estimator cutoff is unpublished (docs/figures.md, "Collision and estimator
+# settings"). 20 Hz: a step in force is 95 % in after 24 ms, fast enough for the reflex to follow
+# an impact within a few cycles, and it smooths MuJoCo's contact solver from step to step.
 FILTER_CUTOFF_HZ = 20.0
 FILTER_GAIN = 1.0 - math.exp(-2.0 * math.pi * FILTER_CUTOFF_HZ * DT)
 # A decayed estimate below this is exactly zero again, so a contact-free arm costs nothing

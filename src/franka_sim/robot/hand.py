@@ -6,7 +6,7 @@ physics step the arm's cycle calls `advance(cycle, fingers)` with the finger sen
 Homing, Move and Grasp when the action completes (libfranka blocks until then), says what the
 finger drive does next (`command`), and packs a GripperState whenever `state_due(cycle)`.
 
-Figures and choices (fr3_facts §3 where sourced, ours otherwise):
+Figures and choices (docs/figures.md, "The Franka Hand", where sourced; ours otherwise):
 - GripperState at 10 Hz, every 100th cycle: Franka's maintainers put the ~10 Hz read rate down to
   the hand's internals, franky measured a new state every ~0.1 s, franka_ros2 says "maximally
   15 Hz". Its time is the robot's cycle number (ms), the clock RobotState.time counts too.

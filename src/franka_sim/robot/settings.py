@@ -2,9 +2,9 @@
 
 Kept apart from the cycle logic because every Set* command is the same shape: validate the
 arguments as the robot would (kInvalidArgumentRejected on anything it would refuse), then store.
-Ranges come from the FR3 documentation (see ../shared/reference/fr3_facts.md §4.1); where the
-robot's own power-up defaults are undocumented we use the values libfranka's examples set
-(`setDefaultBehavior`), and docs/deviations.md says so.
+Ranges come from the FR3 documentation (see docs/figures.md, "Collision and estimator
+settings"); where the robot's own power-up defaults are undocumented we use the values
+libfranka's examples set (`setDefaultBehavior`), and docs/deviations.md says so.
 """
 
 from __future__ import annotations

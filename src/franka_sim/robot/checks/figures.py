@@ -1,10 +1,10 @@
 """The FR3's fixed motion limits, the error each one latches, and the slack the checks allow.
 
 The fixed figures (joint acceleration and jerk, torque rate, the Cartesian translation/rotation/
-elbow envelopes) are the datasheet values (fr3_facts.md §1.3), which are the *robot's*
+elbow envelopes) are the datasheet values (tests/data/fr3_limits.md), which are the *robot's*
 thresholds; libfranka's client-side rate limiter uses the same figures minus 1e-3
-(protocol_v10.md §7), so a stream it produced stays inside them. The per-joint figures come from
-the served URDF instead (see joint_table.py).
+(docs/figures.md, "Joint and Cartesian limits"), so a stream it produced stays inside them. The
+per-joint figures come from the served URDF instead (see joint_table.py).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ CARTESIAN_ROTATION = Envelope(2.5, 17.0, 8500.0)  # rad/s, rad/s², rad/s³
 ELBOW = Envelope(2.62, 10.0, 5000.0)
 
 
-# -- the error each limit latches (protocol_v10.md §3) ------------------------------------------
+# -- the error each limit latches (protocol_specs/robot_v10.md, "Error bits") ---------------------
 @dataclass(frozen=True)
 class ErrorNames:
     """The errors a signal's velocity, acceleration and jerk latch when over their limits.
@@ -74,8 +74,9 @@ ELBOW_START_ERROR = f"{_CMG}start_elbow_invalid"
 ELBOW_START_SIGN_ERROR = "start_elbow_sign_inconsistent"
 ELBOW_SIGN_ERROR = f"{_CMG}elbow_sign_inconsistent"
 TORQUE_RATE_ERROR = "controller_torque_discontinuity"
-# The FCI lists τ max as only *recommended* under torque control (fr3_facts §1.3), so this is
-# reported without aborting; tau_J_range_violation is the one error bit about joint-torque range.
+# The FCI lists τ max as only *recommended* under torque control (docs/figures.md, "Joint and
+# Cartesian limits"), so this is reported without aborting; tau_J_range_violation is the one
+# error bit about joint-torque range.
 TORQUE_RANGE_ERROR = "tau_J_range_violation"
 MEASURED_VELOCITY_ERROR = "joint_velocity_violation"  # the safety controller, on measured dq
 MEASURED_RANGE_ERROR = "joint_position_limits_violation"
@@ -148,9 +149,10 @@ ELBOW_START_TOLERANCE = 1e-3  # rad
 FRAME_TOLERANCE = 1e-4
 
 # The safety controller watches *measured* velocity, which is noisy (~1e-2 rad/s at rest on the
-# robot, fr3_facts §4). Near a range end the position-based law allows 0 rad/s toward it, so a
-# threshold without slack would fire on noise of an arm simply held there. The slack also covers
-# the joint controller's overshoot of a ramping velocity command (≈ 0.012 rad/s at 8 rad/s²),
-# so a command that is too fast is named as such first, and the safety controller's
-# joint_velocity_violation follows it, as on hardware (both are latched).
+# robot: docs/figures.md, "Collision and estimator settings"). Near a range end the
+# position-based law allows 0 rad/s toward it, so a threshold without slack would fire on noise
+# of an arm simply held there. The slack also covers the joint controller's overshoot of a
+# ramping velocity command (≈ 0.012 rad/s at 8 rad/s²), so a command that is too fast is named
+# as such first, and the safety controller's joint_velocity_violation follows it, as on hardware
+# (both are latched).
 MEASURED_VELOCITY_TOLERANCE = 5e-2  # rad/s

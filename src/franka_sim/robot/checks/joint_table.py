@@ -59,9 +59,9 @@ class JointLimitTable:
     def speed_limits(self, q_signed: np.ndarray) -> np.ndarray:
         """(14,) speed allowed toward each end (upper ends first) at `signed(q)`; all ≥ 0.
 
-        The law (fr3_facts §1.4): no faster toward an end than the joint can still brake from at
-        its deceleration limit, less an offset, and never over the URDF velocity. The velocity
-        range at q is [−limits[7:], limits[:7]].
+        The law (docs/figures.md, "The position-based velocity limit law"): no faster toward an
+        end than the joint can still brake from at its deceleration limit, less an offset, and
+        never over the URDF velocity. The velocity range at q is [−limits[7:], limits[:7]].
         """
         gap = self.ends - q_signed  # distance left to each end (negative once past it)
         room = np.sqrt(np.maximum(gap, 0.0) * self._two_dec) - self._offset
