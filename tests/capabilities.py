@@ -38,7 +38,7 @@ MODULES = {
                "clients/test_examples_strict.py"],
     "forces": ["robot/test_external_forces.py", "robot/test_load.py",
                "clients/test_external_forces_client.py", "clients/test_load_client.py",
-               "clients/test_contact_buildup_client.py"],
+               "clients/test_contact_buildup_client.py", "clients/test_friction_client.py"],
     "physics": ["physics/test_physics.py", "physics/test_model.py", "physics/test_description.py",
                 "physics/test_scene.py", "physics/test_world.py", "physics/test_bodies.py"],
     "tools": ["tools/test_tool_seam.py", "robot/test_gripper_core.py",

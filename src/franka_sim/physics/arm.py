@@ -9,9 +9,10 @@ the stiffness (libfranka's generators start the next motion from the measured q)
 compensation the robot adds (whole chain and hand), which the world computes for every arm at
 once (physics/world.py): at rest it cancels MuJoCo's own bias force to the last bit, so an idle
 arm stays exactly where it is, however long it idles. A load declared with SetLoad (the
-command's `load`) adds its own gravity on top (physics/declared_load.py). There is no joint
-friction or damping: the real robot compensates its own friction in every mode, so a client
-sees none.
+command's `load`) adds its own gravity on top (physics/declared_load.py). The joints' residual
+friction (physics/friction.py) resists every motion; in the motion generators' modes the
+drives also add its value at the reference velocity, as the robot's own controller
+compensates what it knows, so only torque control feels what is left.
 
 Standstill. An arm that has moved comes back to rest under the idle hold only asymptotically:
 float round-off keeps it trembling at ~1e-13 rad/s for ever. So, as a drive's standstill
@@ -35,6 +36,7 @@ from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
 from franka_sim.physics.external_torque import ExternalTorque
+from franka_sim.physics.friction import JointFriction
 from franka_sim.physics.queries import Queries
 from franka_sim.physics.readings import Readings
 from franka_sim.physics.scene import ArmPlacement
@@ -76,7 +78,9 @@ class Arm:
             root = model.body(prefix + self.desc.root).id  # the data (views) and the scratch
             base = (data.xmat[root].reshape(3, 3), data.xpos[root])
             queried = (scratch.xmat[root].reshape(3, 3), scratch.xpos[root])
-        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base)
+        self.friction = JointFriction()
+        self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base,
+                                 self.friction.torque)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
         self.declared_load = DeclaredLoad(model, data, scratch, self.vs, flange)
         # The tool on the flange (physics/tool.py), if any: the arm calls its hooks in the order
@@ -136,9 +140,11 @@ class Arm:
         applied += self._gcomp
         if cmd.ddq_d is not None:
             self._feed_forward(cmd.ddq_d)
+            applied += self.friction.at(cmd.dq_d, tmp)  # the robot's own compensation
         if cmd.load is not None:
             applied += self.declared_load.gravity
         self._saturate(applied)
+        applied -= self.friction.step(self._dq)  # on the link, past the motor
         if self.tool is not None:
             self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
@@ -196,6 +202,7 @@ class Arm:
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""
         self._applied[:] = self._gcomp
+        self.friction.rest()
         if self.tool is not None:
             self.tool.hold()
 

@@ -1,9 +1,11 @@
 """What an arm's sensors read after a step, assembled into one Measured per step.
 
 Sensors. tau_J is the link-side torque of an elastic joint whose motor carries the rotor
-inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign). theta models the
+inertia B: tau_J = tau_motor − B·ddq (at rest tau_J = g(q), libfranka's sign). The world applies
+tau_motor − tau_f (the link-side friction, physics/friction.py), so tau_J is that plus tau_f. theta models the
 joint elasticity with the stiffness K = 7000 Nm/rad inferred from the robot's own θ − q ≈ τ_J/7000
-(fr3_facts §2); the elasticity is only reported, not simulated (the joints are rigid here).
+(docs/figures.md, "Joint elasticity and rotor inertia"); the elasticity is only reported, not
+simulated (the joints are rigid here).
 
 Layout. A step's readings are one work array: the 7-vectors as they are published (computed in
 place), then what the gather picks the other fields from: the flange block and the sensor data.
@@ -18,7 +20,8 @@ import numpy as np
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
 from franka_sim.physics.backend import Measured
 
-JOINT_STIFFNESS = 7000.0  # Nm/rad, inferred (fr3_facts §2, §4)
+# Nm/rad, inferred (docs/figures.md, "Joint elasticity and rotor inertia").
+JOINT_STIFFNESS = 7000.0
 # The 7-vectors sit in rows of 8 so that every field starts 16-byte aligned, as a freshly
 # allocated array does: whatever reads them sees the same memory alignment as with separate arrays.
 _Q, _DQ, _DDQ, _TAU_J, _THETA, _DTAU_J, _DTHETA, _TAU_EXT = (
@@ -69,7 +72,8 @@ class Readings:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, desc: ArmDescription,
                  prefix: str, qs: slice, vs: slice, flange: int,
-                 base: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 base: tuple[np.ndarray, np.ndarray] | None = None,
+                 friction: np.ndarray | None = None) -> None:
         nv = model.nv
         sensors = _ROWS + FlangeBlock.size(nv)
         self._work = work = np.zeros(sensors + model.nsensordata)
@@ -97,6 +101,7 @@ class Readings:
         self._flange_mat, self._flange_pos = data.site_xmat[flange], data.site_xpos[flange]
         self._sensordata = data.sensordata
         self._armature = model.dof_armature[vs].copy()
+        self._friction = np.zeros(7) if friction is None else friction  # applied as −tau_f
         # Divisors as arrays: a ufunc converts a Python scalar operand on every call.
         self._timesteps = np.full(15, float(model.opt.timestep))  # dtau_J, dtheta (with a pad)
         self.timestep7 = self._timesteps[:7]
@@ -115,6 +120,7 @@ class Readings:
         tau_J, theta = self._tau_J, self._theta
         np.multiply(self._armature, self.ddq, out=tau_J)
         np.subtract(self._applied, tau_J, out=tau_J)
+        tau_J += self._friction
         np.divide(tau_J, self._stiffness, out=theta)
         theta += self._q
         if first:
