@@ -210,13 +210,14 @@ class WorldCycle:
         return self.nothing
 
     def _await(self) -> None:
-        """Whose answers the state just released waits for: every robot whose client streams;
-        with none, the robots whose motion's first state it is or whose motion still awaits
-        its client's first command (an answer is taken at once)."""
+        """Whose answers the state just released waits for: every robot whose client streams,
+        one whose motion still awaits its client's first command too (beside another robot's
+        stream its client would otherwise fall behind by however slow it is to start); with
+        none, the robots whose motion's first state it is (an answer is taken at once)."""
         streaming, first = set(), set()
         for i, part in enumerate(self.parts):
             core = part.core
-            if core.first_motion_state or core.awaiting_first_command:
+            if core.first_motion_state:
                 first.add(i)
             elif core.streams_commands:
                 streaming.add(i)
