@@ -65,6 +65,16 @@ def _wait_robot_ms(robot, ms: int, sample=None) -> None:
         time.sleep(0.002)
 
 
+def _moving(robot) -> None:
+    """Wait for an asynchronous motion's first state. Robot time to its start is not motion
+    time: in lockstep a client's idle gap before the Move counts as whole seconds."""
+    deadline = time.monotonic() + 120  # a safety net against a dead server, not a timing bound
+    while robot.state.robot_mode.name != "Move":
+        if time.monotonic() > deadline:
+            raise TimeoutError("the motion did not start")
+        time.sleep(0.002)
+
+
 def _settled(robot, ms: int = 300):
     """The state once `ms` of robot time passed idle: the hold has taken out the tracking lag."""
     _wait_robot_ms(robot, ms)
@@ -182,6 +192,7 @@ def scenario_torque(host: str) -> dict:
         seen["tau_J_d"] = max(seen["tau_J_d"], float(np.abs(state.tau_J_d).max()))
 
     robot.move(SimpleTorqueMotion(signal_timeout=None), asynchronous=True)  # zero torque
+    _moving(robot)
     _wait_robot_ms(robot, 1000, sample)
     robot.move(TorqueStopMotion(), asynchronous=True)
     robot.join_motion()
@@ -191,6 +202,7 @@ def scenario_torque(host: str) -> dict:
                           "deviation_after": float(np.abs(np.array(s.q) - q0).max())}
     target = q0 + np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     robot.move(JointImpedanceMotion(target.tolist()), asynchronous=True)
+    _moving(robot)
     _wait_robot_ms(robot, 2000)
     reached = list(robot.state.q)
     robot.move(TorqueStopMotion(), asynchronous=True)
@@ -235,6 +247,7 @@ def scenario_setters(host: str) -> dict:
                    "m_ee": s.m_ee, "m_total": s.m_total}
     # The robot refuses Set* while a motion runs; libfranka turns that into a CommandException.
     robot.move(franky.JointMotion((np.array(READY) + [0.2, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    _moving(robot)
     _wait_robot_ms(robot, 100)
     try:
         robot.set_joint_impedance([3000.0] * 7)
@@ -256,6 +269,7 @@ def scenario_stop(host: str) -> dict:
     robot = _connect(host)
     out = {}
     robot.move(franky.JointMotion((np.array(READY) + [0.3, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    _moving(robot)
     _wait_robot_ms(robot, 200)
     robot.stop()
     try:
@@ -302,6 +316,7 @@ def scenario_reflex_recovery(host: str) -> dict:
     # default; both are opened up so that the step reaches the robot as commanded.
     motion = franky.SimpleTorqueMotion(signal_timeout=None, max_delta_tau=10.0)
     robot.move(motion, asynchronous=True, cutoff_frequency=1000.0)
+    _moving(robot)
     _wait_robot_ms(robot, 100)
     motion.set_torque([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0])
     try:
