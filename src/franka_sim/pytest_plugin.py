@@ -49,12 +49,12 @@ class SimHandle:
         self.control = control  # franka_sim.control.Control
         self.settings = settings  # franka_sim.testing.server_pool.SimSettings
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
-        self._log_start = len(server.lines)
+        self._log_start = len(server.sync())
         self.recording: Path | None = None  # this test's recording, while it is made
 
     @property
     def log(self) -> list[str]:
-        return self.server.lines[self._log_start:]
+        return self.server.sync()[self._log_start:]
 
     def __repr__(self) -> str:
         return f"<franka_sim at {self.host} {self.settings}>"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -52,22 +53,52 @@ class ServerProcess:
         self.proc = subprocess.Popen(
             command or [sys.executable, "-m", "franka_sim", "serve", "--host", host, *args],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-            text=True, bufsize=1, env={**os.environ, **(env or {})},
-            preexec_fn=_normal_scheduling,
+            env={**os.environ, **(env or {})}, preexec_fn=_normal_scheduling,
         )
         self.pid = self.proc.pid
+        self._fd = self.proc.stderr.fileno()
+        os.set_blocking(self._fd, False)
+        self._lock = threading.Lock()  # one reader of the pipe at a time: the thread or sync()
+        self._partial = b""  # a line's start whose end has not arrived
+        self._eof = False
         self._reader = threading.Thread(target=self._drain, daemon=True)
         self._reader.start()
 
     def _drain(self) -> None:
-        for line in self.proc.stderr:
-            serving = self.serving_at is None and self.ready in line
-            if serving:
-                self.serving_at = time.perf_counter()
-            self.lines.append(line.rstrip("\n"))
-            if serving:
-                self._ready.set()
+        """Keep the pipe read (a full one would block the server's logging)."""
+        while not self._eof:
+            select.select([self._fd], [], [])
+            with self._lock:
+                self._read_available()
         self._ready.set()  # EOF: it exited, maybe before serving
+
+    def sync(self) -> list[str]:
+        """Every line the server has written so far, read now: a line it logged before the
+        reply a client just received is here (the thread alone might not have read it yet)."""
+        with self._lock:
+            self._read_available()
+        return self.lines
+
+    def _read_available(self) -> None:
+        while not self._eof:
+            try:
+                chunk = os.read(self._fd, 65536)
+            except BlockingIOError:
+                return
+            if not chunk:
+                self._eof = True
+                chunk = b"\n" if self._partial else b""
+            *complete, self._partial = (self._partial + chunk).split(b"\n")
+            for raw in complete:
+                self._take(raw.decode(errors="replace"))
+
+    def _take(self, line: str) -> None:
+        serving = self.serving_at is None and self.ready in line
+        if serving:
+            self.serving_at = time.perf_counter()
+        self.lines.append(line)
+        if serving:
+            self._ready.set()
 
     def wait_ready(self, timeout: float = 60.0) -> ServerProcess:
         """Wait for "serving on"; stop it and raise with its log if that does not come."""
@@ -84,7 +115,7 @@ class ServerProcess:
         return self.serving_at - self.spawned_at
 
     def log_matching(self, text: str) -> list[str]:
-        return [line for line in self.lines if text in line]
+        return [line for line in self.sync() if text in line]
 
     def wait_for_log(self, text: str, timeout: float = 10.0) -> list[str]:
         end = time.monotonic() + timeout
