@@ -240,6 +240,27 @@ def test_an_absurd_torque_saturates_at_the_motor_and_the_arm_stays_simulated(sim
     assert np.isfinite(state.q).all() and abs(state.q[6]) < 3.2  # within the wrist's range
 
 
+def test_a_torque_step_reaches_the_joint_at_the_motors_rate():
+    """Limits only logged, a 6 Nm step in joint 1's torque command is followed as the motor
+    can, at 1000 Nm/s (1 Nm a cycle): tau_J changes by at most that each cycle, and carries the
+    step once the ramp is done (lockstep: the client reads every cycle)."""
+    with running_sim("--clock", "lockstep") as sim:
+        robot = connect(sim.host)
+        control = robot.start_torque_control()
+        control.readOnce()
+        tau_J = []
+        for k in range(40):
+            state, _ = control.readOnce()
+            tau_J.append(state.tau_J[0])
+            command = pylibfranka.Torques([6.0 if k >= 10 else 0.0] + [0.0] * 6)
+            command.motion_finished = k == 39
+            control.writeOnce(command)
+        del control, robot
+    change = np.diff(tau_J)
+    assert np.abs(change).max() <= 1.0 + 1e-9  # a step, not at once (it would be ~6 Nm)
+    assert tau_J[-1] - tau_J[10] > 3.0  # but all of it, once ramped
+
+
 def test_a_jerk_in_the_ik_output_is_a_joint_acceleration_discontinuity():
     with running_sim("--enforce-motion-limits", "--clock", "lockstep",
                      "--joint-discontinuity-scale", "0.03") as sim:

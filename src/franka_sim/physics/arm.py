@@ -42,6 +42,9 @@ from franka_sim.physics.readings import Readings
 from franka_sim.physics.scene import ArmPlacement
 
 SETTLE = 1e-6  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
+# Nm/s: the fastest a motor follows a change of the controller's torque (the FR3's torque-rate
+# figure, tests/data/fr3_limits.md); a step in tau_ff reaches the joint as a ramp at this rate.
+MOTOR_TORQUE_RATE = 1000.0
 
 
 class Arm:
@@ -69,6 +72,9 @@ class Arm:
         self._tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
         self._tau_min = -self._tau_max
         self._gcomp = gravity[self.vs]
+        # The controller's torque as the motors give it: tau_ff followed at MOTOR_TORQUE_RATE.
+        self._ff, self._ff_lo, self._ff_hi = np.zeros(7), np.zeros(7), np.zeros(7)
+        self._ff_step = MOTOR_TORQUE_RATE * float(model.opt.timestep)  # Nm per step
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
@@ -109,10 +115,10 @@ class Arm:
         if last is None or not (tool is None or (
                 self.tool is not None and tool == self.tool.command)):
             return False
-        return cmd is last or (
+        return (cmd is last or (
             cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
             and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
-            and cmd.ddq_d is last.ddq_d)
+            and cmd.ddq_d is last.ddq_d)) and np.array_equal(self._ff, cmd.tau_ff)
 
     def settle(self) -> bool:
         """Within SETTLE of the hold: exactly there, at rest (see Standstill above).
@@ -136,7 +142,7 @@ class Arm:
         np.subtract(cmd.dq_d, self._dq, out=tmp)
         tmp *= cmd.D
         applied += tmp
-        applied += cmd.tau_ff
+        applied += self._follow(cmd.tau_ff)
         applied += self._gcomp
         if cmd.ddq_d is not None:
             self._feed_forward(cmd.ddq_d)
@@ -148,6 +154,19 @@ class Arm:
         if self.tool is not None:
             self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
+
+    def _follow(self, tau_ff: np.ndarray) -> np.ndarray:
+        """The controller's torque as the motors give it this step: within a step's rate of
+        the last (a torque with no value to follow, NaN, keeps the last)."""
+        ff, lo, hi, tmp = self._ff, self._ff_lo, self._ff_hi, self._tmp
+        np.subtract(ff, self._ff_step, out=lo)
+        np.add(ff, self._ff_step, out=hi)
+        np.clip(tau_ff, lo, hi, out=tmp)
+        total = tmp.sum()
+        if total != total:
+            np.copyto(tmp, ff, where=np.isnan(tmp))
+        ff[:] = tmp
+        return ff
 
     def _saturate(self, applied: np.ndarray) -> None:
         """The motors saturate at their torque limits, whatever the command asked (an absurd
@@ -195,6 +214,7 @@ class Arm:
         """At q0 and at rest in freshly reset data, its tool at its start (or `tool_setting`:
         the Hand's opening); no step to compare with."""
         self._last_cmd = None
+        self._ff.fill(0.0)
         self._q[:] = q0
         if self.tool is not None:
             self.tool.place(tool_setting)
@@ -202,6 +222,7 @@ class Arm:
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""
         self._applied[:] = self._gcomp
+        self._ff.fill(0.0)
         self.friction.rest()
         if self.tool is not None:
             self.tool.hold()
