@@ -97,6 +97,33 @@ def test_a_motion_first_state_is_not_waited_for_while_another_arm_streams():
     assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
 
 
+def test_a_motion_awaiting_its_first_command_is_waited_for_while_another_arm_streams():
+    """Beside another arm's stream, an arm whose client has not answered yet would otherwise
+    fall behind by however slow its client is to start (and be braked after 20 cycles)."""
+    cycle, parts = world()
+    step(cycle)
+    parts.arms[0].core.request_move(5, move_request(0, 1))
+    step(cycle)
+    states = step(cycle)  # left streams from here
+    parts.arms[1].core.request_move(5, move_request(0, 1))
+    cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    states = step(cycle)  # right's first motion state: not waited for
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    states = step(cycle)  # right's second: its client answers this one (or the next)
+    assert cycle.waits_for == {0, 1}
+    assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    assert cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))
+
+
+def test_skipped_ids_count_as_completed():
+    """Where an event lands (a recording's `position`) reads the same after a skip as replay
+    puts it: between completed cycles."""
+    cycle, parts = world()
+    step(cycle)
+    cycle.skip(998)
+    assert all(part.completed_id == cycle.message_id for part in cycle.parts)
+
+
 @pytest.mark.parametrize("streams", [{0: 0.3, 1: -0.3}, {1: 0.2}])
 def test_the_same_command_streams_give_the_same_bits(streams):
     first, second = run(streams), run(streams)

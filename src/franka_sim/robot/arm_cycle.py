@@ -91,9 +91,11 @@ class ArmCycle(PacerQuestions):
         return Released(core.message_id, state, measured)
 
     def skip(self, cycles: int) -> None:
+        """(Only between completed cycles: the ids skipped count as completed.)"""
         self.core.skip(cycles)
         if self.tool is not None:
             self.tool.skip(cycles)
+        self.completed_id = self.core.message_id
 
     def repeat(self) -> Released:
         """A cycle that leaves the world as it is: the last state again under the next

@@ -52,7 +52,9 @@ class BaseCycle(PacerQuestions):
         return Released(self.core.message_id, state, None)
 
     def skip(self, cycles: int) -> None:
+        """(Only between completed cycles: the ids skipped count as completed.)"""
         self.core.skip(cycles)
+        self.completed_id = self.core.message_id
 
     def repeat(self) -> Released:
         state = self.core.republish()

@@ -97,7 +97,8 @@ class ClientConnection(asyncio.Protocol):
         owner.active = self
         self.session = owner.make_session()
         if owner.taps is not None:
-            owner.taps.tcp(owner.what, "open")
+            with owner.lock:  # where it lands is read between two cycles, not inside one
+                owner.taps.tcp(owner.what, "open")
         if owner.keepalive is not None:
             _keep_alive(transport, *owner.keepalive)
         self._watch(restart=True)  # Connect is owed from now on
