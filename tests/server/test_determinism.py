@@ -16,16 +16,26 @@ REALTIME_ATTEMPTS = 5  # runs made to find two that lost no cycle
 
 
 def _velocity_then_torque(host: str, pause: float = 0.0) -> tuple[np.ndarray, float]:
-    """A joint-velocity swing, then (after `pause` s) a torque pulse; returns the final q/dq
-    and the worst rate."""
+    """A joint-velocity swing, then (after `pause` s) a torque pulse; returns the q/dq/tau_J
+    of the torque motion's last state and the worst rate (0 if the client read past a state:
+    it fell behind, and what its commands met depended on the machine)."""
     robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-    worst_rate = 1.0
+    worst_rate, last_id = 1.0, None
+
+    def read(control, k: int):
+        nonlocal worst_rate, last_id
+        state, _ = control.readOnce()
+        if last_id is not None and round(state.time.to_sec() * 1000) != last_id + 1:
+            worst_rate = 0.0
+        last_id = round(state.time.to_sec() * 1000)
+        if k > 100:  # windows after the first state, which libfranka never answers
+            worst_rate = min(worst_rate, state.control_command_success_rate)
+        return state
+
     control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
     control.readOnce()
     for k in range(1, 800):
-        state, _ = control.readOnce()
-        if k > 100:  # windows after the first state, which libfranka never answers
-            worst_rate = min(worst_rate, state.control_command_success_rate)
+        read(control, k)
         w = 0.4 * math.sin(math.pi * k / 799)
         command = pylibfranka.JointVelocities([w, 0, -w, w, 0, w, -w])
         command.motion_finished = k == 799
@@ -34,17 +44,17 @@ def _velocity_then_torque(host: str, pause: float = 0.0) -> tuple[np.ndarray, fl
     time.sleep(pause)
     control = robot.start_torque_control()
     control.readOnce()
+    last_id = None
     for k in range(1, 400):
-        state, _ = control.readOnce()
-        if k > 100:  # windows after the first state, which libfranka never answers
-            worst_rate = min(worst_rate, state.control_command_success_rate)
+        state = read(control, k)
         tau = 0.8 * math.sin(2 * math.pi * k / 399)
         command = pylibfranka.Torques([0, 0, 0, 0, tau, 0, tau])
         command.motion_finished = k == 399
         control.writeOnce(command)
     del control
-    final = robot.read_once()
-    return np.concatenate([final.q, final.dq, final.tau_J]), worst_rate
+    # The motion's own last state: a read after it would land on a cycle the wall clock picks
+    # (realtime) while the arm still moves.
+    return np.concatenate([state.q, state.dq, state.tau_J]), worst_rate
 
 
 def test_same_trajectories_end_bit_identical_in_lockstep():
