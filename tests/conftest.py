@@ -7,7 +7,11 @@ run, or with a `franka-sim serve` left on the default.
 
 from __future__ import annotations
 
+import faulthandler
 import os
+import tempfile
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,7 +20,13 @@ from franka_sim.testing import running_sim
 
 from capabilities import capability_of
 
-TESTS = __import__("pathlib").Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parent
+# A test still running after this long is hung: its process writes every thread's stack to a
+# file of HUNG and exits (a C watchdog: pylibfranka waits for a reply holding the interpreter's
+# lock, so nothing in Python could act), and the run goes on without it.
+HUNG_AFTER = 600.0  # s; the slowest test takes ~70 s here
+HUNG = Path(tempfile.gettempdir()) / "franka-sim-hung-tests"
+_SESSION_START = time.time()
 
 
 def pytest_collection_modifyitems(items):
@@ -29,6 +39,29 @@ def pytest_collection_modifyitems(items):
         capability = capability_of(module)
         if capability is not None:
             item.add_marker(capability)
+
+
+@pytest.fixture(autouse=True)
+def _watchdog(request):
+    HUNG.mkdir(exist_ok=True)
+    name = request.node.nodeid.replace("/", "_").replace("::", "__")[:150]
+    with open(HUNG / f"{name}.{os.getpid()}.txt", "w") as dump:
+        dump.write(f"{request.node.nodeid} ran for {HUNG_AFTER:.0f} s:\n")
+        dump.flush()
+        faulthandler.dump_traceback_later(HUNG_AFTER, exit=True, file=dump)
+        try:
+            yield
+        finally:
+            faulthandler.cancel_dump_traceback_later()
+    os.unlink(dump.name)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The stacks of the tests the watchdog ended during this run."""
+    for dump in sorted(HUNG.glob("*.txt")) if HUNG.is_dir() else ():
+        if dump.stat().st_mtime >= _SESSION_START:
+            terminalreporter.write_sep("=", f"hung: {dump.name}")
+            terminalreporter.write_line(dump.read_text())
 
 
 @pytest.fixture(autouse=True)
