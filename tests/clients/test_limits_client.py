@@ -240,6 +240,43 @@ def test_an_absurd_torque_saturates_at_the_motor_and_the_arm_stays_simulated(sim
     assert np.isfinite(state.q).all() and abs(state.q[6]) < 3.2  # within the wrist's range
 
 
+DERIVED = ("q_d", "dq_d", "ddq_d", "tau_J_d", "O_T_EE_d", "O_dP_EE_d", "O_dP_EE_c", "O_ddP_EE_c",
+           "elbow_d", "elbow_c", "delbow_c", "ddelbow_c", "q", "dq", "tau_J", "O_T_EE")
+
+
+@pytest.mark.parametrize("generator", ["velocity", "cartesian"])
+def test_an_absurd_finite_command_publishes_finite_states(generator):
+    """Limits only logged, a joint velocity of 1e300 rad/s (or a twist of 1e300 m/s) is taken
+    at ±1e6 in its unit, logged once: every signal derived from it stays finite in the state."""
+    with running_sim("--clock", "lockstep") as sim:
+        robot = connect(sim.host)
+        if generator == "velocity":
+            control = robot.start_joint_velocity_control(JI)
+            absurd, zero = pylibfranka.JointVelocities, [0.0] * 7
+            value = [1e300] + [0.0] * 6
+        else:
+            control = robot.start_cartesian_velocity_control(JI)
+            absurd, zero = pylibfranka.CartesianVelocities, [0.0] * 6
+            value = [1e300] + [0.0] * 5
+        control.readOnce()
+        seen = []
+        try:
+            for k in range(30):
+                state, _ = control.readOnce()
+                seen.append({name: np.asarray(getattr(state, name)) for name in DERIVED})
+                command = absurd(value if 3 <= k < 6 else zero)
+                command.motion_finished = k == 29
+                control.writeOnce(command)
+        except pylibfranka.ControlException:
+            pass  # what the arm makes of it afterwards is not the point: what it published is
+        del control, robot
+        assert len(sim.log_matching("beyond ±1e+06 taken as ±1e+06")) == 1
+    assert len(seen) > 6
+    for state in seen:
+        for name, value in state.items():
+            assert np.isfinite(value).all(), name
+
+
 def test_a_torque_step_reaches_the_joint_at_the_motors_rate():
     """Limits only logged, a 6 Nm step in joint 1's torque command is followed as the motor
     can, at 1000 Nm/s (1 Nm a cycle): tau_J changes by at most that each cycle, and carries the

@@ -169,6 +169,25 @@ def non_finite_command_fields(record: np.void) -> list[str]:
             if not np.isfinite(record[n]).all()]
 
 
+def fields_beyond(record: np.void, bound: float) -> list[str]:
+    """Names of (finite) RobotCommand fields holding a value beyond ±bound; ~1 µs when none."""
+    start, floats = _COMMAND_FLOATS
+    values = floats.unpack_from(record, start)
+    if max(values) <= bound and min(values) >= -bound:
+        return []
+    return [n for _, _, names in _COMMAND_FLOAT_RUNS for n in names
+            if (np.abs(record[n]) > bound).any()]
+
+
+def clipped_command(record: np.void, bound: float) -> np.void:
+    """A copy of the RobotCommand with every double clipped to ±bound."""
+    copy = np.frombuffer(bytearray(record.tobytes()), COMMAND_DTYPE)[0]
+    for _, _, names in _COMMAND_FLOAT_RUNS:
+        for name in names:
+            np.clip(copy[name], -bound, bound, out=copy[name])
+    return copy
+
+
 def encode_command(**fields: Any) -> bytes:
     """RobotCommand bytes with the given fields set and the rest zero, as libfranka sends."""
     return _encode(COMMAND_DTYPE, fields)

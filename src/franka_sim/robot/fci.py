@@ -25,7 +25,11 @@ from __future__ import annotations
 
 import logging
 
-from franka_sim.protocol.codec import non_finite_command_fields
+from franka_sim.protocol.codec import (
+    clipped_command,
+    fields_beyond,
+    non_finite_command_fields,
+)
 from franka_sim.protocol.enums import (
     BaseStatus,
     Command,
@@ -43,6 +47,10 @@ from franka_sim.robot.status import RobotStatus
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
+
+# The magnitude a command's value is taken at, at most, in its own unit (rad, rad/s, m, Nm...):
+# far beyond anything an FR3 does, and far from where a cycle's differences overflow.
+COMMAND_RANGE = 1e6
 
 SETTERS = (Command.SetCollisionBehavior, Command.SetJointImpedance,
            Command.SetCartesianImpedance, Command.SetGuidingMode, Command.SetEEToK,
@@ -68,6 +76,7 @@ class FciRobot:
         self.message_id = first_message_id - 1  # id of the last published state
         self._window_closed = False  # the open cycle's command window was closed early
         self._stray_commands = 0  # this client's: its first one is logged
+        self._beyond = 0  # commands with values beyond COMMAND_RANGE
 
     # -- questions the server asks -----------------------------------------------------------
     @property
@@ -188,6 +197,17 @@ class FciRobot:
             log.warning("%sRobotCommand for message_id %d dropped: non-finite %s",
                         self.label, message_id, ", ".join(bad))
             return False
+        beyond = fields_beyond(command, COMMAND_RANGE)
+        if beyond:
+            # Limits only logged apply what comes: a value no FR3 comes near is taken at the
+            # range's edge, so every signal derived from it (rates, torques, kinematics) stays
+            # finite. (Enforced, the checks refuse it as any other value out of the limits.)
+            self._beyond += 1
+            if worth_logging(self._beyond):
+                log.warning("%sRobotCommand for message_id %d: %s beyond ±%g taken as ±%g "
+                            "(%d so far)", self.label, message_id, ", ".join(beyond),
+                            COMMAND_RANGE, COMMAND_RANGE, self._beyond)
+            command = clipped_command(command, COMMAND_RANGE)
         on_time = self.window.take(message_id, command)
         if on_time and not self._window_closed:
             # The answer is in: the window closes now, so the next cycle's command is known
