@@ -73,7 +73,7 @@ class Arm:
         self._tau_min = -self._tau_max
         self._gcomp = gravity[self.vs]
         # The controller's torque as the motors give it: tau_ff followed at MOTOR_TORQUE_RATE.
-        self._ff, self._ff_lo, self._ff_hi = np.zeros(7), np.zeros(7), np.zeros(7)
+        self._ff = np.zeros(7)
         self._ff_step = MOTOR_TORQUE_RATE * float(model.opt.timestep)  # Nm per step
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
@@ -157,15 +157,12 @@ class Arm:
 
     def _follow(self, tau_ff: np.ndarray) -> np.ndarray:
         """The controller's torque as the motors give it this step: within a step's rate of
-        the last (a torque with no value to follow, NaN, keeps the last)."""
-        ff, lo, hi, tmp = self._ff, self._ff_lo, self._ff_hi, self._tmp
-        np.subtract(ff, self._ff_step, out=lo)
-        np.add(ff, self._ff_step, out=hi)
-        np.clip(tau_ff, lo, hi, out=tmp)
-        total = tmp.sum()
-        if total != total:
-            np.copyto(tmp, ff, where=np.isnan(tmp))
-        ff[:] = tmp
+        the last. (tau_ff is finite: the robot drops a non-finite command, robot/fci.py.)"""
+        ff, tmp, step = self._ff, self._tmp, self._ff_step
+        np.subtract(tau_ff, ff, out=tmp)
+        np.minimum(tmp, step, out=tmp)
+        np.maximum(tmp, -step, out=tmp)
+        ff += tmp
         return ff
 
     def _saturate(self, applied: np.ndarray) -> None:

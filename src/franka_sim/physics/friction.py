@@ -32,19 +32,20 @@ class JointFriction:
 
     def __init__(self) -> None:
         self.torque = np.zeros(7)  # the last step's tau_f (what tau_J carries)
-        self._at_rest = PHI1 / (1.0 + np.exp(-PHI2 * PHI3))
+        # The sigmoid as 1/2 + tanh(x/2)/2: tau_f = phi1/2 (tanh(phi2 (dq + phi3)/2) − its
+        # value at rest), five ufunc calls a step, exactly zero at rest, and no exp to overflow
+        # at an absurd velocity.
+        self._half_phi1, self._half_phi2 = PHI1 / 2.0, PHI2 / 2.0
+        self._at_rest = np.tanh(PHI2 * PHI3 / 2.0)
         self._tmp = np.zeros(7)
 
     def at(self, dq: np.ndarray, out: np.ndarray) -> np.ndarray:
         """tau_f(dq) into `out`."""
         tmp = np.add(dq, PHI3, out=self._tmp)
-        tmp *= PHI2
-        np.negative(tmp, out=tmp)
-        np.exp(tmp, out=tmp)
-        tmp += 1.0
-        np.divide(PHI1, tmp, out=out)
-        out -= self._at_rest
-        return out
+        tmp *= self._half_phi2
+        np.tanh(tmp, out=tmp)
+        tmp -= self._at_rest
+        return np.multiply(tmp, self._half_phi1, out=out)
 
     def step(self, dq: np.ndarray) -> np.ndarray:
         """This step's friction at the joints' velocity (kept in `torque`)."""

@@ -25,11 +25,7 @@ from __future__ import annotations
 
 import logging
 
-from franka_sim.protocol.codec import (
-    clipped_command,
-    fields_beyond,
-    non_finite_command_fields,
-)
+from franka_sim.protocol.codec import clipped_command, command_fields_out
 from franka_sim.protocol.enums import (
     BaseStatus,
     Command,
@@ -192,12 +188,11 @@ class FciRobot:
                 log.info("%sRobotCommand for message_id %d ignored: no motion is running "
                          "(%d so far)", self.label, message_id, self._stray_commands)
             return False
-        bad = non_finite_command_fields(command)
+        bad, beyond = command_fields_out(command, COMMAND_RANGE)
         if bad:
             log.warning("%sRobotCommand for message_id %d dropped: non-finite %s",
                         self.label, message_id, ", ".join(bad))
             return False
-        beyond = fields_beyond(command, COMMAND_RANGE)
         if beyond:
             # Limits only logged apply what comes: a value no FR3 comes near is taken at the
             # range's edge, so every signal derived from it (rates, torques, kinematics) stays

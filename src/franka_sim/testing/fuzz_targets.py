@@ -26,6 +26,7 @@ from franka_sim.protocol.codec import (
     decode_command,
     decode_gripper_state,
     decode_state,
+    command_fields_out,
     non_finite_command_fields,
 )
 from franka_sim.protocol.enums import ConnectStatus, GripperConnectStatus, RobotMode
@@ -46,6 +47,7 @@ from franka_sim.testing.fuzz_inputs import (
 )
 
 _ROBOT_MODES = {int(m) for m in RobotMode}
+_RANGE = 1e6  # a bound to check command_fields_out against
 _FLOAT_FIELDS = tuple(name for name, (dtype, _) in STATE_DTYPE.fields.items()
                       if dtype.base.kind == "f")
 _URDF = default_urdf_text()
@@ -85,6 +87,12 @@ def check_datagram(data: bytes) -> None:
             bad = non_finite_command_fields(record)
             finite = all(np.isfinite(record[n]).all() for n in record.dtype.names)
             assert bool(bad) != finite, bad
+            assert command_fields_out(record, _RANGE)[0] == bad
+            if finite:
+                beyond = command_fields_out(record, _RANGE)[1]
+                assert beyond == [n for n in record.dtype.names
+                                  if record.dtype[n].base.kind == "f"
+                                  and (np.abs(record[n]) > _RANGE).any()], beyond
 
 
 def check_reply(wire: Wire, reply: bytes) -> Container:
