@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY
-from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.backend import NO_GAINS, JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
 from franka_sim.physics.external_torque import ExternalTorque
 from franka_sim.physics.friction import JointFriction
@@ -137,12 +137,15 @@ class Arm:
     def drive(self) -> None:
         """The drive torque for this step into qfrc_applied (g(q) prepared at this q)."""
         cmd, tmp, applied = self.cmd, self._tmp, self._applied
-        np.subtract(cmd.q_d, self._q, out=tmp)
-        np.multiply(cmd.K, tmp, out=applied)
-        np.subtract(cmd.dq_d, self._dq, out=tmp)
-        tmp *= cmd.D
-        applied += tmp
-        applied += self._follow(cmd.tau_ff)
+        if cmd.K is NO_GAINS:  # torque control: no impedance terms
+            applied[:] = self._follow(cmd.tau_ff)
+        else:
+            np.subtract(cmd.q_d, self._q, out=tmp)
+            np.multiply(cmd.K, tmp, out=applied)
+            np.subtract(cmd.dq_d, self._dq, out=tmp)
+            tmp *= cmd.D
+            applied += tmp
+            applied += self._follow(cmd.tau_ff)
         applied += self._gcomp
         if cmd.ddq_d is not None:
             self._feed_forward(cmd.ddq_d)
@@ -167,12 +170,11 @@ class Arm:
 
     def _saturate(self, applied: np.ndarray) -> None:
         """The motors saturate at their torque limits, whatever the command asked (an absurd
-        but finite one, applied when limits are only logged, must not blow up the physics);
-        a torque no motor could take a sign from (NaN: inf − inf in an absurd reference) is 0."""
-        np.clip(applied, self._tau_min, self._tau_max, out=applied)
-        total = applied.sum()
-        if total != total:
-            np.nan_to_num(applied, copy=False, nan=0.0)
+        one, applied when limits are only logged, must not blow up the physics). The torque
+        is finite: so is every command the robot takes and what it derives from one
+        (robot/fci.py COMMAND_RANGE)."""
+        np.minimum(applied, self._tau_max, out=applied)
+        np.maximum(applied, self._tau_min, out=applied)
 
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
         """Add M(q)·ddq_d + c(q, dq): the inverse dynamics of the reference's acceleration, on

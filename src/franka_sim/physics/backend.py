@@ -26,6 +26,10 @@ class Payload:
     inertia: np.ndarray  # (3,3) kg·m², about the centre of mass, in the flange frame's axes
 
 
+NO_GAINS = np.zeros(7)  # a torque command's q_d, dq_d, K and D (shared, never written)
+NO_GAINS.flags.writeable = False
+
+
 @dataclass(frozen=True, eq=False)  # numpy fields: identity, not value, equality
 class JointCommand:
     """What the joint drives are asked to do during one 1 ms step.
@@ -49,9 +53,9 @@ class JointCommand:
 
     @classmethod
     def torque(cls, tau) -> "JointCommand":
-        """Pure torque control: the user's torque on top of gravity compensation."""
-        zero = np.zeros(7)
-        return cls(np.asarray(tau, float), zero, zero, zero, zero)
+        """Pure torque control: the user's torque on top of gravity compensation (K and D are
+        NO_GAINS itself: the drive skips the impedance terms)."""
+        return cls(np.asarray(tau, float), NO_GAINS, NO_GAINS, NO_GAINS, NO_GAINS)
 
     @classmethod
     def impedance(cls, q_d, K, D, dq_d=None, tau_ff=None, *, hold=False,
