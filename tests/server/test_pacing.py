@@ -112,13 +112,17 @@ def test_a_motion_state_leaves_before_the_rest_of_its_step_is_done():
 
     def send(states) -> float:
         unfinished_at_send.append(harness.backend._unfinished)
+        harness.state = decode_state(states[0])
         return 0.0
 
     clock = clock_for(harness, send, lockstep=False)
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
     clock.tick(True, False, False)  # the state that shows the motion running
     unfinished_at_send.clear()
-    for _ in range(3):  # the motion's cycles (unanswered: the last torques are reused)
+    for _ in range(3):  # the motion's cycles, each answered as a client does (a torque
+        # command reused unanswered is the last step's inputs again: that step is finished at
+        # once, to see whether the world came to rest, docs/architecture.md)
+        harness.send(tau_J_d=[0.5, 0, 0, 0, 0, 0, 0])
         clock.tick(True, False, False)
         assert not harness.backend._unfinished
     assert unfinished_at_send == [True, True, True]
