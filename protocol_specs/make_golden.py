@@ -1,7 +1,7 @@
 """Write the golden byte vectors in golden/ (run: python protocol_specs/make_golden.py [--check]).
 
 Deliberately independent of franka_sim: every value is placed with the standard ``struct``
-module at the offset written in robot_v10.md / gripper_v3.md, and enum names are translated with
+module at the offset written in robot_v10.md, robot_v9.md or gripper_v3.md, and enum names are translated with
 tables restated here. The tests then require the construct declarations to build exactly these
 bytes and to parse them back to these values, so a mistake would have to be made twice, in two
 different notations, to go unnoticed. The script also checks that each layout covers every byte
@@ -82,6 +82,33 @@ STATE_LAYOUT = [
     (1289, "controller_mode", "B"), (1290, "errors", "41?"), (1331, "reflex_reason", "41?"),
     (1372, "robot_mode", "B"), (1373, "control_command_success_rate", "f"),
 ]
+# RobotState of robot protocol 9, robot_v9.md: v10's fields but the accelerometers, float64.
+STATE_V9_LAYOUT = [
+    (0, "message_id", "Q"), (8, "O_T_EE", "16d"), (136, "O_T_EE_d", "16d"),
+    (264, "F_T_EE", "16d"), (392, "EE_T_K", "16d"), (520, "F_T_NE", "16d"),
+    (648, "NE_T_EE", "16d"), (776, "m_ee", "d"), (784, "I_ee", "9d"), (856, "F_x_Cee", "3d"),
+    (880, "m_load", "d"), (888, "I_load", "9d"), (960, "F_x_Cload", "3d"), (984, "elbow", "2d"),
+    (1000, "elbow_d", "2d"), (1016, "tau_J", "7d"), (1072, "tau_J_d", "7d"),
+    (1128, "dtau_J", "7d"), (1184, "q", "7d"), (1240, "q_d", "7d"), (1296, "dq", "7d"),
+    (1352, "dq_d", "7d"), (1408, "ddq_d", "7d"), (1464, "joint_contact", "7d"),
+    (1520, "cartesian_contact", "6d"), (1568, "joint_collision", "7d"),
+    (1624, "cartesian_collision", "6d"), (1672, "tau_ext_hat_filtered", "7d"),
+    (1728, "O_F_ext_hat_K", "6d"), (1776, "K_F_ext_hat_K", "6d"), (1824, "O_dP_EE_d", "6d"),
+    (1872, "O_ddP_O", "3d"), (1896, "elbow_c", "2d"), (1912, "delbow_c", "2d"),
+    (1928, "ddelbow_c", "2d"), (1944, "O_T_EE_c", "16d"), (2072, "O_dP_EE_c", "6d"),
+    (2120, "O_ddP_EE_c", "6d"), (2168, "theta", "7d"), (2224, "dtheta", "7d"),
+    (2280, "motion_generator_mode", "B"), (2281, "controller_mode", "B"),
+    (2282, "errors", "41?"), (2323, "reflex_reason", "41?"), (2364, "robot_mode", "B"),
+    (2365, "control_command_success_rate", "d"),
+]
+# Command ids of robot protocol 9, robot_v9.md.
+COMMAND_V9 = _numbered(
+    "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
+    "SetGuidingMode SetEEToK SetNEToEE SetLoad AutomaticErrorRecovery LoadModelLibrary "
+    "GetRobotModel")
+ARCHITECTURE_V9 = _numbered("kX64 kX86 kARM kARM64")
+SYSTEM_V9 = _numbered("kLinux kWindows")
+LOAD_MODEL_LIBRARY_STATUS_V9 = _numbered("kSuccess kError")
 COMMAND_LAYOUT = [
     (0, "message_id", "Q"), (8, "q_c", "7d"), (64, "dq_c", "7d"), (120, "O_T_EE_c", "16d"),
     (248, "O_dP_EE_c", "6d"), (296, "elbow_c", "2d"), (312, "valid_elbow", "?"),
@@ -234,7 +261,41 @@ def messages():
            status_only + [(13, "urdf", "s*")],
            {"header": header("GetRobotModel", 12, 13 + len(urdf)), "status": "kSuccess",
             "urdf": urdf}, robot_enums("GetRobotModel"))
+    yield from robot_v9_messages()
     yield from gripper_messages()
+
+
+def robot_v9_messages():
+    """What robot protocol 9 writes differently (robot_v9.md); the rest is v10's bytes."""
+    enums = {"header.command": COMMAND_V9, "status": BASE_STATUS,
+             "controller_mode": MOVE_CONTROLLER_MODE,
+             "motion_generator_mode": MOVE_MOTION_GENERATOR_MODE,
+             "architecture": ARCHITECTURE_V9, "system": SYSTEM_V9}
+    v10 = robot_state_fields()  # the same values: a v9 state is the v10 state widened
+    yield ("robot_v9_state", "robot_v9.RobotState", 2373, STATE_V9_LAYOUT,
+           {name: v10[name] for _, name, _ in STATE_V9_LAYOUT}, STATE_ENUMS)
+    dev = {"translation": 10.0, "rotation": 3.12, "elbow": 2 * math.pi}
+    yield ("robot_v9_move_request", "robot_v9.MoveRequest", 68, ROBOT_HEADER + [
+        (12, "controller_mode", "I"), (16, "motion_generator_mode", "I"),
+        (20, "maximum_path_deviation.translation", "d"),
+        (28, "maximum_path_deviation.rotation", "d"), (36, "maximum_path_deviation.elbow", "d"),
+        (44, "maximum_goal_pose_deviation.translation", "d"),
+        (52, "maximum_goal_pose_deviation.rotation", "d"),
+        (60, "maximum_goal_pose_deviation.elbow", "d")], {
+        "header": header("Move", 2, 68), "controller_mode": "kCartesianImpedance",
+        "motion_generator_mode": "kCartesianPosition", "maximum_path_deviation": dict(dev),
+        "maximum_goal_pose_deviation": dict(dev)}, enums)
+    yield ("robot_v9_load_model_library_request", "robot_v9.LoadModelLibraryRequest", 14,
+           ROBOT_HEADER + [(12, "architecture", "B"), (13, "system", "B")],
+           {"header": header("LoadModelLibrary", 7, 14), "architecture": "kX64",
+            "system": "kLinux"}, enums)
+    library = "\x7fELF and the rest of the library"
+    yield ("robot_v9_load_model_library_response", "robot_v9.LoadModelLibraryResponse",
+           13 + len(library), ROBOT_HEADER + [(12, "status", "B"), (13, "library", "s*")],
+           {"header": header("LoadModelLibrary", 7, 13 + len(library)), "status": "kSuccess",
+            "library": library}, {**enums, "status": LOAD_MODEL_LIBRARY_STATUS_V9})
+    yield ("robot_v9_get_robot_model_request", "robot_v9.GetRobotModelRequest", 12,
+           ROBOT_HEADER, {"header": header("GetRobotModel", 8, 12)}, enums)
 
 
 def gripper_messages():

@@ -18,12 +18,15 @@ CAPABILITIES = {
     "robustness": "hostile input, dead peers, a simulator that stops simulating",
     "serving": "the CLI, readiness checks, embedding, the process, the viewer",
     "clients": "real clients end to end and the programs in examples/",
+    "versions": "older libfranka: robot protocol versions before 10, the model library",
     "plugin": "the pytest plugin as a user meets it",
     "deployment": "the image, compose, Kubernetes, the GitHub action",
     "combinations": "the serve flags in combination",
 }
 
 MODULES = {
+    "versions": ["protocol/test_robot_v9.py", "physics/test_model_library.py",
+                 "clients/test_older_libfranka.py"],
     "connect": ["server/test_connect.py", "server/test_state.py", "server/test_raw_modes.py",
                 "server/test_udp_endpoint.py", "clients/test_address_translation.py"],
     "wire": ["protocol/test_protocol_codec.py", "protocol/test_protocol_framing.py",

@@ -15,6 +15,7 @@ import numpy as np
 from franka_sim.config import ArmSpec, Config
 from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
+from franka_sim.model_library import ModelLibrary
 from franka_sim.physics.engine import Physics, make_physics
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
                                       resolve_scene, scene_mounts)
@@ -49,6 +50,7 @@ class ArmParts:
         # body is rigid.
         self.tool_kind = tool_kind(config.tool)
         self.tool = None if self.tool_kind is None else self.tool_kind.make_device()
+        self.model_library = ModelLibrary(description)  # for libfranka before 0.18
 
     def make_part(self, physics, tool_state_wanted) -> ArmCycle:
         """Its part of the world cycle, on its body in the world; `tool_state_wanted()`: its
@@ -56,7 +58,7 @@ class ArmParts:
         return ArmCycle(self.core, physics, self.tool, tool_state_wanted=tool_state_wanted)
 
     def robot_session(self) -> Session:
-        return robot_session(self.core)
+        return robot_session(self.core, self.model_library.for_client)
 
     def tool_session(self) -> Session:
         return tool_session(self.tool_kind.service, self.tool)

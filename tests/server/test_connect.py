@@ -52,8 +52,10 @@ def _raw_connect(host: str, version: int, udp_port: int = 40000) -> bytes:
         return data
 
 
-def test_wrong_library_version_gets_incompatible_and_our_version(sim):
-    reply = _raw_connect(sim.host, version=9)
+@pytest.mark.parametrize("version", [4, 11])
+def test_wrong_library_version_gets_incompatible_and_our_version(sim, version):
+    """A version neither v10 nor one served beside it (v9: tests/clients/test_older_libfranka.py)."""
+    reply = _raw_connect(sim.host, version=version)
     command, command_id, size, status, version = struct.unpack("<IIIBH", reply[:15])
     assert (command, command_id, size) == (0, 0, 15)
     assert status == 1  # kIncompatibleLibraryVersion

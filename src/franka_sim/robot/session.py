@@ -4,7 +4,9 @@ Bytes in, reply bytes out. The robot (port 1337, protocol v10) and the Hand (133
 same conversation: Connect first with the right version (another version is answered
 kIncompatibleLibraryVersion with ours, then the connection closes), frames cut by the shared
 FrameReader, every later request handed to the service's handler. Only the wire tables differ,
-and they are a `Service`. Malformed input raises `SessionError` — the adapter logs its one-line
+and they are a `Service`. An older version the service still serves (the robot: v9) is
+accepted at Connect, and from then on its Dialect reads the client's requests as the service's
+own and writes the service's replies (`wire`) and states (`Handshake.state`) as the client's. Malformed input raises `SessionError` — the adapter logs its one-line
 message and closes the connection, which is the only rejection either protocol has for a frame
 it cannot parse.
 """
@@ -12,13 +14,14 @@ it cannot parse.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
 
 from construct import Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol import robot_v9
 from franka_sim.protocol.enums import (
     GRIPPER_VERSION,
     ROBOT_VERSION,
@@ -38,9 +41,11 @@ class SessionError(Exception):
 
 @dataclass
 class Handshake:
-    """What a successful Connect established."""
+    """What a successful Connect established: where the client's states go, and (a client of
+    an older protocol version) how each state is written for it."""
 
     udp_port: int
+    state: Callable[[bytes], bytes] | None = None
 
 
 @dataclass(frozen=True)
@@ -56,10 +61,14 @@ class Service:
     request_structs: dict
     build_response: Callable[..., bytes]
     max_size: int
+    # Older protocol versions served too, by version: each a Dialect (protocol/robot_v9.py)
+    # that reads its requests as this version's and writes this version's replies as its own.
+    dialects: Mapping[int, object] = field(default_factory=dict)
 
 
 ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader,
-                rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024)
+                rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024,
+                {robot_v9.VERSION: robot_v9.Dialect})
 GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
                   gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
                   gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes
@@ -69,10 +78,15 @@ class Session:
     """The handshake and framing of one client; `handle(command, command_id, request)` does
     the rest and returns the replies to send now."""
 
-    def __init__(self, service: Service, handle: Callable[..., list[bytes]]) -> None:
+    def __init__(self, service: Service, handle: Callable[..., list[bytes]],
+                 library: Callable[[object], bytes | None] | None = None) -> None:
         self.service = service
         self.handle = handle
+        # library(request) → the robot's model library for a LoadModelLibrary (older clients
+        # build their kinematics from it), or None: answered kError.
+        self.library = library
         self.handshake: Handshake | None = None
+        self.dialect = None  # an older client's (Service.dialects), from its Connect on
         self.closed = False
         self.requests = 0  # frames handled, Connect included
         self._reader = FrameReader(service.header, service.request_sizes, service.max_size)
@@ -100,9 +114,13 @@ class Session:
         return replies
 
     def _dispatch(self, frame) -> list[bytes]:
-        service = self.service
-        command = service.command(frame.command)
-        request = decode_request(frame, service.request_structs)
+        service, dialect = self.service, self.dialect
+        if dialect is not None:  # an older client: its request as this version names it
+            command, request = dialect.request(
+                frame.command, decode_request(frame, dialect.request_structs))
+        else:
+            command = service.command(frame.command)
+            request = decode_request(frame, service.request_structs)
         if self.handshake is None:
             if command is not service.command.Connect:
                 self.closed = True
@@ -111,26 +129,44 @@ class Session:
         if command is service.command.Connect:
             self.closed = True
             raise SessionError(f"a second {service.name} Connect on an established session")
-        return self.handle(command, frame.command_id, request)
+        if not isinstance(command, service.command):  # one this version no longer has
+            library = None if self.library is None else self.library(request)
+            return [dialect.model_library_reply(frame.command_id, library)]
+        return list(map(self.wire, self.handle(command, frame.command_id, request)))
+
+    def wire(self, reply: bytes) -> bytes:
+        """A reply as this client's protocol version writes it."""
+        return reply if self.dialect is None else self.dialect.reply(reply)
 
     def _connect(self, command_id: int, request) -> bytes:
         service = self.service
         version = int(request.version)
-        if version != service.version:
-            log.warning("client speaks %s protocol version %d, we speak %d: rejected",
-                        service.name, version, service.version)
+        make_dialect = service.dialects.get(version)
+        if version != service.version and make_dialect is None:
+            older = f" (and {', '.join(map(str, sorted(service.dialects)))})" \
+                if service.dialects else ""
+            log.warning("client speaks %s protocol version %d, we speak %d%s: rejected",
+                        service.name, version, service.version, older)
             self.closed = True
-            status = service.connect_status.kIncompatibleLibraryVersion
-        else:
-            self.handshake = Handshake(udp_port=int(request.udp_port))
-            status = service.connect_status.kSuccess
-        return service.build_response(service.command.Connect, command_id, status,
-                                      version=service.version)
+            return service.build_response(
+                service.command.Connect, command_id,
+                service.connect_status.kIncompatibleLibraryVersion, version=service.version)
+        state = None
+        if make_dialect is not None:
+            self.dialect = dialect = make_dialect()
+            self._reader = FrameReader(dialect.header, dialect.request_sizes, service.max_size)
+            state = dialect.state
+            log.info("client speaks %s protocol version %d: served as such", service.name,
+                     version)
+        self.handshake = Handshake(udp_port=int(request.udp_port), state=state)
+        return service.build_response(service.command.Connect, command_id,
+                                      service.connect_status.kSuccess, version=version)
 
 
-def robot_session(robot) -> Session:
-    """The robot's conversation: requests go to the robot (robot/fci.py: an arm or a base)."""
-    return Session(ROBOT, robot.handle)
+def robot_session(robot, library: Callable[[object], bytes | None] | None = None) -> Session:
+    """The robot's conversation: requests go to the robot (robot/fci.py: an arm or a base);
+    `library`: its model library for older clients (model_library/), if it has one."""
+    return Session(ROBOT, robot.handle, library)
 
 
 def tool_session(service: Service, device) -> Session:

@@ -9,13 +9,14 @@ from __future__ import annotations
 from contextlib import AbstractContextManager
 from typing import Callable
 
-from franka_sim.robot.session import Session
+from franka_sim.robot.session import Handshake, Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
 class FciEndpoint(SingleClientEndpoint):
     def __init__(self, make_session: Callable[[], Session],
-                 on_handshake: Callable[[str, int], None], on_disconnect: Callable[[], None],
+                 on_handshake: Callable[[str, Handshake], None],
+                 on_disconnect: Callable[[], None],
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
                  lock: AbstractContextManager | None = None,
                  replaceable: Callable[[], bool] = lambda: False,

@@ -15,7 +15,7 @@ import errno
 import logging
 import threading
 
-from franka_sim.robot.session import Session
+from franka_sim.robot.session import Handshake, Session
 from franka_sim.operations.arm import ArmOps
 from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
@@ -170,8 +170,8 @@ class RobotServer:
         self.driver.resume()
         return self.parts.tool_session()
 
-    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.udp.connect(peer_ip, udp_port)
+    def _on_handshake(self, peer_ip: str, handshake: Handshake) -> None:
+        self.udp.connect(peer_ip, handshake.udp_port, handshake.state)
         self.core.client_connected()
 
     def _client_silent(self) -> bool:

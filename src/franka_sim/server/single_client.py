@@ -27,7 +27,7 @@ import socket
 from contextlib import AbstractContextManager, nullcontext
 from typing import Callable
 
-from franka_sim.robot.session import Session, SessionError
+from franka_sim.robot.session import Handshake, Session, SessionError
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -123,7 +123,7 @@ class ClientConnection(asyncio.Protocol):
             return
         if not was_connected and self.session.handshake is not None:
             # before its Connect counts as an event: the cycle that follows sees a client
-            self.owner.on_handshake(self.peer[0], self.session.handshake.udp_port)
+            self.owner.on_handshake(self.peer[0], self.session.handshake)
         if self.session.requests != requests:
             self.owner.on_request()
         self._watch(restart=self.session.requests != requests)
@@ -195,7 +195,7 @@ class SingleClientEndpoint:
         self,
         what: str,
         make_session: Callable[[], Session],
-        on_handshake: Callable[[str, int], None],
+        on_handshake: Callable[[str, Handshake], None],
         on_disconnect: Callable[[], None],
         defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
         lock: "AbstractContextManager | None" = None,
@@ -236,8 +236,9 @@ class SingleClientEndpoint:
 
     def send(self, data: bytes) -> None:
         """An asynchronous reply (a Move's final status, a gripper action's) to the client."""
-        if self.active is not None:
-            self.active.write(data)
+        active = self.active
+        if active is not None:
+            active.write(active.session.wire(data))
 
     async def stop(self) -> None:
         if self.server is not None:

@@ -11,7 +11,7 @@ import asyncio
 from contextlib import AbstractContextManager
 from typing import Callable
 
-from franka_sim.robot.session import Session
+from franka_sim.robot.session import Handshake, Session
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
@@ -32,8 +32,8 @@ class ToolEndpoint(SingleClientEndpoint):
         self.state_target: tuple[str, int] | None = None
         self.udp: asyncio.DatagramTransport | None = None
 
-    def _on_handshake(self, peer_ip: str, udp_port: int) -> None:
-        self.state_target = (peer_ip, udp_port)
+    def _on_handshake(self, peer_ip: str, handshake: Handshake) -> None:
+        self.state_target = (peer_ip, handshake.udp_port)
 
     def _on_disconnect(self) -> None:
         self.state_target = None

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import logging
 import socket
+from typing import Callable
 
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
@@ -46,6 +47,7 @@ class UdpEndpoint:
         self.target: tuple[str, int] | None = None  # where states go (connect/disconnect)
         self.source: tuple[str, int] | None = None  # where commands are taken from
         self.sock: socket.socket | None = None
+        self._written: Callable[[bytes], bytes] | None = None  # an older client's state form
         # The first and the newest state sent to this connection: the message_ids between them
         # are the ones its answers may echo.
         self._first_sent: bytes | None = None
@@ -79,27 +81,32 @@ class UdpEndpoint:
     def address(self) -> tuple[str, int]:
         return self.sock.getsockname()[:2]
 
-    def connect(self, peer_ip: str, udp_port: int) -> None:
+    def connect(self, peer_ip: str, udp_port: int,
+                written: Callable[[bytes], bytes] | None = None) -> None:
         """A client's handshake: its states go to `udp_port` at the address its TCP
-        connection came from, and its commands are expected from there."""
+        connection came from, and its commands are expected from there. `written`: how each
+        state is written for a client of an older protocol version (Handshake.state)."""
         self._first_sent = self._last_sent = None
         self._moves = 0
+        self._written = written
         self.source = self.target = (peer_ip, udp_port)
 
     def disconnect(self) -> None:
         self.source = self.target = None
         self._first_sent = self._last_sent = None
+        self._written = None
 
     def send_state(self, data: bytes) -> None:
         """A RobotState to the client, from any thread (the physics thread sends them)."""
         target, sock = self.target, self.sock
         if target is None or sock is None:
             return
+        wire = data if self._written is None else self._written(data)
         if self.faults is not None:
-            self._send_through_faults(data, target, sock)
+            self._send_through_faults(wire, target, sock)
         else:
             try:
-                sock.sendto(data, target)
+                sock.sendto(wire, target)
             except OSError as exc:  # a full buffer or an ICMP error: this one state is lost
                 log.debug("state not sent: %s", exc)
         if self._first_sent is None:

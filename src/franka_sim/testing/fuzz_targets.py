@@ -145,8 +145,9 @@ class _Target:
             replies = []
         for reply in replies:
             parsed = check_reply(self.wire, reply)
-            if int(parsed.header.command) == self.wire.connect:
-                assert parsed.version == self.wire.version
+            if int(parsed.header.command) == self.wire.connect:  # ours, or one we serve too
+                assert parsed.version == self.wire.version or (
+                    parsed.status == self._success and parsed.version in self.service.dialects)
         self.replies += replies
         if not connected and session.handshake is not None:
             self._connected()
