@@ -1,12 +1,14 @@
-"""An older libfranka through a real client: franky-control 1.0.2 (libfranka 0.15, robot
-protocol v9) connects, reads the state, loads its Model (kinematics from the model library the
-robot sends, dynamics from the URDF), moves in joint and Cartesian space and homes and moves the
-Hand, and its Model is the simulator's physics; in both clocks, recorded, and the recording
-replays identical.
+"""Older libfranka through real clients: franky-control 1.0.2 (libfranka 0.15, robot protocol
+v9) and franky-panda 0.10.0 (libfranka 0.13, v7) connect, read the state, load their Model
+(from the model library the robot sends: kinematics, and for 0.13 the dynamics too; 0.15 takes
+its dynamics from the URDF), move in joint and Cartesian space and home and move the Hand; the
+Model franky 1.0.2 exposes is the simulator's physics (0.10.0 exposes none: the library's
+dynamics are checked against the physics in tests/physics/test_model_library.py); in both
+clocks, recorded, and the recording replays identical.
 
-franky 1.0.2 cannot share an environment with the suite's franky 2.0.0 (one package name), so
-the test makes a virtual environment of its own for it (pip, from PyPI, once per run) and runs
-tests/support/franky_0_15_program.py there.
+Neither can share an environment with the suite's franky 2.0.0 (one package), so the test
+makes a virtual environment for each (pip, from PyPI, once per run) and runs
+tests/support/older_franky_program.py there.
 """
 
 from __future__ import annotations
@@ -24,21 +26,24 @@ from franka_sim.description import hand
 from franka_sim.description.kinematics import fk_frames, flange_pose, tip_jacobian
 from franka_sim.testing import running_sim
 
-PROGRAM = Path(__file__).resolve().parents[1] / "support" / "franky_0_15_program.py"
-FRANKY = "franky-control==1.0.2"  # libfranka 0.15.0 inside: robot protocol v9
+PROGRAM = Path(__file__).resolve().parents[1] / "support" / "older_franky_program.py"
+# package: (the robot protocol version its libfranka speaks, whether it loads a Model)
+CLIENTS = {"franky-control==1.0.2": (9, True),  # libfranka 0.15.0
+           "franky-panda==0.10.0": (7, False)}  # libfranka 0.13
 
 
-@pytest.fixture(scope="module")
-def franky_0_15(tmp_path_factory) -> Path:
-    """The python of a virtual environment holding franky-control 1.0.2."""
-    where = tmp_path_factory.mktemp("franky-0.15")
+@pytest.fixture(scope="module", params=sorted(CLIENTS))
+def client(request, tmp_path_factory) -> tuple[Path, int, bool]:
+    """The python of a virtual environment holding the older franky, its version, and
+    whether it loads a Model (LoadModelLibrary)."""
+    where = tmp_path_factory.mktemp(request.param.replace("==", "-"))
     venv.EnvBuilder(with_pip=True).create(where)
     python = where / "bin" / "python"
-    done = subprocess.run([str(python), "-m", "pip", "install", "--quiet", FRANKY],
+    done = subprocess.run([str(python), "-m", "pip", "install", "--quiet", request.param],
                           capture_output=True, text=True, timeout=600)
     if done.returncode != 0:  # no package registry within reach: nothing to test with
-        pytest.skip(f"pip could not install {FRANKY}: {done.stderr.strip()[-300:]}")
-    return python
+        pytest.skip(f"pip could not install {request.param}: {done.stderr.strip()[-300:]}")
+    return (python, *CLIENTS[request.param])
 
 
 def _poses(desc, n: int = 4) -> np.ndarray:
@@ -47,16 +52,17 @@ def _poses(desc, n: int = 4) -> np.ndarray:
 
 
 @pytest.fixture(scope="module", params=["lockstep", "realtime"])
-def run(request, franky_0_15, description, tmp_path_factory):
+def run(request, client, description, tmp_path_factory):
     """The program's run on a fresh simulator of each clock, recorded."""
-    recording = tmp_path_factory.mktemp("v9") / "run.mcap"
+    python, version, loads_model = client
+    recording = tmp_path_factory.mktemp(f"v{version}") / "run.mcap"
     with running_sim("--clock", request.param, "--record", str(recording)) as sim:
         poses = _poses(description)
-        done = subprocess.run([str(franky_0_15), str(PROGRAM), sim.host,
-                               json.dumps(poses.tolist())],
+        done = subprocess.run([str(python), str(PROGRAM), sim.host, json.dumps(poses.tolist())],
                               capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stdout + done.stderr
-        assert sim.log_matching("client speaks robot protocol version 9: served as such")
+        assert sim.log_matching(f"client speaks robot protocol version {version}: served as such")
+        assert bool(sim.log_matching("model library sent to the robot client")) == loads_model
     return poses, json.loads(done.stdout.strip().splitlines()[-1]), recording
 
 
@@ -71,6 +77,8 @@ def test_it_connects_and_reads_the_state(run):
 def test_its_kinematics_are_the_descriptions(run, description):
     """The model library's frames are the physics' own, to round-off."""
     poses, out, _ = run
+    if not out["model"]:
+        pytest.skip("this franky exposes no Model (tests/physics/test_model_library.py)")
     for q, model in zip(poses, out["model"]):
         F_T_EE = np.asarray(out["F_T_EE"])
         assert np.allclose(model["joint4"], fk_frames(description, q)[3], atol=1e-12)
@@ -85,6 +93,8 @@ def test_its_kinematics_are_the_descriptions(run, description):
 def test_its_dynamics_are_the_physics(run, physics):
     """From the URDF the robot serves, as for libfranka 0.18 and later."""
     poses, out, _ = run
+    if not out["model"]:
+        pytest.skip("this franky exposes no Model (tests/physics/test_model_library.py)")
     for q, model in zip(poses, out["model"]):
         g = physics.gravity(q)
         assert np.linalg.norm(np.subtract(model["gravity"], g)) < 1e-6 * np.linalg.norm(g)

@@ -87,3 +87,30 @@ def test_another_machine_or_no_compiler_is_answered_without_one(description, tmp
         monkeypatch.setenv("CC", "/nonexistent/cc")
         assert ModelLibrary(description).for_client(HERE) is None
         assert "did not compile" in caplog.text or "no C compiler" in caplog.text
+
+
+def test_its_dynamics_are_the_physics(library, description, physics):
+    """What libfranka 0.9–0.13 take from it: M, c and g with the end effector's load (here the
+    Hand's, as the state gives it), equal to MuJoCo's rigid bodies (rotors left out, as the
+    client's Model leaves them out)."""
+    from franka_sim.description import hand
+
+    m, c, inertia = hand.HAND_MASS, np.asarray(hand.HAND_COM), np.asarray(hand.HAND_INERTIA)
+    library.M_NE.argtypes = [_DOUBLES, _DOUBLES, ctypes.c_double, _DOUBLES, _DOUBLES]
+    library.c_NE.argtypes = [_DOUBLES, _DOUBLES, _DOUBLES, ctypes.c_double, _DOUBLES, _DOUBLES]
+    library.g_NE.argtypes = [_DOUBLES, _DOUBLES, ctypes.c_double, _DOUBLES, _DOUBLES]
+    pointer = lambda a: np.ascontiguousarray(a, dtype=float).ctypes.data_as(_DOUBLES)  # noqa: E731
+    rng = np.random.default_rng(4)
+    for q in description.lower + (description.upper - description.lower) * rng.uniform(
+            0.05, 0.95, size=(5, 7)):
+        dq = rng.uniform(-1.0, 1.0, 7)
+        g, M, coriolis = np.zeros(7), np.zeros(49), np.zeros(7)
+        library.g_NE(pointer(q), pointer([0.0, 0.0, -9.81]), m, pointer(c),
+                     g.ctypes.data_as(_DOUBLES))
+        library.M_NE(pointer(q), pointer(inertia), m, pointer(c), M.ctypes.data_as(_DOUBLES))
+        library.c_NE(pointer(q), pointer(dq), pointer(inertia), m, pointer(c),
+                     coriolis.ctypes.data_as(_DOUBLES))
+        assert np.allclose(g, physics.gravity(q), atol=1e-12)
+        assert np.allclose(M.reshape(7, 7), physics.mass_matrix(q, include_armature=False),
+                           atol=1e-12)
+        assert np.allclose(coriolis, physics.coriolis(q, dq), atol=1e-12)

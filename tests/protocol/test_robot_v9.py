@@ -1,20 +1,23 @@
 """A version-9 client's conversation, sans-IO: accepted at Connect and answered as v9, its
 requests read as v10's, its replies and states written as v9's, LoadModelLibrary answered with
-the library or kError (protocol_specs/robot_v9.md)."""
+the library or kError (protocol_specs/robot_v9.md); versions 8 and 7 likewise, 7 without
+GetRobotModel."""
 
 from __future__ import annotations
 
 import struct
 
 import numpy as np
+import pytest
 
 from franka_sim.description.urdf import default_urdf_text
 from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol import robot_v7, robot_v8
 from franka_sim.protocol import robot_v9 as v9
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.protocol.enums import Command, MoveStatus
 from franka_sim.protocol.message import build_message
-from franka_sim.robot.session import ROBOT, Session
+from franka_sim.robot.session import ROBOT, Session, SessionError
 
 URDF = default_urdf_text().encode()
 
@@ -36,11 +39,11 @@ def _v9(command: v9.Command, command_id: int, **fields) -> bytes:
     return build_message(v9.REQUEST_STRUCTS[command], command, command_id, fields)
 
 
-def _connected(library=None) -> tuple[Session, _Robot]:
+def _connected(library=None, version: int = 9) -> tuple[Session, _Robot]:
     robot = _Robot()
     session = Session(ROBOT, robot.handle, library)
-    (reply,) = session.feed(_v9(v9.Command.Connect, 0, version=9, udp_port=4242))
-    assert struct.unpack_from("<IIIBH", reply) == (0, 0, 15, 0, 9)  # kSuccess, version 9
+    (reply,) = session.feed(_v9(v9.Command.Connect, 0, version=version, udp_port=4242))
+    assert struct.unpack_from("<IIIBH", reply) == (0, 0, 15, 0, version)  # kSuccess
     return session, robot
 
 
@@ -115,3 +118,17 @@ def test_its_states_are_the_v10_states_widened():
         else:
             assert np.array_equal(np.ravel(np.asarray(written[name], dtype=int)),
                                   np.ravel(state[name].astype(int))), name
+
+
+def test_versions_8_and_7_are_served_with_v9s_tables():
+    session, robot = _connected(version=8)
+    assert isinstance(session.dialect, robot_v8.Dialect)
+    (reply,) = session.feed(_v9(v9.Command.GetRobotModel, 5))
+    assert struct.unpack_from("<I", reply)[0] == 12
+    session, _ = _connected(version=7, library=lambda request: b"lib")
+    assert isinstance(session.dialect, robot_v7.Dialect)
+    (reply,) = session.feed(_v9(v9.Command.LoadModelLibrary, 6, architecture="kX64",
+                                system="kLinux"))
+    assert v9.LoadModelLibraryResponse.parse(reply).library == b"lib"
+    with pytest.raises(SessionError, match="unknown command 12"):  # v7 has no GetRobotModel
+        session.feed(_v9(v9.Command.GetRobotModel, 7))

@@ -11,7 +11,7 @@ libfranka-common's service_types.h and rbk_types.h at the commit that made the v
   architecture and system, and is answered with a status and the library's bytes;
 - the RobotState's numbers are float64, without the accelerometers (2373 bytes).
 The RobotCommand datagram is the same. The URDF GetRobotModel serves has no accelerometer
-links either (they came with v10): libfranka 0.15–0.17 attach the end effector's load to the
+links either (they came with v10): libfranka 0.14–0.17 attach the end effector's load to the
 frame its URDF parser puts last, which with them would be one of link0's, not the flange.
 """
 
@@ -135,9 +135,12 @@ def urdf_without_accelerometers(urdf: bytes) -> bytes:
 
 
 class Dialect:
-    """How the v10 robot serves a v9 client (robot/session.py picks it at Connect)."""
+    """How the v10 robot serves a v9 client (robot/session.py picks it at Connect). Versions 7
+    and 8 are v9 with another number, and 7 without GetRobotModel (robot_v7.py, robot_v8.py):
+    each is this class with its own tables."""
 
     version = VERSION
+    commands = Command
     header = CommandHeader
     request_sizes = REQUEST_SIZES
     request_structs = REQUEST_STRUCTS
@@ -148,13 +151,13 @@ class Dialect:
         self._rate = np.ndarray(1, "<f8", buffer=self._out, offset=_MODES_V9 + _MODES_LEN)
 
     def request(self, command: int, request):
-        """A decoded v9 request as v10 names it (Move with the async fields at their
-        defaults); a request v10 has no equivalent of keeps its v9 Command."""
-        v9 = Command(command)
-        if v9 is Command.Move:
+        """A decoded request as v10 names it (Move with the async fields at their defaults);
+        a request v10 has no equivalent of keeps its own version's Command."""
+        older = self.commands(command)
+        if older.name == "Move":
             request.use_async_motion_generator = False
             request.maximum_velocity = [0.0] * 7
-        return V10Command.__members__.get(v9.name, v9), request
+        return V10Command.__members__.get(older.name, older), request
 
     def reply(self, data: bytes) -> bytes:
         """A v10 reply with its header's command id as v9 numbers it (GetRobotModel's URDF as

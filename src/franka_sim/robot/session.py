@@ -21,7 +21,7 @@ from construct import Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
-from franka_sim.protocol import robot_v9
+from franka_sim.protocol import robot_v7, robot_v8, robot_v9
 from franka_sim.protocol.enums import (
     GRIPPER_VERSION,
     ROBOT_VERSION,
@@ -68,7 +68,7 @@ class Service:
 
 ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader,
                 rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024,
-                {robot_v9.VERSION: robot_v9.Dialect})
+                {v.VERSION: v.Dialect for v in (robot_v7, robot_v8, robot_v9)})
 GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
                   gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
                   gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes
@@ -131,6 +131,9 @@ class Session:
             raise SessionError(f"a second {service.name} Connect on an established session")
         if not isinstance(command, service.command):  # one this version no longer has
             library = None if self.library is None else self.library(request)
+            if library is not None:
+                log.info("model library sent to the %s client (%d bytes)", service.name,
+                         len(library))
             return [dialect.model_library_reply(frame.command_id, library)]
         return list(map(self.wire, self.handle(command, frame.command_id, request)))
 
