@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -17,9 +18,9 @@ from franka_sim.recording.reader import open_recording
 RUNS = ["lockstep_run", "realtime_run"]
 
 
-def franka_sim(*args: str) -> subprocess.CompletedProcess:
+def franka_sim(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "franka_sim", *args], capture_output=True,
-                          text=True, timeout=300)
+                          text=True, timeout=300, env=env)
 
 
 @pytest.mark.parametrize("run", RUNS)
@@ -61,12 +62,15 @@ def test_every_published_cycle_once_and_what_the_client_read(run, request):
 
 
 @pytest.mark.parametrize("run", RUNS)
-def test_replay_is_identical(run, request):
+def test_replay_is_identical(run, request, tmp_path):
     path, _ = request.getfixturevalue(run)
-    done = franka_sim("replay", str(path))
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    done = franka_sim("replay", str(path), env={**os.environ, "TMPDIR": str(tmp)})
     assert done.returncode == 0, done.stdout + done.stderr
     n = len(open_recording(path).states())
     assert done.stdout.strip() == f"identical ({n} cycles)"
+    assert list(tmp.iterdir()) == []  # the replay's own files are gone with it
 
 
 def test_replay_until_compares_up_to_that_cycle(lockstep_run):

@@ -9,6 +9,7 @@ record before it. imageio-ffmpeg (the `render` extra) writes the video.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +48,8 @@ def render(recording: Recording, output: Path, *, fps: float = 30.0,
     states = recording.states()
     if len(states) == 0:
         raise RenderError(f"{recording.path}: no state recorded")
-    physics = WorldParts(replay_config(recording.metadata)).make_physics()
+    with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
+        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
     model, data = physics.world.model, physics.world.data
     arm = next(iter(physics.world.arms.values()))
     cam = _camera(model, camera)

@@ -21,6 +21,7 @@ other.
 from __future__ import annotations
 
 import bisect
+import tempfile
 import threading
 from dataclasses import dataclass, field
 
@@ -71,7 +72,9 @@ class _Diverged(Exception):
 
 class Replayer:
     def __init__(self, recording: Recording) -> None:
-        self.config = replay_config(recording.metadata)
+        # Holds a recorded URDF or scene whose path is gone; removed with the replayer.
+        self._workdir = tempfile.TemporaryDirectory(prefix="franka-sim-replay-")
+        self.config = replay_config(recording.metadata, self._workdir.name)
         self.recording = recording
         self.world_parts = parts = WorldParts(self.config)
         self.physics = parts.make_physics()  # the world and each robot's body in it

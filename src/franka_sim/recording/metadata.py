@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import tempfile
 from pathlib import Path
 
 from franka_sim.config import ArmSpec, ClockMode, Config
@@ -58,9 +57,9 @@ def robot_names(meta: dict) -> list[str]:
     return [robot["name"] for robot in json.loads(meta["robots"])]
 
 
-def replay_config(meta: dict, workdir: str | None = None) -> Config:
-    """A Config that builds the recorded world (a custom URDF or scene is written to a
-    temporary file when its recorded path is gone or changed)."""
+def replay_config(meta: dict, workdir: str) -> Config:
+    """A Config that builds the recorded world (a custom URDF or scene is written into
+    workdir, which the caller owns and removes, when its recorded path is gone or changed)."""
     version = int(meta.get("format_version", "0"))
     if version != FORMAT_VERSION:
         raise Incompatible(f"recording format v{version}, this franka-sim reads "
@@ -74,7 +73,6 @@ def replay_config(meta: dict, workdir: str | None = None) -> Config:
                         for i, robot in enumerate(robots) if robot["kind"] == "arm")
     if any(robot["kind"] == "base" for robot in robots):
         config.mobile_base = "replay-base"
-    workdir = workdir or tempfile.mkdtemp(prefix="franka-sim-replay-")
     if meta["urdf"]:
         path = Path(workdir, "robot.urdf")
         path.write_text(meta["urdf"])
