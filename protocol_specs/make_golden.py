@@ -1,7 +1,7 @@
 """Write the golden byte vectors in golden/ (run: python protocol_specs/make_golden.py [--check]).
 
 Deliberately independent of franka_sim: every value is placed with the standard ``struct``
-module at the offset written in robot_v10.md, robot_v9.md or gripper_v3.md, and enum names are translated with
+module at the offset written in robot_v10.md, robot_v9.md, robot_v5.md or gripper_v3.md, and enum names are translated with
 tables restated here. The tests then require the construct declarations to build exactly these
 bytes and to parse them back to these values, so a mistake would have to be made twice, in two
 different notations, to go unnoticed. The script also checks that each layout covers every byte
@@ -106,6 +106,21 @@ COMMAND_V9 = _numbered(
     "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
     "SetGuidingMode SetEEToK SetNEToEE SetLoad AutomaticErrorRecovery LoadModelLibrary "
     "GetRobotModel")
+# Command ids of robot protocols 5 and 6, and the status tables 5 has, robot_v5.md.
+COMMAND_V5 = _numbered(
+    "Connect Move StopMove GetCartesianLimit SetCollisionBehavior SetJointImpedance "
+    "SetCartesianImpedance SetGuidingMode SetEEToK SetNEToEE SetLoad SetFilters "
+    "AutomaticErrorRecovery LoadModelLibrary")
+COMMAND_V6 = _numbered(
+    "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
+    "SetGuidingMode SetEEToK SetNEToEE SetLoad SetFilters AutomaticErrorRecovery "
+    "LoadModelLibrary")
+GETTER_SETTER_STATUS_V5 = _numbered(
+    "kSuccess kCommandNotPossibleRejected kInvalidArgumentRejected")
+MOVE_STATUS_V5 = _numbered(
+    "kSuccess kMotionStarted kPreempted kCommandNotPossibleRejected "
+    "kStartAtSingularPoseRejected kInvalidArgumentRejected kReflexAborted kEmergencyAborted "
+    "kInputErrorAborted kAborted")
 ARCHITECTURE_V9 = _numbered("kX64 kX86 kARM kARM64")
 SYSTEM_V9 = _numbered("kLinux kWindows")
 LOAD_MODEL_LIBRARY_STATUS_V9 = _numbered("kSuccess kError")
@@ -262,6 +277,7 @@ def messages():
            {"header": header("GetRobotModel", 12, 13 + len(urdf)), "status": "kSuccess",
             "urdf": urdf}, robot_enums("GetRobotModel"))
     yield from robot_v9_messages()
+    yield from robot_v5_messages()
     yield from gripper_messages()
 
 
@@ -296,6 +312,44 @@ def robot_v9_messages():
             "library": library}, {**enums, "status": LOAD_MODEL_LIBRARY_STATUS_V9})
     yield ("robot_v9_get_robot_model_request", "robot_v9.GetRobotModelRequest", 12,
            ROBOT_HEADER, {"header": header("GetRobotModel", 8, 12)}, enums)
+
+
+def robot_v5_messages():
+    """What robot protocols 5 and 6 write differently from 7 (robot_v5.md)."""
+    enums = {"header.command": COMMAND_V5, "status": GETTER_SETTER_STATUS_V5,
+             "architecture": ARCHITECTURE_V9, "system": SYSTEM_V9}
+    yield ("robot_v5_get_cartesian_limit_request", "robot_v5.GetCartesianLimitRequest", 16,
+           ROBOT_HEADER + [(12, "id", "i")],
+           {"header": header("GetCartesianLimit", 3, 16), "id": -2}, enums)
+    frame = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.25, -0.5, 0.75, 1.0]
+    yield ("robot_v5_get_cartesian_limit_response", "robot_v5.GetCartesianLimitResponse", 166,
+           ROBOT_HEADER + [(12, "status", "B"), (13, "object_world_size", "3d"),
+                           (37, "object_frame", "16d"), (165, "object_activation", "?")],
+           {"header": header("GetCartesianLimit", 3, 166), "status": "kSuccess",
+            "object_world_size": [0.5, 1.25, 2.0], "object_frame": frame,
+            "object_activation": True}, enums)
+    names = ["joint_position_filter_frequency", "joint_velocity_filter_frequency",
+             "cartesian_position_filter_frequency", "cartesian_velocity_filter_frequency",
+             "controller_filter_frequency"]
+    yield ("robot_v5_set_filters_request", "robot_v5.SetFiltersRequest", 52,
+           ROBOT_HEADER + [(12 + 8 * i, name, "d") for i, name in enumerate(names)],
+           {"header": header("SetFilters", 4, 52),
+            **{name: 100.0 * (i + 1) for i, name in enumerate(names)}}, enums)
+    yield ("robot_v5_set_filters_response", "robot_v5.SetFiltersResponse", 13,
+           ROBOT_HEADER + [(12, "status", "B")],
+           {"header": header("SetFilters", 4, 13), "status": "kInvalidArgumentRejected"}, enums)
+    yield ("robot_v5_move_response", "robot_v5.MoveResponse", 13,
+           ROBOT_HEADER + [(12, "status", "B")],
+           {"header": header("Move", 5, 13), "status": "kCommandNotPossibleRejected"},
+           {**enums, "status": MOVE_STATUS_V5})
+    yield ("robot_v5_load_model_library_request", "robot_v5.LoadModelLibraryRequest", 14,
+           ROBOT_HEADER + [(12, "architecture", "B"), (13, "system", "B")],
+           {"header": header("LoadModelLibrary", 6, 14), "architecture": "kARM64",
+            "system": "kLinux"}, enums)
+    yield ("robot_v6_load_model_library_request", "robot_v6.LoadModelLibraryRequest", 14,
+           ROBOT_HEADER + [(12, "architecture", "B"), (13, "system", "B")],
+           {"header": header("LoadModelLibrary", 6, 14), "architecture": "kX64",
+            "system": "kLinux"}, {**enums, "header.command": COMMAND_V6})
 
 
 def gripper_messages():

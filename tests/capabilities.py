@@ -25,8 +25,9 @@ CAPABILITIES = {
 }
 
 MODULES = {
-    "versions": ["protocol/test_robot_v9.py", "physics/test_model_library.py",
-                 "clients/test_older_libfranka.py"],
+    "versions": ["protocol/test_robot_v9.py", "protocol/test_robot_v5.py",
+                 "physics/test_model_library.py", "clients/test_older_libfranka.py",
+                 "clients/test_panda_python.py"],
     "connect": ["server/test_connect.py", "server/test_state.py", "server/test_raw_modes.py",
                 "server/test_udp_endpoint.py", "clients/test_address_translation.py"],
     "wire": ["protocol/test_protocol_codec.py", "protocol/test_protocol_framing.py",

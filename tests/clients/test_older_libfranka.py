@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import venv
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +24,7 @@ import pytest
 from franka_sim.description import hand
 from franka_sim.description.kinematics import fk_frames, flange_pose, tip_jacobian
 from franka_sim.testing import running_sim
+from support.client_venv import client_python
 
 PROGRAM = Path(__file__).resolve().parents[1] / "support" / "older_franky_program.py"
 # package: (the robot protocol version its libfranka speaks, whether it loads a Model)
@@ -36,13 +36,8 @@ CLIENTS = {"franky-control==1.0.2": (9, True),  # libfranka 0.15.0
 def client(request, tmp_path_factory) -> tuple[Path, int, bool]:
     """The python of a virtual environment holding the older franky, its version, and
     whether it loads a Model (LoadModelLibrary)."""
-    where = tmp_path_factory.mktemp(request.param.replace("==", "-"))
-    venv.EnvBuilder(with_pip=True).create(where)
-    python = where / "bin" / "python"
-    done = subprocess.run([str(python), "-m", "pip", "install", "--quiet", request.param],
-                          capture_output=True, text=True, timeout=600)
-    if done.returncode != 0:  # no package registry within reach: nothing to test with
-        pytest.skip(f"pip could not install {request.param}: {done.stderr.strip()[-300:]}")
+    python = client_python(request.param,
+                           tmp_path_factory.mktemp(request.param.replace("==", "-")))
     return (python, *CLIENTS[request.param])
 
 

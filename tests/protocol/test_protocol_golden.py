@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import franka_sim.protocol as protocol
-import franka_sim.protocol.robot_v9  # noqa: F401 - its vectors name it protocol.robot_v9
+import franka_sim.protocol.robot_v5  # noqa: F401 - their vectors name them protocol.robot_v5 …
+import franka_sim.protocol.robot_v6  # noqa: F401
+import franka_sim.protocol.robot_v9  # noqa: F401
 from franka_sim.protocol import (
     ControllerMode,
     GripperStateBuffer,
@@ -52,6 +54,11 @@ def assert_matches(parsed, expected, path="fields"):
 V9_DIFFERENCES = {"robot_v9.RobotState", "robot_v9.MoveRequest",
                   "robot_v9.LoadModelLibraryRequest", "robot_v9.LoadModelLibraryResponse",
                   "robot_v9.GetRobotModelRequest"}
+# And what 5 and 6 write differently from 7 (protocol/robot_v5.py, robot_v6.py).
+V5_DIFFERENCES = {"robot_v5.GetCartesianLimitRequest", "robot_v5.GetCartesianLimitResponse",
+                  "robot_v5.SetFiltersRequest", "robot_v5.SetFiltersResponse",
+                  "robot_v5.MoveResponse", "robot_v5.LoadModelLibraryRequest",
+                  "robot_v6.LoadModelLibraryRequest"}
 
 
 def struct_of(doc):
@@ -63,7 +70,8 @@ def struct_of(doc):
 def test_there_is_a_golden_vector_for_every_message_kind():
     structs = {json.loads(p.read_text())["struct"] for p in GOLDEN_FILES}
     messages = {name for name in protocol.__all__ if name.endswith(("Request", "Response"))}
-    expected = messages | {"RobotState", "RobotCommand", "GripperState"} | V9_DIFFERENCES
+    expected = (messages | {"RobotState", "RobotCommand", "GripperState"} | V9_DIFFERENCES
+                | V5_DIFFERENCES)
     assert structs == expected
 
 
@@ -85,6 +93,16 @@ def test_a_v9_client_gets_the_golden_v10_state_as_the_golden_v9_state():
     v10 = bytes.fromhex(load(SPECS / "golden" / "robot_state.json")["hex"])
     v9 = bytes.fromhex(load(SPECS / "golden" / "robot_v9_state.json")["hex"])
     assert protocol.robot_v9.Dialect().state(v10) == v9
+
+
+def test_a_v5_client_reads_the_v10_robots_move_status_by_its_name():
+    """kCommandNotPossibleRejected is 5 in v10 and 3 in v5 (two safety statuses came later)."""
+    from franka_sim.protocol import robot_messages
+    from franka_sim.protocol.enums import Command, MoveStatus
+
+    v10 = robot_messages.build_response(Command.Move, 5, MoveStatus.kCommandNotPossibleRejected)
+    v5 = bytes.fromhex(load(SPECS / "golden" / "robot_v5_move_response.json")["hex"])
+    assert protocol.robot_v5.Dialect().reply(v10) == v5
 
 
 STATE_ENUMS = {

@@ -17,6 +17,7 @@ frame its URDF parser puts last, which with them would be one of link0's, not th
 
 from __future__ import annotations
 
+import logging
 from enum import IntEnum
 from xml.etree import ElementTree
 
@@ -30,6 +31,7 @@ from .enums import Command as V10Command
 from .message import build_message, message
 
 VERSION = 9
+log = logging.getLogger(__name__)
 
 
 class Command(IntEnum):
@@ -172,14 +174,20 @@ class Dialect:
         v9 = _REPLY_IDS[v10]
         return data if v9 == v10 else v9.to_bytes(4, "little") + data[4:]
 
-    def model_library_reply(self, command_id: int, library: bytes | None) -> bytes:
-        """LoadModelLibrary's answer: the library, or kError without one."""
-        if library is None:
+    # How the client's RobotCommand datagrams read as v10's (None: they are v10's).
+    command = None
+
+    def answer(self, command, command_id: int, request, library) -> bytes:
+        """The reply to a request the v10 robot has no equivalent of: LoadModelLibrary's, the
+        library (`library(request)`: None, or no provider, is kError)."""
+        made = None if library is None else library(request)
+        if made is None:
             fields = {"status": LoadModelLibraryStatus.kError, "library": b""}
         else:
-            fields = {"status": LoadModelLibraryStatus.kSuccess, "library": library}
-        return build_message(LoadModelLibraryResponse, Command.LoadModelLibrary, command_id,
-                             fields)
+            log.info("model library sent to the robot client (%d bytes)", len(made))
+            fields = {"status": LoadModelLibraryStatus.kSuccess, "library": made}
+        return build_message(LoadModelLibraryResponse, self.commands.LoadModelLibrary,
+                             command_id, fields)
 
     def state(self, data: bytes) -> bytes:
         """A v10 RobotState as v9 sends it: each number widened to float64 (its value is the

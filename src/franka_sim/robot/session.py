@@ -4,7 +4,7 @@ Bytes in, reply bytes out. The robot (port 1337, protocol v10) and the Hand (133
 same conversation: Connect first with the right version (another version is answered
 kIncompatibleLibraryVersion with ours, then the connection closes), frames cut by the shared
 FrameReader, every later request handed to the service's handler. Only the wire tables differ,
-and they are a `Service`. An older version the service still serves (the robot: v9) is
+and they are a `Service`. An older version the service still serves (the robot: v5–v9) is
 accepted at Connect, and from then on its Dialect reads the client's requests as the service's
 own and writes the service's replies (`wire`) and states (`Handshake.state`) as the client's. Malformed input raises `SessionError` — the adapter logs its one-line
 message and closes the connection, which is the only rejection either protocol has for a frame
@@ -21,7 +21,7 @@ from construct import Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
-from franka_sim.protocol import robot_v7, robot_v8, robot_v9
+from franka_sim.protocol import robot_v5, robot_v6, robot_v7, robot_v8, robot_v9
 from franka_sim.protocol.enums import (
     GRIPPER_VERSION,
     ROBOT_VERSION,
@@ -46,6 +46,7 @@ class Handshake:
 
     udp_port: int
     state: Callable[[bytes], bytes] | None = None
+    command: Callable[[bytes], bytes] | None = None  # its RobotCommands as this version's
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,8 @@ class Service:
 
 ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader,
                 rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024,
-                {v.VERSION: v.Dialect for v in (robot_v7, robot_v8, robot_v9)})
+                {v.VERSION: v.Dialect
+                 for v in (robot_v5, robot_v6, robot_v7, robot_v8, robot_v9)})
 GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
                   gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
                   gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes
@@ -83,7 +85,7 @@ class Session:
         self.service = service
         self.handle = handle
         # library(request) → the robot's model library for a LoadModelLibrary (older clients
-        # build their kinematics from it), or None: answered kError.
+        # build their Model from it), or None: answered kError.
         self.library = library
         self.handshake: Handshake | None = None
         self.dialect = None  # an older client's (Service.dialects), from its Connect on
@@ -130,11 +132,7 @@ class Session:
             self.closed = True
             raise SessionError(f"a second {service.name} Connect on an established session")
         if not isinstance(command, service.command):  # one this version no longer has
-            library = None if self.library is None else self.library(request)
-            if library is not None:
-                log.info("model library sent to the %s client (%d bytes)", service.name,
-                         len(library))
-            return [dialect.model_library_reply(frame.command_id, library)]
+            return [dialect.answer(command, frame.command_id, request, self.library)]
         return list(map(self.wire, self.handle(command, frame.command_id, request)))
 
     def wire(self, reply: bytes) -> bytes:
@@ -154,14 +152,14 @@ class Session:
             return service.build_response(
                 service.command.Connect, command_id,
                 service.connect_status.kIncompatibleLibraryVersion, version=service.version)
-        state = None
+        state = command = None
         if make_dialect is not None:
             self.dialect = dialect = make_dialect()
             self._reader = FrameReader(dialect.header, dialect.request_sizes, service.max_size)
-            state = dialect.state
+            state, command = dialect.state, dialect.command
             log.info("client speaks %s protocol version %d: served as such", service.name,
                      version)
-        self.handshake = Handshake(udp_port=int(request.udp_port), state=state)
+        self.handshake = Handshake(int(request.udp_port), state, command)
         return service.build_response(service.command.Connect, command_id,
                                       service.connect_status.kSuccess, version=version)
 

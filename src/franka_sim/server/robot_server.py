@@ -171,7 +171,7 @@ class RobotServer:
         return self.parts.tool_session()
 
     def _on_handshake(self, peer_ip: str, handshake: Handshake) -> None:
-        self.udp.connect(peer_ip, handshake.udp_port, handshake.state)
+        self.udp.connect(peer_ip, handshake.udp_port, handshake.state, handshake.command)
         self.core.client_connected()
 
     def _client_silent(self) -> bool:

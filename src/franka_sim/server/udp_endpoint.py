@@ -48,6 +48,7 @@ class UdpEndpoint:
         self.source: tuple[str, int] | None = None  # where commands are taken from
         self.sock: socket.socket | None = None
         self._written: Callable[[bytes], bytes] | None = None  # an older client's state form
+        self._read: Callable[[bytes], bytes] | None = None  # and its commands'
         # The first and the newest state sent to this connection: the message_ids between them
         # are the ones its answers may echo.
         self._first_sent: bytes | None = None
@@ -82,19 +83,21 @@ class UdpEndpoint:
         return self.sock.getsockname()[:2]
 
     def connect(self, peer_ip: str, udp_port: int,
-                written: Callable[[bytes], bytes] | None = None) -> None:
+                written: Callable[[bytes], bytes] | None = None,
+                read: Callable[[bytes], bytes] | None = None) -> None:
         """A client's handshake: its states go to `udp_port` at the address its TCP
-        connection came from, and its commands are expected from there. `written`: how each
-        state is written for a client of an older protocol version (Handshake.state)."""
+        connection came from, and its commands are expected from there. A client of an older
+        protocol version: `written`, how each state is written for it, `read`, how its
+        commands read as v10's (Handshake.state, .command)."""
         self._first_sent = self._last_sent = None
         self._moves = 0
-        self._written = written
+        self._written, self._read = written, read
         self.source = self.target = (peer_ip, udp_port)
 
     def disconnect(self) -> None:
         self.source = self.target = None
         self._first_sent = self._last_sent = None
-        self._written = None
+        self._written = self._read = None
 
     def send_state(self, data: bytes) -> None:
         """A RobotState to the client, from any thread (the physics thread sends them)."""
@@ -157,6 +160,8 @@ class UdpEndpoint:
     def accept(self, data: bytes, addr):
         """The RobotCommand in a datagram, or None: not the client's, or malformed (dropped,
         counted and logged)."""
+        if self._read is not None:  # an older client's command, as v10 has it
+            data = self._read(data)
         if addr[:2] != self.source:  # (None while no client is connected)
             return self._from_elsewhere(data, addr)
         try:
