@@ -18,7 +18,8 @@ CAPABILITIES = {
     "robustness": "hostile input, dead peers, a simulator that stops simulating",
     "serving": "the CLI, readiness checks, embedding, the process, the viewer",
     "clients": "real clients end to end and the programs in examples/",
-    "versions": "older libfranka: robot protocol versions before 10, the model library",
+    "versions": "older libfranka: robot protocol versions before 10, the model library, the "
+                "Panda (FER) they were made for",
     "plugin": "the pytest plugin as a user meets it",
     "deployment": "the image, compose, Kubernetes, the GitHub action",
     "combinations": "the serve flags in combination",
@@ -27,7 +28,8 @@ CAPABILITIES = {
 MODULES = {
     "versions": ["protocol/test_robot_v9.py", "protocol/test_robot_v5.py",
                  "physics/test_model_library.py", "clients/test_older_libfranka.py",
-                 "clients/test_panda_python.py"],
+                 "clients/test_panda_python.py", "clients/test_panda_arm.py",
+                 "robot/test_fer_limits.py"],
     "connect": ["server/test_connect.py", "server/test_state.py", "server/test_raw_modes.py",
                 "server/test_udp_endpoint.py", "clients/test_address_translation.py"],
     "wire": ["protocol/test_protocol_codec.py", "protocol/test_protocol_framing.py",

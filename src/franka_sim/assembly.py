@@ -24,7 +24,7 @@ from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.robot.base_core import BaseCore
 from franka_sim.robot.base_cycle import BaseCycle
 from franka_sim.robot.events import NO_ROBOT_EVENTS, NO_WORLD_EVENTS, RobotEvents, WorldEvents
-from franka_sim.robot.session import Session, robot_session, tool_session
+from franka_sim.robot.session import PAIRINGS, Session, robot_session, tool_session
 from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.tools import tool_kind
 
@@ -40,6 +40,7 @@ class ArmParts:
         self.config, self.spec = config, spec
         self.name, self.host, self.label = spec.name, spec.host, f"arm {spec.name}"
         self.description, self.urdf_text = description, urdf_text
+        self.robot = config.robot_of(spec)  # its kind: fr3 or fer
         self.q0 = np.array(config.q0, dtype=float)
         self.core = ArmCore(
             description, self.q0, urdf=urdf_text.encode(), enforce_comm_constraints=config.enforce_comm_constraints,
@@ -58,7 +59,8 @@ class ArmParts:
         return ArmCycle(self.core, physics, self.tool, tool_state_wanted=tool_state_wanted)
 
     def robot_session(self) -> Session:
-        return robot_session(self.core, self.model_library.for_client)
+        pairing = PAIRINGS[self.robot] if self.config.strict_versions else None
+        return robot_session(self.core, self.model_library.for_client, pairing)
 
     def tool_session(self) -> Session:
         return tool_session(self.tool_kind.service, self.tool)
@@ -95,22 +97,31 @@ class WorldParts:
         specs = config.arm_specs()
         robot_events = (events.robots if events is not None else
                         [NO_ROBOT_EVENTS] * (len(specs) + (config.mobile_base is not None)))
-        self.urdf_text = (
-            config.urdf.read_text() if config.urdf is not None else default_urdf_text()
-        )
-        self.description = load_arm_description(self.urdf_text)
+        # Each arm's (URDF text, description): --urdf's for all, else its kind's packaged one.
+        self._descriptions: dict[str, tuple[str, ArmDescription]] = {}
+        described = [self._described(config.robot_of(spec)) for spec in specs]
+        # The first arm's: what a recording names (each arm's kind is recorded beside it).
+        self.urdf_text, self.description = described[0]
         self.scene = resolve_scene(config.scene) if config.scene is not None \
             else default_scene_path()
-        self.placements = self._place(specs)
+        self.placements = self._place(specs, [d for _, d in described])
         self._check()
-        self.arms = [ArmParts(config, spec, self.description, self.urdf_text, robot_events[i])
+        self.arms = [ArmParts(config, spec, described[i][1], described[i][0], robot_events[i])
                      for i, spec in enumerate(specs)]
         self.base = None if config.mobile_base is None else BaseParts(
             config.mobile_base, robot_events[len(specs)])
         # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
         self.robots = [*self.arms, *([self.base] if self.base is not None else [])]
 
-    def _place(self, specs) -> list[ArmPlacement]:
+    def _described(self, robot: str) -> tuple[str, ArmDescription]:
+        if robot not in self._descriptions:
+            config = self.config
+            text = config.urdf.read_text() if config.urdf is not None \
+                else default_urdf_text(robot)
+            self._descriptions[robot] = (text, load_arm_description(text))
+        return self._descriptions[robot]
+
+    def _place(self, specs, descriptions) -> list[ArmPlacement]:
         """Each arm where its spec says, else where the scene's `arm/NAME` site does, else at
         the origin; a lone arm keeps the arm's own names ("hand", "flange")."""
         for i, spec in enumerate(specs):
@@ -125,10 +136,10 @@ class WorldParts:
                                  "(one address per robot)")
         mounts = scene_mounts(self.scene)
         kind, rides = tool_kind(self.config.tool), self.config.mobile_base is not None
-        return [ArmPlacement(self.description, spec.name if len(specs) > 1 else "",
+        return [ArmPlacement(description, spec.name if len(specs) > 1 else "",
                              base=spec.base if spec.base is not None else mounts.get(spec.name),
                              tool=None if kind is None else kind.mount, rides=rides)
-                for spec in specs]
+                for spec, description in zip(specs, descriptions)]
 
     def _check(self) -> None:
         check_world(self.placements, self.scene)

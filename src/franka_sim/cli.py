@@ -11,7 +11,7 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
-from franka_sim.config import ArmSpec, ClockMode, Config, ToolName
+from franka_sim.config import ROBOTS, ArmSpec, ClockMode, Config, RobotKind, ToolName
 
 
 app = typer.Typer(
@@ -40,7 +40,18 @@ def serve(
     ),
     urdf: Path | None = typer.Option(
         None, envvar="FRANKA_SIM_URDF", exists=True, dir_okay=False,
-        help="Serve (and simulate) this hand-less FR3 URDF instead of the packaged one.",
+        help="Serve (and simulate) this hand-less arm URDF instead of the packaged one.",
+    ),
+    robot: RobotKind = typer.Option(
+        RobotKind.fr3, envvar="FRANKA_SIM_ROBOT",
+        help="The arm: fr3 (Franka Research 3) or fer (Franka Emika Panda): its description, "
+        "limits and the URDF it serves. An --arm may name its own (NAME:fer=ADDRESS).",
+    ),
+    strict_versions: bool = typer.Option(
+        False, "--strict-versions/--any-versions", envvar="FRANKA_SIM_STRICT_VERSIONS",
+        help="Refuse a client whose libfranka does not speak the arm's protocols, as that "
+        "robot would (a Panda: robot protocol 5 and below; an FR3: 6 and above). Default: "
+        "any supported version on either arm.",
     ),
     clock: ClockMode = typer.Option(
         ClockMode.realtime, envvar="FRANKA_SIM_CLOCK",
@@ -73,11 +84,11 @@ def serve(
         "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
     ),
     arm: list[str] = typer.Option(
-        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME=ADDRESS[@x,y,z[,yaw_deg]]",
+        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]]",
         help="An arm of the world, served on its own ADDRESS (FCI, Hand and control API), its "
         "base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
-        "site, else the origin). Repeat for several arms in one world. Default: one arm "
-        "named fr3 on --host.",
+        "site, else the origin), of kind ROBOT (default: --robot's). Repeat for several arms "
+        "in one world. Default: one arm named fr3 on --host.",
     ),
     mobile_base: str | None = typer.Option(
         None, "--mobile-base", envvar="FRANKA_SIM_MOBILE_BASE", metavar="ADDRESS",
@@ -156,7 +167,8 @@ def serve(
 
     try:
         config = checked(Config(
-            host=host, urdf=urdf, clock=clock, enforce_comm_constraints=enforce_comm_constraints,
+            host=host, urdf=urdf, robot=robot.value, strict_versions=strict_versions, clock=clock,
+            enforce_comm_constraints=enforce_comm_constraints,
             enforce_motion_limits=enforce_motion_limits,
             joint_discontinuity_scale=joint_discontinuity_scale,
             scene=scene, tool=_tool(tool.value, no_gripper), control_port=control_port,
@@ -179,14 +191,18 @@ def _tool(tool: str, no_gripper: bool) -> str:
 
 
 def parse_arm(text: str) -> ArmSpec:
-    """NAME=ADDRESS[@x,y,z[,yaw_deg]] as an ArmSpec (ValueError saying what is wrong)."""
+    """NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]] as an ArmSpec (ValueError saying what is
+    wrong)."""
     import ipaddress
     import math
 
     name, sep, rest = text.partition("=")
-    name = name.strip()
+    name, colon, robot = name.strip().partition(":")
     if not sep or not name or not rest:
-        raise ValueError(f"{text!r}: expected NAME=ADDRESS[@x,y,z[,yaw_deg]]")
+        raise ValueError(f"{text!r}: expected NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]]")
+    if colon and robot not in ROBOTS:
+        raise ValueError(f"arm {name}: {robot!r} is not a robot ({', '.join(ROBOTS)})")
+    robot = robot or None
     if "/" in name or not name.isprintable() or " " in name:
         raise ValueError(f"arm {name!r}: a name has no '/' and no spaces")
     host, at, pose = rest.partition("@")
@@ -195,7 +211,7 @@ def parse_arm(text: str) -> ArmSpec:
     except ValueError:
         raise ValueError(f"arm {name}: {host!r} is not an IP address") from None
     if not at:
-        return ArmSpec(name, host)
+        return ArmSpec(name, host, robot=robot)
     try:
         figures = [float(v) for v in pose.split(",")]
     except ValueError:
@@ -203,7 +219,7 @@ def parse_arm(text: str) -> ArmSpec:
     if len(figures) not in (3, 4) or not all(math.isfinite(v) for v in figures):
         raise ValueError(f"arm {name}: {pose!r} is not x,y,z[,yaw_deg] (3 or 4 finite numbers)")
     x, y, z, yaw = (figures + [0.0])[:4]
-    return ArmSpec(name, host, (x, y, z, math.radians(yaw)))
+    return ArmSpec(name, host, (x, y, z, math.radians(yaw)), robot)
 
 
 @app.command()

@@ -12,7 +12,6 @@ from pathlib import Path
 READY_POSE = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4)
 
 
-DEFAULT_ARM = "fr3"  # the name of the one arm a world holds when no --arm says otherwise
 
 
 @dataclass(frozen=True)
@@ -26,6 +25,17 @@ class ArmSpec:
     name: str
     host: str
     base: tuple[float, float, float, float] | None = None
+    robot: str | None = None  # its kind (ROBOTS); None: Config.robot's
+
+
+# The arms franka-sim simulates: the Franka Research 3 and the Franka Emika Panda (FER), each
+# with its packaged description (urdf/NAME.urdf) and limits (robot/checks/figures.py).
+class RobotKind(str, Enum):
+    fr3 = "fr3"
+    fer = "fer"
+
+
+ROBOTS = tuple(kind.value for kind in RobotKind)
 
 
 class ClockMode(str, Enum):
@@ -44,7 +54,9 @@ class ToolName(str, Enum):
 class Config:
     host: str = "127.0.0.1"
     robot_port: int = 1337  # libfranka pins it; other values only serve raw-socket clients
-    urdf: Path | None = None  # None: the packaged FR3 description
+    urdf: Path | None = None  # None: the packaged description of each arm's kind
+    robot: str = "fr3"  # every arm's kind (ROBOTS) but those whose ArmSpec names their own
+    strict_versions: bool = False  # a client must speak the protocols its robot's kind does
     clock: ClockMode = ClockMode.realtime
     enforce_comm_constraints: bool = False  # abort after 20 lost cycles, as the robot does
     enforce_motion_limits: bool = False  # abort on a limit violation, as the robot does
@@ -58,11 +70,16 @@ class Config:
     record: Path | None = None  # write everything the run exchanged to this MCAP file
     inject: str | None = None  # network faults on every robot's UDP path (faults/spec.py)
     seed: int = 0  # the faults' seed: the same seed hits the same cycles
-    # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
+    # The arms of the world, each on its own address; empty: one arm on host, named after its
+    # kind ("fr3", "fer").
     arms: tuple[ArmSpec, ...] = ()
     # The mobile base every arm stands on, served on this address as a robot of its own;
     # None: the arms stand on the world.
     mobile_base: str | None = None
 
     def arm_specs(self) -> tuple[ArmSpec, ...]:
-        return self.arms or (ArmSpec(DEFAULT_ARM, self.host),)
+        return self.arms or (ArmSpec(self.robot, self.host),)
+
+    def robot_of(self, spec: ArmSpec) -> str:
+        """The kind of the arm `spec` describes."""
+        return spec.robot or self.robot

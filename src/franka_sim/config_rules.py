@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import ipaddress
 
-from franka_sim.config import Config
+from franka_sim.config import ROBOTS, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -36,6 +36,11 @@ def checked(config: Config) -> Config:
             raise ConfigError("--mobile-base", "a mobile base carries the arms named with --arm")
     for arm in config.arms:
         _address("--arm", arm.host, f"arm {arm.name}: ")
+    for flag, name, robot in (("--robot", "", config.robot),
+                              *(("--arm", f"arm {a.name}: ", a.robot) for a in config.arms)):
+        if robot is not None and robot not in ROBOTS:
+            raise ConfigError(flag, f"{name}{robot!r} is not a robot (one of "
+                              f"{', '.join(ROBOTS)})")
     from franka_sim.tools import tool_names
 
     if config.tool not in tool_names():

@@ -77,7 +77,8 @@ def _config(settings: dict) -> Config:
     settings["control_token"] = os.environ.get(_TOKEN)
     settings["q0"] = tuple(settings["q0"])
     settings["arms"] = tuple(
-        ArmSpec(arm["name"], arm["host"], None if arm["base"] is None else tuple(arm["base"]))
+        ArmSpec(arm["name"], arm["host"], None if arm["base"] is None else tuple(arm["base"]),
+                arm.get("robot"))
         for arm in settings.get("arms", ()))
     return Config(**settings)
 

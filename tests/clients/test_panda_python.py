@@ -3,7 +3,9 @@ libfranka 0.9.2 speaks robot protocol v5; tests/support/panda_py_program.py). It
 reads the state, loads its Model from the model library the robot sends (kinematics and
 dynamics equal to the physics), moves to the start pose, to a joint position and to a pose,
 runs a torque controller of panda_py.controllers for 5 s, and homes the Hand, moves it and
-grasps and lifts the cube; in both clocks, recorded, and the recording replays identical.
+grasps and lifts the cube; in both clocks, recorded, and the recording replays identical. And
+on the Panda itself (`--robot fer`): its Model is the Panda's physics, and it moves to a pose
+only a Panda reaches (joint 6 at 0.3 rad).
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from franka_sim.config import READY_POSE
 from franka_sim.control import Control
 from franka_sim.description import hand
 from franka_sim.description.kinematics import fk_frames, flange_pose, tip_jacobian
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.testing import running_sim
 from support.client_venv import client_python
 
@@ -40,18 +44,30 @@ def _plan(description) -> dict:
     poses = description.lower + (description.upper - description.lower) * rng.uniform(
         0.1, 0.9, size=(4, 7))
     above, at = pp.poses_over(pp.CUBE, pp.READY)
-    return {"poses": poses.tolist(), "target": (READY + [0.2, 0, 0, 0, 0, 0, 0]).tolist(),
+    # On the Panda, joint 6 to 0.3 rad: below the FR3's range (0.54), inside the Panda's.
+    step = [0, 0, 0, 0, 0, 0.3 - READY[5], 0] if description.name == "fer" else \
+        [0.2, 0, 0, 0, 0, 0, 0]
+    return {"poses": poses.tolist(), "target": (READY + step).tolist(),
             "held": (READY + [0, 0, 0, 0, 0, 0, 0.2]).tolist(),
             "above": list(above), "at": list(at)}
 
 
-@pytest.fixture(scope="module", params=["lockstep", "realtime"])
-def run(request, python, description, tmp_path_factory):
-    """The program's run on a fresh simulator of each clock, recorded; and where the cube
-    is once it ends."""
+@pytest.fixture(scope="module", params=[("lockstep", "fr3"), ("realtime", "fr3"),
+                                        ("lockstep", "fer")], ids="-".join)
+def arm(request):
+    """(clock, robot) of a run and the robot's description."""
+    clock, robot = request.param
+    return clock, robot, load_arm_description(default_urdf_text(robot))
+
+
+@pytest.fixture(scope="module")
+def run(arm, python, tmp_path_factory):
+    """The program's run on a fresh simulator of each clock and arm, recorded; and where the
+    cube is once it ends."""
+    clock, robot, description = arm
     recording = tmp_path_factory.mktemp("v5") / "run.mcap"
     plan = _plan(description)
-    with running_sim("--clock", request.param, "--record", str(recording)) as sim:
+    with running_sim("--clock", clock, "--robot", robot, "--record", str(recording)) as sim:
         done = subprocess.run([str(python), str(PROGRAM), sim.host, json.dumps(plan)],
                               capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stdout + done.stderr
@@ -68,9 +84,12 @@ def test_it_connects_and_reads_the_state(run):
     assert np.allclose(out["F_T_EE"], hand.F_T_NE_HAND, atol=1e-6)
 
 
-def test_its_model_is_the_physics(run, description, physics):
-    """The whole Model comes from the library in libfranka 0.9: kinematics and dynamics."""
+def test_its_model_is_the_physics(run, arm):
+    """The whole Model comes from the library in libfranka 0.9: kinematics and dynamics, the
+    served arm's (the FR3's or the Panda's)."""
     plan, out, *_ = run
+    description = arm[2]
+    physics = MujocoBackend(description, READY)
     F_T_EE = np.asarray(out["F_T_EE"])
     for q, model in zip(plan["poses"], out["model"]):
         assert np.allclose(model["joint4"], fk_frames(description, q)[3], atol=1e-12)

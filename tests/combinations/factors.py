@@ -32,6 +32,9 @@ NOT_FACTORS = {
                    "SCHED_FIFO servers side by side can starve a machine of two cores",
     "log_level": "what is logged, not what is simulated",
     "no_gripper": "the same as --tool none, which the tool factor covers",
+    "strict_versions": "decides which libfranka versions connect, at Connect only: the "
+                       "matrix's clients are pylibfranka 0.21 (v10), which a strict Panda "
+                       "refuses by design (tests/clients/test_panda_arm.py)",
 }
 
 # The world factor stands for these options together: a packaged scene and the robots it holds.

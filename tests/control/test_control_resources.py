@@ -36,8 +36,8 @@ def current_state(robot: pylibfranka.Robot, control: Control) -> pylibfranka.Rob
 
 def test_health_is_ready_and_says_what_the_robot_does(control, served):
     health = control.health()
-    assert health == {"ready": True, "arm": "fr3", "clock": "realtime", "cycle": health["cycle"],
-                      "client_connected": False, "robot_mode": "Idle"}
+    assert health == {"ready": True, "arm": "fr3", "robot": "fr3", "clock": "realtime",
+                      "cycle": health["cycle"], "client_connected": False, "robot_mode": "Idle"}
     robot = connect(served.host)
     assert control.health()["client_connected"] is True
     del robot

@@ -1,6 +1,7 @@
 """The model library older libfranka loads (model_library/): its frames and Jacobians are the
 description's, it is built once per description and kept, and a client of another machine is
-answered without one. Needs a C compiler, as serving it does."""
+answered without one; for each arm it serves (the FR3's and the Panda's descriptions). Needs a
+C compiler, as serving it does."""
 
 from __future__ import annotations
 
@@ -21,6 +22,22 @@ if shutil.which("cc") is None and shutil.which("gcc") is None:
 
 HERE = Container(architecture=this_machine()[0], system=this_machine()[1])
 _DOUBLES = ctypes.POINTER(ctypes.c_double)
+
+
+@pytest.fixture(scope="module", params=["fr3", "fer"])
+def description(request):
+    """Each packaged arm's (here instead of the suite's FR3 alone)."""
+    from franka_sim.description.urdf import default_urdf_text, load_arm_description
+
+    return load_arm_description(default_urdf_text(request.param))
+
+
+@pytest.fixture(scope="module")
+def physics(description):
+    from franka_sim.config import READY_POSE
+    from franka_sim.physics.mujoco_backend import MujocoBackend
+
+    return MujocoBackend(description, np.array(READY_POSE))
 
 
 @pytest.fixture(scope="module")

@@ -151,3 +151,16 @@ def test_a_370_byte_command_reads_as_v10s_with_torque_command_finished_false():
                  "tau_J_d"):
         assert np.array_equal(read[name], fields[name]), name
     assert v5.Dialect().command(v10_bytes[:200]) == v10_bytes[:200]  # left for the endpoint
+
+
+@pytest.mark.parametrize("kind, refused, own", [("fer", 10, 5), ("fr3", 5, 10)])
+def test_a_pairing_refuses_the_versions_its_robot_does_not_speak(kind, refused, own):
+    """--strict-versions: the robot's incompatible-version reply names its own version, and
+    the session closes."""
+    from franka_sim.robot.session import PAIRINGS
+
+    session = Session(ROBOT, _Robot().handle, None, PAIRINGS[kind])
+    (reply,) = session.feed(_request(v5, v5.Command.Connect, 0, version=refused,
+                                     udp_port=4242))
+    assert struct.unpack_from("<IIIBH", reply) == (0, 0, 15, 1, own)
+    assert session.closed and session.handshake is None

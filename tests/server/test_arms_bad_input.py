@@ -55,7 +55,8 @@ def test_an_unknown_scene_name():
 
 
 @pytest.mark.parametrize("spec, problem", [
-    ("left", "expected NAME=ADDRESS"),
+    ("left", "expected NAME[:ROBOT]=ADDRESS"),
+    ("left:ur5=127.0.0.5", "'ur5' is not a robot (fr3, fer)"),
     ("left=localhost", "is not an IP address"),
     ("left=127.0.0.5@1,2", "3 or 4 finite numbers"),
     ("left=127.0.0.5@1,x,2", "in numbers"),
@@ -63,6 +64,11 @@ def test_an_unknown_scene_name():
 ])
 def test_a_malformed_arm(spec, problem):
     assert problem in said(serve("--arm", spec))
+
+
+def test_an_unknown_robot():
+    err = said(serve("--robot", "ur5"))
+    assert "--robot" in err and "'ur5' is not one of" in err
 
 
 def test_arms_placed_into_each_other():

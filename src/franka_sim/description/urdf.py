@@ -288,13 +288,14 @@ def load_arm_description(urdf_text: str) -> ArmDescription:
                           MappingProxyType(inertials))
 
 
-def default_urdf_text() -> str:
-    """The packaged FR3 description: installed package data first, then the source checkout."""
+def default_urdf_text(robot: str = "fr3") -> str:
+    """The packaged description of a robot kind (fr3, fer): installed package data first, then
+    the source checkout."""
     try:
-        packaged = importlib.resources.files("franka_sim").joinpath("urdf", "fr3.urdf")
+        packaged = importlib.resources.files("franka_sim").joinpath("urdf", f"{robot}.urdf")
         if packaged.is_file():
             return packaged.read_text(encoding="utf-8")
     except (ModuleNotFoundError, FileNotFoundError, NotADirectoryError, TypeError):
         pass
-    checkout = Path(__file__).resolve().parents[3] / "urdf" / "fr3.urdf"
+    checkout = Path(__file__).resolve().parents[3] / "urdf" / f"{robot}.urdf"
     return checkout.read_text(encoding="utf-8")

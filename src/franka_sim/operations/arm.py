@@ -97,7 +97,8 @@ class ArmOps(FaultOps):
         stopped simulating."""
         refuse_if_failed(self.worker)
         core = self.core
-        return {"ready": True, "arm": self.arm, "clock": self.clock, "cycle": core.message_id,
+        return {"ready": True, "arm": self.arm, "robot": self.description.name,
+                "clock": self.clock, "cycle": core.message_id,
                 "client_connected": self.client_connected(),
                 "robot_mode": mode_name(core.robot_mode)}
 

@@ -17,7 +17,7 @@ from franka_sim.recording import FORMAT_VERSION
 
 START_FRESH, START_RESET = "fresh", "reset"  # `start`: from a fresh world, or from a reset
 _FLAGS = ("enforce_comm_constraints", "enforce_motion_limits", "joint_discontinuity_scale",
-          "tool")
+          "tool", "robot", "strict_versions")
 
 
 def sha256(text: str) -> str:
@@ -34,7 +34,9 @@ def describe(config: Config, urdf_text: str, scene: Path, robots) -> dict:
         "franka_sim_version": franka_sim.__version__,
         "robots": [{"name": robot.name, "kind": robot.kind,
                     "base": None if getattr(robot, "spec", None) is None
-                    or robot.spec.base is None else list(robot.spec.base)}
+                    or robot.spec.base is None else list(robot.spec.base),
+                    "robot": None if getattr(robot, "spec", None) is None
+                    else robot.spec.robot}
                    for robot in robots],
         "clock": config.clock.value,
         "q0": list(config.q0),
@@ -69,7 +71,8 @@ def replay_config(meta: dict, workdir: str) -> Config:
     robots = json.loads(meta["robots"])
     # Addresses only tell robots apart here: replay opens no socket.
     config.arms = tuple(ArmSpec(robot["name"], f"replay-{i}",
-                                None if robot["base"] is None else tuple(robot["base"]))
+                                None if robot["base"] is None else tuple(robot["base"]),
+                                robot.get("robot"))
                         for i, robot in enumerate(robots) if robot["kind"] == "arm")
     if any(robot["kind"] == "base" for robot in robots):
         config.mobile_base = "replay-base"
@@ -80,7 +83,8 @@ def replay_config(meta: dict, workdir: str) -> Config:
     else:
         from franka_sim.description.urdf import default_urdf_text
 
-        if sha256(default_urdf_text()) != meta["urdf_sha256"]:
+        first = config.robot_of(config.arm_specs()[0])  # the arm the hash is of
+        if sha256(default_urdf_text(first)) != meta["urdf_sha256"]:
             raise Incompatible("recorded with another packaged URDF (its sha256 differs)")
     scene = Path(meta["scene_name"])
     if not (scene.is_file() and sha256(scene.read_text()) == meta["scene_sha256"]):

@@ -81,9 +81,12 @@ class Session:
     the rest and returns the replies to send now."""
 
     def __init__(self, service: Service, handle: Callable[..., list[bytes]],
-                 library: Callable[[object], bytes | None] | None = None) -> None:
+                 library: Callable[[object], bytes | None] | None = None,
+                 pairing: "Pairing | None" = None) -> None:
         self.service = service
         self.handle = handle
+        # The versions this robot speaks (--strict-versions); None: every one the service does.
+        self.pairing = pairing
         # library(request) → the robot's model library for a LoadModelLibrary (older clients
         # build their Model from it), or None: answered kError.
         self.library = library
@@ -143,15 +146,18 @@ class Session:
         service = self.service
         version = int(request.version)
         make_dialect = service.dialects.get(version)
+        pairing = self.pairing
+        if pairing is not None and version not in pairing.versions:
+            log.warning("client speaks %s protocol version %d, this %s speaks %s "
+                        "(--strict-versions): rejected", service.name, version, pairing.robot,
+                        pairing.said)
+            return self._incompatible(command_id, pairing.version)
         if version != service.version and make_dialect is None:
             older = f" (and {', '.join(map(str, sorted(service.dialects)))})" \
                 if service.dialects else ""
             log.warning("client speaks %s protocol version %d, we speak %d%s: rejected",
                         service.name, version, service.version, older)
-            self.closed = True
-            return service.build_response(
-                service.command.Connect, command_id,
-                service.connect_status.kIncompatibleLibraryVersion, version=service.version)
+            return self._incompatible(command_id, service.version)
         state = command = None
         if make_dialect is not None:
             self.dialect = dialect = make_dialect()
@@ -163,11 +169,40 @@ class Session:
         return service.build_response(service.command.Connect, command_id,
                                       service.connect_status.kSuccess, version=version)
 
+    def _incompatible(self, command_id: int, version: int) -> bytes:
+        """The robot's refusal, with the version it speaks; then the connection closes."""
+        service = self.service
+        self.closed = True
+        return service.build_response(
+            service.command.Connect, command_id,
+            service.connect_status.kIncompatibleLibraryVersion, version=version)
 
-def robot_session(robot, library: Callable[[object], bytes | None] | None = None) -> Session:
+
+@dataclass(frozen=True)
+class Pairing:
+    """The robot protocol versions a robot kind's own system speaks (--strict-versions): a
+    Panda's up to 5 (libfranka 0.9), an FR3's from 6 (0.10) on; `version`, the one its refusal
+    names."""
+
+    robot: str
+    versions: frozenset
+    version: int
+
+    @property
+    def said(self) -> str:
+        return ", ".join(map(str, sorted(self.versions)))
+
+
+PAIRINGS = {"fer": Pairing("Panda", frozenset({5}), 5),
+            "fr3": Pairing("FR3", frozenset({6, 7, 8, 9, ROBOT_VERSION}), ROBOT_VERSION)}
+
+
+def robot_session(robot, library: Callable[[object], bytes | None] | None = None,
+                  pairing: Pairing | None = None) -> Session:
     """The robot's conversation: requests go to the robot (robot/fci.py: an arm or a base);
-    `library`: its model library for older clients (model_library/), if it has one."""
-    return Session(ROBOT, robot.handle, library)
+    `library`: its model library for older clients (model_library/), if it has one;
+    `pairing`: the versions it alone accepts (None: every one served)."""
+    return Session(ROBOT, robot.handle, library, pairing)
 
 
 def tool_session(service: Service, device) -> Session:

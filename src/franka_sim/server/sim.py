@@ -29,6 +29,7 @@ from franka_sim.server.robot_server import AddressInUse, RobotServer
 
 __all__ = ["AddressInUse", "ConfigError", "FrankaSim"]
 
+_KINDS = {"fr3": "FR3", "fer": "Panda (FER)"}  # as the start-up line names each arm
 log = logging.getLogger(__name__)
 
 
@@ -102,7 +103,8 @@ class FrankaSim(EmbeddedOperations):
         config = self.config
         for robot in self.robots:
             log.info("simulated %s %s; clock %s; scene %s)",
-                     "FR3" if robot.parts.kind == "arm" else "base", robot.describe(),
+                     _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
+                     robot.describe(),
                      config.clock.value, self.scene)
         return self
 

@@ -15,9 +15,9 @@ import numpy as np
 
 from franka_sim.robot.checks.checker import CommandChecker, first_over
 from franka_sim.robot.checks.figures import (
-    CARTESIAN_POSE_NAMES, CARTESIAN_POSITION_MAGNITUDE, CARTESIAN_ROTATION,
+    CARTESIAN_POSE_NAMES, CARTESIAN_POSITION_MAGNITUDE, FR3,
     CARTESIAN_START_ERROR, CARTESIAN_START_ROTATION_TOLERANCE,
-    CARTESIAN_START_TRANSLATION_TOLERANCE, CARTESIAN_TRANSLATION, CARTESIAN_VELOCITY_NAMES,
+    CARTESIAN_START_TRANSLATION_TOLERANCE, CARTESIAN_VELOCITY_NAMES, MotionFigures,
     INVALID_FRAME_ERROR, TWIST_MAGNITUDE, derivative_thresholds,
 )
 from franka_sim.robot.checks.measuring import (
@@ -31,11 +31,12 @@ _AT_REST = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # a 3-vector rate and its rate, b
 class CartesianPoseChecker(CommandChecker):
     """O_T_EE_c (4×4, or 16 numbers column-major, from O_T_EE_start on)."""
 
-    def __init__(self, O_T_EE_start) -> None:
+    def __init__(self, O_T_EE_start, figures: MotionFigures = FR3) -> None:
         if O_T_EE_start is None:
             raise ValueError("a Cartesian pose motion needs O_T_EE_start")
-        self._t_thr = derivative_thresholds(CARTESIAN_TRANSLATION, CARTESIAN_POSITION_MAGNITUDE, 0)
-        self._r_thr = derivative_thresholds(CARTESIAN_ROTATION, CARTESIAN_POSITION_MAGNITUDE, 0)
+        self._translation, self._rotation = figures.translation, figures.rotation
+        self._t_thr = derivative_thresholds(self._translation, CARTESIAN_POSITION_MAGNITUDE, 0)
+        self._r_thr = derivative_thresholds(self._rotation, CARTESIAN_POSITION_MAGNITUDE, 0)
         self._lin = self._ang = _AT_REST
         self._grid = SampleGrid()
         self._first = True
@@ -61,10 +62,10 @@ class CartesianPoseChecker(CommandChecker):
             self._lin = self._ang = _AT_REST
         else:
             self._lin = _rates(out, CARTESIAN_POSE_NAMES, "translation", "m", lin, self._lin,
-                               s2, s3, self._t_thr, CARTESIAN_TRANSLATION)
+                               s2, s3, self._t_thr, self._translation)
             omega = (axis[0] * angle / s1, axis[1] * angle / s1, axis[2] * angle / s1)
             self._ang = _rates(out, CARTESIAN_POSE_NAMES, "rotation", "rad", omega, self._ang,
-                               s2, s3, self._r_thr, CARTESIAN_ROTATION, speed=angle / s1)
+                               s2, s3, self._r_thr, self._rotation, speed=angle / s1)
         self._R, self._p = R, p
         self._grid.advance(n)
 
@@ -83,9 +84,10 @@ class CartesianPoseChecker(CommandChecker):
 class CartesianVelocityChecker(CommandChecker):
     """O_dP_EE_c, from rest."""
 
-    def __init__(self) -> None:
-        self._t_thr = derivative_thresholds(CARTESIAN_TRANSLATION, TWIST_MAGNITUDE, 1)
-        self._r_thr = derivative_thresholds(CARTESIAN_ROTATION, TWIST_MAGNITUDE, 1)
+    def __init__(self, figures: MotionFigures = FR3) -> None:
+        self._translation, self._rotation = figures.translation, figures.rotation
+        self._t_thr = derivative_thresholds(self._translation, TWIST_MAGNITUDE, 1)
+        self._r_thr = derivative_thresholds(self._rotation, TWIST_MAGNITUDE, 1)
         self._lin = self._ang = _AT_REST
         self._grid = SampleGrid()
 
@@ -94,9 +96,9 @@ class CartesianVelocityChecker(CommandChecker):
         s1, s2, _ = self._grid.spacings(n)
         names = CARTESIAN_VELOCITY_NAMES
         self._lin = _rates(out, names, "translation", "m", twist[:3], self._lin, s1, s2,
-                           self._t_thr, CARTESIAN_TRANSLATION)
+                           self._t_thr, self._translation)
         self._ang = _rates(out, names, "rotation", "rad", twist[3:], self._ang, s1, s2,
-                           self._r_thr, CARTESIAN_ROTATION)
+                           self._r_thr, self._rotation)
         self._grid.advance(n)
 
 

@@ -13,6 +13,7 @@ from franka_sim.robot.checks.cartesian_commands import (
 )
 from franka_sim.robot.checks.checker import CheckerChain, CommandChecker
 from franka_sim.robot.checks.elbow_command import ElbowChecker
+from franka_sim.robot.checks.figures import motion_figures
 from franka_sim.robot.checks.joint_commands import JointPositionChecker, JointVelocityChecker
 from franka_sim.robot.checks.torque_command import TorqueChecker
 
@@ -26,15 +27,17 @@ def command_checker_for(desc: ArmDescription, generator: Gen, torque_controlled:
     required. A Cartesian generator's elbow is judged too, after its pose or twist.
     """
     generator = Gen(generator)
+    figures = motion_figures(desc)
     checkers: list[CommandChecker] = []
     if generator is Gen.kJointPosition:
         checkers.append(JointPositionChecker(desc, q_start))
     elif generator is Gen.kJointVelocity:
         checkers.append(JointVelocityChecker(desc, q_start))
     elif generator is Gen.kCartesianPosition:
-        checkers += (CartesianPoseChecker(O_T_EE_start), ElbowChecker(elbow_start))
+        checkers += (CartesianPoseChecker(O_T_EE_start, figures),
+                     ElbowChecker(elbow_start, figures))
     elif generator is Gen.kCartesianVelocity:
-        checkers += (CartesianVelocityChecker(), ElbowChecker(elbow_start))
+        checkers += (CartesianVelocityChecker(figures), ElbowChecker(elbow_start, figures))
     if torque_controlled:
         checkers.append(TorqueChecker(desc))
     return checkers[0] if len(checkers) == 1 else CheckerChain(*checkers)

@@ -12,8 +12,8 @@ import numpy as np
 
 from franka_sim.robot.checks.checker import CommandChecker, first_over
 from franka_sim.robot.checks.figures import (
-    ELBOW, ELBOW_MAGNITUDE, ELBOW_NAMES, ELBOW_SIGN_ERROR, ELBOW_START_ERROR,
-    ELBOW_START_SIGN_ERROR, ELBOW_START_TOLERANCE, derivative_thresholds,
+    ELBOW_MAGNITUDE, ELBOW_NAMES, ELBOW_SIGN_ERROR, ELBOW_START_ERROR, FR3,
+    ELBOW_START_SIGN_ERROR, ELBOW_START_TOLERANCE, MotionFigures, derivative_thresholds,
 )
 from franka_sim.robot.checks.measuring import SampleGrid
 from franka_sim.robot.checks.violation import Violation
@@ -22,8 +22,9 @@ from franka_sim.robot.checks.violation import Violation
 class ElbowChecker(CommandChecker):
     """elbow_c against the start elbow (None: unknown, the first sample anchors the history)."""
 
-    def __init__(self, elbow_start=None) -> None:
-        self._thr = derivative_thresholds(ELBOW, ELBOW_MAGNITUDE, 0)
+    def __init__(self, elbow_start=None, figures: MotionFigures = FR3) -> None:
+        self._envelope = figures.elbow
+        self._thr = derivative_thresholds(self._envelope, ELBOW_MAGNITUDE, 0)
         self._grid = SampleGrid()
         self._first = True
         self._start = None if elbow_start is None else [float(x) for x in elbow_start[:2]]
@@ -56,7 +57,7 @@ class ElbowChecker(CommandChecker):
             v = (position - e0) / s1
             a = (v - v0) / s2
             j = (a - a0) / s3
-            thr, env = self._thr, ELBOW
+            thr, env = self._thr, self._envelope
             if not (abs(v) <= thr[0] and abs(a) <= thr[1] and abs(j) <= thr[2]):
                 first_over(out, ELBOW_NAMES, "elbow", "rad", (
                     (abs(a), thr[1], env.acceleration), (abs(j), thr[2], env.jerk),

@@ -1,8 +1,8 @@
-"""The FR3's fixed motion limits, the error each one latches, and the slack the checks allow.
+"""Each robot kind's fixed motion limits, the error each one latches, and the checks' slack.
 
 The fixed figures (joint acceleration and jerk, torque rate, the Cartesian translation/rotation/
-elbow envelopes) are the datasheet values (tests/data/fr3_limits.md), which are the *robot's*
-thresholds; libfranka's client-side rate limiter uses the same figures minus 1e-3
+elbow envelopes) are the datasheet values (tests/data/fr3_limits.md; the Panda's beside them),
+which are the *robot's* thresholds; libfranka's client-side rate limiter uses the same figures minus 1e-3
 (docs/figures.md, "Joint and Cartesian limits"), so a stream it produced stays inside them. The
 per-joint figures come from the served URDF instead (see joint_table.py).
 """
@@ -36,6 +36,33 @@ CARTESIAN_TRANSLATION = Envelope(3.0, 9.0, 4500.0)  # m/s, m/s², m/s³
 CARTESIAN_ROTATION = Envelope(2.5, 17.0, 8500.0)  # rad/s, rad/s², rad/s³
 # The datasheet's 2.62 rad/s, not libfranka's stricter 1.5: the robot's threshold is the datasheet.
 ELBOW = Envelope(2.62, 10.0, 5000.0)
+
+
+@dataclass(frozen=True, eq=False)
+class MotionFigures:
+    """A robot kind's fixed motion limits; its per-joint range, velocity and torque are its
+    URDF's (joint_table.py)."""
+
+    joint_acceleration: np.ndarray  # (7,) rad/s²
+    joint_jerk: np.ndarray  # (7,) rad/s³
+    translation: Envelope  # m/s, m/s², m/s³
+    rotation: Envelope  # rad/s, rad/s², rad/s³
+    elbow: Envelope  # rad/s, rad/s², rad/s³
+
+
+FR3 = MotionFigures(np.full(7, JOINT_ACCELERATION), np.full(7, JOINT_JERK),
+                    CARTESIAN_TRANSLATION, CARTESIAN_ROTATION, ELBOW)
+# The Panda's (FER) datasheet: per-joint acceleration and jerk, its own Cartesian envelopes.
+FER = MotionFigures(np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]),
+                    np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0]),
+                    Envelope(1.7, 13.0, 6500.0), Envelope(2.5, 25.0, 12500.0),
+                    Envelope(2.175, 10.0, 5000.0))
+
+
+def motion_figures(desc) -> MotionFigures:
+    """The figures of the robot a description names (`<robot name="fer">`: the Panda's);
+    any other description, a user's own too, is held to the FR3's."""
+    return FER if desc.name == "fer" else FR3
 
 
 # -- the error each limit latches (protocol_specs/robot_v10.md, "Error bits") ---------------------

@@ -3,7 +3,7 @@
 A Cartesian stream well inside its own limits can still ask for violent joint motion (near a
 singularity the IK amplifies it); the robot judges the completed joint signal and names those
 errors cartesian_motion_generator_joint_*. Thresholds are the joint envelope times
-`--joint-discontinuity-scale` (1.0: the FR3's 10 rad/s² and 5000 rad/s³).
+`--joint-discontinuity-scale` (1.0: the FR3's 10 rad/s² and 5000 rad/s³, the Panda's per joint).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.checks.figures import (
-    IK_JOINT_NAMES, IK_JOINT_RANGE_ERROR, JOINT_ACCELERATION, JOINT_JERK,
+    IK_JOINT_NAMES, IK_JOINT_RANGE_ERROR, motion_figures,
 )
 from franka_sim.robot.checks.joint_table import SpeedLimitFloor, joint_limits
 from franka_sim.robot.checks.violation import Violation
@@ -29,8 +29,9 @@ class IkJointSideChecker:
 
     def __init__(self, desc: ArmDescription, scale: float = 1.0) -> None:
         self._table = joint_limits(desc)
-        self._acceleration = JOINT_ACCELERATION * scale
-        self._jerk = JOINT_JERK * scale
+        figures = motion_figures(desc)
+        self._acceleration = figures.joint_acceleration * scale  # (7,)
+        self._jerk = figures.joint_jerk * scale
         self._ddq_prev = np.zeros(7)
         self._floor: SpeedLimitFloor | None = None
         self._proof_thresholds = None
@@ -50,8 +51,8 @@ class IkJointSideChecker:
     def _move_floor(self, q_signed: np.ndarray) -> None:
         floor = self._floor = SpeedLimitFloor(self._table, q_signed)
         self._proof_thresholds = np.concatenate((floor.reach_in_range, floor.limits,
-                                                 np.full(14, self._acceleration),
-                                                 np.full(14, self._jerk)))
+                                                 np.tile(self._acceleration, 2),
+                                                 np.tile(self._jerk, 2)))
 
     def _violations(self, ref: JointReference, jerk: np.ndarray) -> list[Violation]:
         table, out = self._table, []
@@ -65,9 +66,10 @@ class IkJointSideChecker:
                                  float(ref.dq_d[i]), limit, quantity="velocity", unit="rad/s"))
         for i in np.flatnonzero(np.abs(ref.ddq_d) > self._acceleration):
             out.append(Violation(IK_JOINT_NAMES.acceleration, f"joint {i + 1}",
-                                 float(abs(ref.ddq_d[i])), self._acceleration,
+                                 float(abs(ref.ddq_d[i])), float(self._acceleration[i]),
                                  quantity="acceleration", unit="rad/s²"))
         for i in np.flatnonzero(np.abs(jerk) > self._jerk):
             out.append(Violation(IK_JOINT_NAMES.jerk, f"joint {i + 1}",
-                                 float(abs(jerk[i])), self._jerk, quantity="jerk", unit="rad/s³"))
+                                 float(abs(jerk[i])), float(self._jerk[i]), quantity="jerk",
+                                 unit="rad/s³"))
         return out

@@ -19,16 +19,13 @@ import numpy as np
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.robot.checks.checker import CommandChecker, first_over
 from franka_sim.robot.checks.figures import (
-    JOINT_ACCELERATION, JOINT_JERK, JOINT_POSITION_MAGNITUDE, JOINT_POSITION_NAMES,
-    JOINT_RANGE_ERROR, JOINT_START_ERROR, JOINT_START_TOLERANCE, JOINT_VELOCITY_MAGNITUDE,
-    JOINT_VELOCITY_NAMES, Envelope, ErrorNames, derivative_thresholds,
+    JOINT_POSITION_MAGNITUDE, JOINT_POSITION_NAMES, JOINT_RANGE_ERROR, JOINT_START_ERROR,
+    JOINT_START_TOLERANCE, JOINT_VELOCITY_MAGNITUDE, JOINT_VELOCITY_NAMES, Envelope, ErrorNames,
+    derivative_thresholds, motion_figures,
 )
 from franka_sim.robot.checks.joint_table import SpeedLimitFloor, joint_limits
 from franka_sim.robot.checks.measuring import SampleGrid
 from franka_sim.robot.checks.violation import Violation
-
-_JOINT = Envelope(0.0, JOINT_ACCELERATION, JOINT_JERK)
-
 
 class _JointStream(CommandChecker):
     """What both joint interfaces share: the signed history, the floor and the explanation."""
@@ -44,14 +41,18 @@ class _JointStream(CommandChecker):
         self._grid = SampleGrid()
         self._q = table.signed(q_start)
         self._v, self._a = np.zeros(14), np.zeros(14)
-        self._v_slack, self._a_thr, self._j_thr = derivative_thresholds(_JOINT, magnitude, order)
+        figures = motion_figures(desc)  # per joint, as signed 14-vectors
+        self._acceleration = np.tile(figures.joint_acceleration, 2)
+        self._jerk = np.tile(figures.joint_jerk, 2)
+        self._v_slack, self._a_thr, self._j_thr = derivative_thresholds(
+            Envelope(0.0, self._acceleration, self._jerk), magnitude, order)
         self._move_floor(self._q)
 
     def _move_floor(self, q_start: np.ndarray) -> None:
         floor = self._floor = SpeedLimitFloor(self._table, q_start)
         reach = floor.reach_in_range if self._reach_in_range else floor.reach
         self._proof_thresholds = np.concatenate(
-            [reach] + [np.full(14, x) for x in (self._v_slack, self._a_thr, self._j_thr)])
+            [reach, np.full(14, self._v_slack), self._a_thr, self._j_thr])
 
     def _proven_inside(self, q_next, v, a, j) -> bool:
         """The step is inside the limits, and q_next (the next step's start) within the floor's
@@ -63,8 +64,8 @@ class _JointStream(CommandChecker):
         for i in range(7):
             speed_limit = limits[i] if v[i] >= 0 else limits[i + 7]
             first_over(out, names, f"joint {i + 1}", "rad", (
-                (abs(a[i]), self._a_thr, JOINT_ACCELERATION),
-                (abs(j[i]), self._j_thr, JOINT_JERK),
+                (abs(a[i]), self._a_thr[i], self._acceleration[i]),
+                (abs(j[i]), self._j_thr[i], self._jerk[i]),
                 (abs(v[i]), speed_limit + self._v_slack, speed_limit)))
 
 
