@@ -133,18 +133,23 @@ def _by_name(older: type[IntEnum], newer: type[IntEnum], nearest: dict) -> dict[
 
 
 _SAFETY = {"kCommandRejectedDueToActivatedSafetyFunctions": "kCommandNotPossibleRejected"}
-# By the v10 command a reply answers: its status values as v5's.
-_STATUSES = {
-    v10.Command.Move: _by_name(MoveStatus, v10.MoveStatus, {
+# By the v10 command a reply answers: (v5's status enum, v10's, the nearest v5 name of a v10
+# name v5 lacks).
+_STATUS_ENUMS = {
+    v10.Command.Move: (MoveStatus, v10.MoveStatus, {
         **_SAFETY, "kPreemptedDueToActivatedSafetyFunctions": "kPreempted"}),
-    v10.Command.StopMove: _by_name(StopMoveStatus, v10.StopMoveStatus, _SAFETY),
-    v10.Command.AutomaticErrorRecovery: _by_name(
+    v10.Command.StopMove: (StopMoveStatus, v10.StopMoveStatus, _SAFETY),
+    v10.Command.AutomaticErrorRecovery: (
         AutomaticErrorRecoveryStatus, v10.AutomaticErrorRecoveryStatus, _SAFETY),
-    **{c: _by_name(GetterSetterStatus, v10.GetterSetterStatus, _SAFETY) for c in (
+    **{c: (GetterSetterStatus, v10.GetterSetterStatus, _SAFETY) for c in (
         v10.Command.SetCollisionBehavior, v10.Command.SetJointImpedance,
         v10.Command.SetCartesianImpedance, v10.Command.SetGuidingMode, v10.Command.SetEEToK,
         v10.Command.SetNEToEE, v10.Command.SetLoad)},
 }
+# Its status values as v5's, and back (a v5 value as the v10 status of the same name).
+_STATUSES = {c: _by_name(*enums) for c, enums in _STATUS_ENUMS.items()}
+_UNSTATUSES = {c: {int(older[s.name]): int(s) for s in newer if s.name in older.__members__}
+               for c, (older, newer, _) in _STATUS_ENUMS.items()}
 
 
 class Dialect(robot_v9.Dialect):
@@ -164,6 +169,15 @@ class Dialect(robot_v9.Dialect):
         if statuses is None:
             return wire + data[4:]
         return wire + data[4:12] + bytes([statuses[data[12]]]) + data[13:]
+
+    own_replies = {**robot_v9.Dialect.own_replies, "GetCartesianLimit": GetCartesianLimitResponse,
+                   "SetFilters": SetFiltersResponse}
+
+    def unreply(self, data: bytes) -> bytes:
+        """A reply this version wrote, as v10 wrote it: its id and its status by name."""
+        data = super().unreply(data)
+        statuses = _UNSTATUSES.get(int.from_bytes(data[:4], "little"))
+        return data if statuses is None else data[:12] + bytes([statuses[data[12]]]) + data[13:]
 
     def command(self, data: bytes) -> bytes:
         """A RobotCommand as v10's: torque_command_finished (absent in this version) false;

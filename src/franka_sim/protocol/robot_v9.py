@@ -176,6 +176,14 @@ class Dialect:
 
     # How the client's RobotCommand datagrams read as v10's (None: they are v10's).
     command = None
+    # The replies of this version v10 has no equivalent of, by command name: their layouts
+    # (the recording's reader decodes them; `unreply` turns the others back into v10's).
+    own_replies = {"LoadModelLibrary": LoadModelLibraryResponse}
+
+    def unreply(self, data: bytes) -> bytes:
+        """A reply this version wrote, as v10 wrote it (`reply` undone; not own_replies')."""
+        v10 = V10Command[self.commands(int.from_bytes(data[:4], "little")).name]
+        return int(v10).to_bytes(4, "little") + data[4:]
 
     def answer(self, command, command_id: int, request, library) -> bytes:
         """The reply to a request the v10 robot has no equivalent of: LoadModelLibrary's, the

@@ -12,6 +12,7 @@ from construct import Container, ListContainer
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
 from franka_sim.protocol.framing import FrameReader, ProtocolError, decode_request
+from franka_sim.protocol.robot_versions import DIALECTS
 
 # The endpoints' names for their service, and the recording's.
 SERVICES = {"FCI": "robot", "gripper": "hand"}
@@ -41,12 +42,15 @@ def plain(value):
 
 
 class RequestDecoder:
-    """Cuts one connection's bytes into decoded requests (as the session does)."""
+    """Cuts one connection's bytes into decoded requests (as the session does: an older robot
+    client's, after its Connect, by its version's tables)."""
 
     def __init__(self, service: str) -> None:
         header, sizes, self._structs, _, _ = _TABLES[service]
         self._reader = FrameReader(header, sizes, 64 * 1024)
         self._broken = False
+        self._service = service
+        self.dialect = None  # an older robot client's (protocol/robot_v9.py), from its Connect
 
     def feed(self, data: bytes) -> list[dict]:
         if self._broken:
@@ -62,16 +66,36 @@ class RequestDecoder:
             fields.pop("header", None)
             out.append({"command": _name(frame.command, self._structs),
                         "command_id": frame.command_id, **fields})
+            if out[-1]["command"] == "Connect" and self._service == "robot":
+                self._older(fields.get("version"))
         return out
 
+    def _older(self, version) -> None:
+        """After a Connect: an older version's tables (a client waits for the Connect's reply
+        before it sends more, so nothing after it was read by the old ones)."""
+        make = DIALECTS.get(version)
+        if make is not None and self.dialect is None:
+            self.dialect = dialect = make()
+            self._reader = FrameReader(dialect.header, dialect.request_sizes, 64 * 1024)
+            self._structs = dialect.request_structs
 
-def decode_reply(service: str, data: bytes) -> dict:
-    """A reply's command, id and status (and its other fields but large ones)."""
+
+def decode_reply(service: str, data: bytes, dialect=None) -> dict:
+    """A reply's command, id and status (and its other fields but large ones); `dialect`: the
+    older protocol it was written in (RequestDecoder.dialect)."""
     header, _, _, responses, commands = _TABLES[service]
     try:
         head = header.parse(data[:header.sizeof()])
-        command = commands(int(head.command))
-        fields = plain(responses[command].parse(data))
+        if dialect is None:
+            command = commands(int(head.command))
+            struct = responses[command]
+        else:
+            command = dialect.commands(int.from_bytes(data[:4], "little"))
+            struct = dialect.own_replies.get(command.name)
+            if struct is None:
+                data = dialect.unreply(data)
+                struct = responses[commands[command.name]]
+        fields = plain(struct.parse(data))
     except Exception as exc:  # noqa: BLE001 - a reply we cannot read is shown as such
         return {"unreadable": str(exc), "size": len(data)}
     fields.pop("header", None)

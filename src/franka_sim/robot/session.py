@@ -21,7 +21,7 @@ from construct import Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
-from franka_sim.protocol import robot_v5, robot_v6, robot_v7, robot_v8, robot_v9
+from franka_sim.protocol.robot_versions import DIALECTS
 from franka_sim.protocol.enums import (
     GRIPPER_VERSION,
     ROBOT_VERSION,
@@ -69,8 +69,7 @@ class Service:
 
 ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader,
                 rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.build_response, 64 * 1024,
-                {v.VERSION: v.Dialect
-                 for v in (robot_v5, robot_v6, robot_v7, robot_v8, robot_v9)})
+                DIALECTS)
 GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
                   gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
                   gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes

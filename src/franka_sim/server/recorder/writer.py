@@ -155,8 +155,11 @@ class RecordingWriter:
         elif kind == ev.REPLY:
             _, robot, what, data, n, wall = event
             service = SERVICES.get(what, what)
-            self._json((robot, "reply"), wall, {"cycle": n, "service": service,
-                                                "replies": [decode_reply(service, data)]}, n)
+            decoder = self._decoders.get((robot, service))
+            dialect = None if decoder is None else decoder.dialect
+            self._json((robot, "reply"), wall, {
+                "cycle": n, "service": service,
+                "replies": [decode_reply(service, data, dialect)]}, n)
         elif kind == ev.CONTROL:
             _, robot, operation, arguments, status, result, n, completed, wall = event
             self._json((robot, "control"), wall, {

@@ -1,0 +1,28 @@
+#!/bin/sh
+# Build an older libfranka's C++ examples for tests/clients/test_libfranka_cpp_older.py.
+#
+# Usage: build_older_libfranka.sh SOURCE_DIR BUILD_DIR
+#
+# SOURCE_DIR is a libfranka checkout the user supplies at a tag (0.9.2, 0.13.x, 0.15.x) with its
+# `common` submodule checked out at the commit that tag records, for example:
+#   git clone --branch 0.13.6 --recurse-submodules https://github.com/frankarobotics/libfranka
+# This script fetches nothing. It needs cmake, a C++ compiler, Poco and Eigen 3
+# (Debian: apt-get install cmake build-essential libpoco-dev libeigen3-dev).
+# BUILD_DIR must lie outside this repository; afterwards it holds examples/<name>, and
+#   FRANKA_SIM_LIBFRANKA_BUILDS=BUILD_DIR[:BUILD_DIR...]
+# points the tests at it. Only the examples the tests run are built.
+set -eu
+if [ $# -ne 2 ]; then
+    echo "usage: $0 SOURCE_DIR BUILD_DIR" >&2
+    exit 2
+fi
+src=$(cd "$1" && pwd)
+if [ ! -f "$src/common/include/research_interface/robot/service_types.h" ]; then
+    echo "$src: no common/ submodule checked out (git submodule update --init)" >&2
+    exit 1
+fi
+mkdir -p "$2"
+build=$(cd "$2" && pwd)
+cmake -S "$src" -B "$build" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTS=OFF -DBUILD_EXAMPLES=ON
+make -C "$build" -j"${JOBS:-2}" communication_test echo_robot_state generate_joint_position_motion \
+    generate_cartesian_pose_motion cartesian_impedance_control grasp_object

@@ -1,0 +1,146 @@
+"""An older libfranka's own C++ examples, unmodified, run against a simulator.
+
+The builds come from FRANKA_SIM_LIBFRANKA_BUILDS (build directories made by
+build_older_libfranka.sh, separated by ':'); nothing here fetches or builds libfranka.
+
+libfranka's Robot refuses to start a control loop unless /sys/kernel/realtime reads 1 (a
+PREEMPT_RT kernel; the examples do not ask for RealtimeConfig::kIgnore). So each example runs
+in a mount namespace of its own where a tmpfs over /sys/kernel holds that file; that takes
+root (CAP_SYS_ADMIN, and CAP_SYS_NICE for the SCHED_FIFO priority libfranka then sets).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from franka_sim.control import Control
+
+BUILDS_VARIABLE = "FRANKA_SIM_LIBFRANKA_BUILDS"
+BUILD_SCRIPT = "tests/support/build_older_libfranka.sh"
+# The robot protocol version each libfranka line speaks (its common/ submodule's kVersion).
+PROTOCOL = {(0, 9): 5, (0, 10): 6, (0, 11): 6, (0, 12): 6, (0, 13): 7, (0, 14): 8,
+            (0, 15): 9, (0, 16): 9, (0, 17): 9}
+GRIPPER_PROTOCOL = 3  # the same in every tag since 0.9
+
+# Runs the example with /sys/kernel/realtime reading 1, in a mount namespace of its own.
+_REALTIME = ["unshare", "--mount", "sh", "-c",
+             'mount -t tmpfs none /sys/kernel && echo 1 > /sys/kernel/realtime && exec "$0" "$@"']
+
+
+@dataclass(frozen=True)
+class Build:
+    """A libfranka build directory and the version its library file names."""
+
+    path: Path
+    version: str
+
+    @property
+    def protocol(self) -> int:
+        major, minor, _ = map(int, self.version.split("."))
+        return PROTOCOL[major, minor]
+
+    def example(self, name: str) -> Path:
+        return self.path / "examples" / name
+
+
+def builds() -> list[Build]:
+    """The builds FRANKA_SIM_LIBFRANKA_BUILDS names (empty when it is unset)."""
+    found = []
+    for entry in filter(None, os.environ.get(BUILDS_VARIABLE, "").split(":")):
+        path = Path(entry).resolve()
+        libraries = sorted(path.glob("libfranka.so.*.*.*"))
+        if not libraries:
+            raise RuntimeError(f"{BUILDS_VARIABLE}: {path} holds no libfranka.so.X.Y.Z "
+                               f"(a build directory of {BUILD_SCRIPT}?)")
+        version = re.search(r"\.so\.(\d+\.\d+\.\d+)$", libraries[0].name).group(1)
+        found.append(Build(path, version))
+    return found
+
+
+def cannot_run() -> str | None:
+    """Why examples cannot run here (None: they can)."""
+    if not os.environ.get(BUILDS_VARIABLE):
+        return (f"{BUILDS_VARIABLE} is unset: build libfranka tags with {BUILD_SCRIPT} and "
+                f"list their build directories in it")
+    if sys.platform != "linux" or os.geteuid() != 0 or shutil.which("unshare") is None:
+        return ("libfranka's examples need /sys/kernel/realtime; faking it takes root and "
+                "unshare(1)")
+    return None
+
+
+@dataclass(frozen=True)
+class Example:
+    """One example: its arguments after the host, and whether it moves the arm."""
+
+    name: str
+    args: tuple[str, ...] = ()
+    moves: bool = True
+
+
+EXAMPLES = {e.name: e for e in (
+    Example("communication_test"),
+    Example("echo_robot_state", moves=False),
+    Example("generate_joint_position_motion"),
+    Example("generate_cartesian_pose_motion"),
+    Example("cartesian_impedance_control"),
+    Example("grasp_object", ("1", "0.05"), moves=False),  # homing, the cube's width
+)}
+
+
+def grasp_pose() -> np.ndarray:
+    """Joint angles with the open Hand around the default scene's cube."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
+    import pick_and_place as pp
+    return pp.poses_over(pp.CUBE, pp.READY)[1]
+
+
+@dataclass
+class Run:
+    returncode: int
+    stdout: str
+    stopped: bool  # cut short by `run` (after `cycles`), not ended by itself
+
+
+def run(build: Build, name: str, host: str, cycles: int | None = None,
+        timeout: float = 120.0) -> Run:
+    """Run one example against the simulator at `host` (Enter typed for its prompt). With
+    `cycles`, it is stopped (SIGTERM) once the robot has run that many cycles since it was
+    first seen moving."""
+    example, control = EXAMPLES[name], Control(host)
+    if name == "grasp_object":
+        control.reset(q=grasp_pose().tolist())
+    proc = subprocess.Popen([*_REALTIME, str(build.example(name)), host, *example.args],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    proc.stdin.write("\n")  # the Enter its prompt waits for
+    proc.stdin.close()
+    proc.stdin = None  # (so communicate() leaves it be)
+    stopped, deadline = False, time.monotonic() + timeout
+    if cycles is not None:
+        moving_at = None
+        while proc.poll() is None and time.monotonic() < deadline:
+            health = control.health()
+            if moving_at is None and health["robot_mode"] == "Move":
+                moving_at = health["cycle"]
+            if moving_at is not None and health["cycle"] - moving_at >= cycles:
+                proc.send_signal(signal.SIGTERM)
+                stopped = True
+                break
+            time.sleep(0.002)
+    try:
+        out, _ = proc.communicate(timeout=max(1.0, deadline - time.monotonic()))
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, _ = proc.communicate()
+        raise AssertionError(f"{name} of libfranka {build.version} hung:\n{out}") from None
+    return Run(proc.returncode, out, stopped)
