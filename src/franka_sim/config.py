@@ -58,6 +58,15 @@ class Config:
     record: Path | None = None  # write everything the run exchanged to this MCAP file
     inject: str | None = None  # network faults on every robot's UDP path (faults/spec.py)
     seed: int = 0  # the faults' seed: the same seed hits the same cycles
+    # The Desk (docs/desk.md): its HTTPS port on every arm's address (0: not served), how it
+    # boots ("ready": as the simulator always served; "locked": as after power-on), its users
+    # (NAME:PASSWORD; none: the documented default) and its certificate (None: one made and
+    # kept per user).
+    desk_port: int = 0
+    desk_boot: str = "ready"
+    desk_users: tuple[str, ...] = ()
+    desk_cert: Path | None = None
+    desk_key: Path | None = None
     # The arms of the world, each on its own address; empty: one arm named DEFAULT_ARM on host.
     arms: tuple[ArmSpec, ...] = ()
     # The mobile base every arm stands on, served on this address as a robot of its own;

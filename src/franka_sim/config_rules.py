@@ -45,6 +45,7 @@ def checked(config: Config) -> Config:
                                                              config.control_port):
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
                           "API's port")
+    _desk(config)
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing
@@ -61,6 +62,27 @@ def checked(config: Config) -> Config:
         except SceneError as exc:
             raise ConfigError("--scene", str(exc)) from None
     return dataclasses.replace(config, **changes) if changes else config
+
+
+def _desk(config: Config) -> None:
+    from franka_sim.desk.state import BOOTS
+    from franka_sim.desk.users import parse_user
+
+    if config.desk_boot not in BOOTS:
+        raise ConfigError("--desk-boot", f"{config.desk_boot!r}: one of {', '.join(BOOTS)}")
+    port = config.desk_port
+    if not 0 <= port <= 65535:
+        raise ConfigError("--desk-port", f"{port} is not a TCP port (0: no Desk)")
+    if port and (port in RESERVED_PORTS or port in (config.control_port, config.tool_port)):
+        raise ConfigError("--desk-port", f"{port} is another service's port (the Desk's is 443)")
+    for user in config.desk_users:
+        try:
+            parse_user(user)
+        except ValueError as exc:
+            raise ConfigError("--desk-user", str(exc)) from None
+    if (config.desk_cert is None) != (config.desk_key is None):
+        raise ConfigError("--desk-cert", "a certificate and its key go together "
+                          "(--desk-cert and --desk-key)")
 
 
 def _address(flag: str, text: str, who: str = "") -> None:

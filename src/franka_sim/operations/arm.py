@@ -50,8 +50,15 @@ class ArmOps(FaultOps):
     def __init__(self, *, core: ArmCore, tool: ToolDevice | None, driver: Pacer,
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
-                 arm_index: int = 0, faults=None, taps=None, recordings=None) -> None:
+                 arm_index: int = 0, faults=None, taps=None, recordings=None,
+                 desk=None) -> None:
+        from franka_sim.desk.state import Desk  # (plain Python, no I/O: cheap)
+
         self.core, self.tool, self.driver = core, tool, driver
+        # The arm's Desk (desk/state.py), served over HTTPS or not: it holds the arm while its
+        # brakes are locked or it is not in Execution (--desk-boot locked: from the start).
+        self.desk_state = desk if desk is not None else Desk()
+        core.status.held = not self.desk_state.arm_ready
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
         self.worker, self.lock, self.description = worker, lock, description
@@ -185,6 +192,43 @@ class ArmOps(FaultOps):
         self.driver.keep_running()
         return {"q": q.tolist(), "cycle": core.message_id,
                 "gripper_width": None if self.hand is None else self.hand.width}
+
+    # -- the Desk ------------------------------------------------------------------------------
+    def desk(self) -> dict:
+        return self.desk_state.snapshot()
+
+    def press_pilot_button(self, button) -> dict:
+        from franka_sim.desk.state import DeskRefusal
+
+        try:
+            self.desk_state.press(button)
+        except DeskRefusal as refusal:
+            raise BadRequest(refusal.message) from None
+        return self.desk()
+
+    async def desk_arm(self, brakes=None, operating_mode=None) -> dict:
+        """The brakes and the operating mode as at the robot; the arm held or freed in one
+        job (recorded with the Desk's whole arm state, which replay sets again)."""
+        from franka_sim.desk.state import DeskRefusal
+
+        try:
+            self.desk_state.set_arm(brakes, operating_mode)
+        except DeskRefusal as refusal:
+            raise BadRequest(refusal.message) from None
+        return await self.hold_as_desk_says()
+
+    async def hold_as_desk_says(self) -> dict:
+        """Hold or free the arm as its Desk now says (the Desk's calls end here)."""
+        desk = self.desk_state
+        held = not desk.arm_ready
+
+        def hold(world, arm) -> dict:
+            with self.lock:
+                self.core.hold(held)
+            self.driver.keep_running()
+            return self.desk()
+        return await self._job(hold, ("desk_arm", {
+            "brakes": desk.brakes, "operating_mode": desk.operating_mode}))
 
     # -- recording ---------------------------------------------------------------------------------
     async def start_recording(self, path) -> dict:

@@ -31,6 +31,7 @@ from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ArmOps
 from franka_sim.control.table import BY_NAME, Effect
+from franka_sim.desk.state import Desk
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
@@ -93,7 +94,8 @@ class Replayer:
             core=arm.core, tool=arm.tool, driver=_Driver(self), worker=_Worker(self),
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
             clock=self.config.clock.value, arm=arm.name, arm_index=i,
-            client_connected=lambda i=i: (i, "robot") in self.sessions)
+            client_connected=lambda i=i: (i, "robot") in self.sessions,
+            desk=Desk(boot=self.config.desk_boot))
             for i, arm in enumerate(parts.robots) if arm.kind == "arm"}
 
     # -- the cycle sequence ------------------------------------------------------------------------
