@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from franka_sim.testing.server_pool import SimSettings, worker_address
+from franka_sim.testing.server_pool import DESK_PORT, SimSettings, worker_address
 
 ROOT = Path(__file__).resolve().parents[2]
 PROJECT = Path(__file__).with_name("project")
@@ -110,4 +110,7 @@ def test_every_setting_is_passed_as_an_explicit_flag():
     flags = SimSettings(clock="realtime", scene="/x/scene.xml", enforce_motion_limits=True,
                         gripper=False).flags()
     assert flags == ["--clock", "realtime", "--control-port", "1340", "--enforce-motion-limits",
-                     "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper"]
+                     "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper",
+                     "--desk-boot", "ready", "--desk-port", "0"]
+    assert SimSettings(desk_boot="locked").flags()[-4:] == [
+        "--desk-boot", "locked", "--desk-port", str(DESK_PORT)]

@@ -86,10 +86,24 @@ class Desk:
     def __post_init__(self) -> None:
         if self.boot not in BOOTS:
             raise ValueError(f"desk boot {self.boot!r}: expected one of {', '.join(BOOTS)}")
+        self._power_on()
+
+    def _power_on(self) -> None:
         ready = self.boot == "ready"
         self.brakes = UNLOCKED if ready else LOCKED
         self.operating_mode = EXECUTION if ready else PROGRAMMING
         self.fci = ready
+        self.end_effector_powered = True
+        self.token = None
+        if self.pending is not None:
+            self.pending.withdrawn = True
+        self.pending = None
+        self.self_tests = "Finished"
+
+    def power_on(self) -> None:
+        """As the robot starts again (the control API's reset): its boot state, no token."""
+        self._power_on()
+        self._changed()
 
     # -- what the robot is left in ------------------------------------------------------------
     @property

@@ -59,6 +59,9 @@ class ArmOps(FaultOps):
         # brakes are locked or it is not in Execution (--desk-boot locked: from the start).
         self.desk_state = desk if desk is not None else Desk()
         core.status.held = not self.desk_state.arm_ready
+        # What the Desk's state means for the robot's endpoints, applied (the server's
+        # DeskEffects.apply; replay and tests: nothing to open or close).
+        self.desk_effects = None
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
         self.worker, self.lock, self.description = worker, lock, description
@@ -152,8 +155,16 @@ class ArmOps(FaultOps):
             with self.lock:
                 self._refuse_busy()
                 return self._reset_now(arm, q, gripper_width)
-        return await self._job(reset, ("reset", {
+        result = await self._job(reset, ("reset", {
             "q": q.tolist(), "gripper_width": gripper_width}))
+        await self._desk_applied()
+        return result
+
+    async def _desk_applied(self) -> None:
+        """After a reset: the Desk as it boots, and the robot's endpoints as it says."""
+        self.desk_state.power_on()
+        if self.desk_effects is not None:
+            await self.desk_effects()
 
     def _reset_arguments(self, q, gripper_width) -> tuple[np.ndarray, float | None]:
         q = self.q0 if q is None else numbers("q", q, 7)
@@ -187,6 +198,9 @@ class ArmOps(FaultOps):
         arm.reset(q, gripper_width)
         measured = arm.measure()
         core.reset(q, measured, last_sent)
+        # The Desk starts again too (on the loop, after this job: `_desk_applied`); its arm
+        # is held here, in the same job, so no cycle sees it otherwise.
+        core.hold(self.desk_state.boot != "ready")
         if tool is not None:
             tool.reset(measured.tool)
         self.driver.keep_running()
@@ -207,19 +221,16 @@ class ArmOps(FaultOps):
         return self.desk()
 
     async def desk_arm(self, brakes=None, operating_mode=None) -> dict:
-        """The brakes and the operating mode as at the robot; the arm held or freed in one
-        job (recorded with the Desk's whole arm state, which replay sets again)."""
+        """The brakes and the operating mode as at the robot (neither given: as the Desk
+        says now, which is how the Desk's own calls end here); the arm held or freed in one
+        job, recorded with the Desk's whole arm state, which replay sets again."""
         from franka_sim.desk.state import DeskRefusal
 
+        desk = self.desk_state
         try:
-            self.desk_state.set_arm(brakes, operating_mode)
+            desk.set_arm(brakes, operating_mode)
         except DeskRefusal as refusal:
             raise BadRequest(refusal.message) from None
-        return await self.hold_as_desk_says()
-
-    async def hold_as_desk_says(self) -> dict:
-        """Hold or free the arm as its Desk now says (the Desk's calls end here)."""
-        desk = self.desk_state
         held = not desk.arm_ready
 
         def hold(world, arm) -> dict:
@@ -269,10 +280,12 @@ class ArmOps(FaultOps):
                              at, 200, result)
                 return {"path": str(recorder.path), "cycle": result["cycle"]}
         try:
-            return await self._job(start)
+            result = await self._job(start)
         except BaseException:
             recordings.discard(recorder)
             raise
+        await self._desk_applied()
+        return result
 
     async def finish_recording(self) -> dict:
         """End the recording `start_recording` began and close its file (a complete MCAP once

@@ -3,7 +3,7 @@ service answering or not (end-effector power), the arm held or free.
 
 As on the robot, an inactive FCI is a closed port 1337 (libfranka: "Connection to FCI
 refused"), and its client, if any, is cut off; an unpowered end effector's service stops
-answering the same way. The arm's hold is an operation (ArmOps.hold_as_desk_says): a job
+answering the same way. The arm's hold is an operation (ArmOps.desk_arm): a job
 between two cycles, recorded, so replay sets it at the same cycle.
 """
 
@@ -40,4 +40,4 @@ class DeskEffects:
             log.info("%s: end effector %s", robot.label,
                      "powered" if self.tool_open else "unpowered (its service does not answer)")
         if robot.core.status.held == desk.arm_ready:
-            await robot.control.hold_as_desk_says()
+            await robot.control.desk_arm()

@@ -77,6 +77,7 @@ class RobotServer:
             from franka_sim.server.desk_effects import DeskEffects
 
             self.desk_effects = DeskEffects(self)
+            self.control.desk_effects = self.desk_effects.apply
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
