@@ -100,11 +100,28 @@ def _with_cryptography(cert: Path, key: Path) -> None:
     cert.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
 
 
-def server_context(cert: Path, key: Path):
-    """The TLS context the Desk serves with (CertificateError: unreadable or not a pair)."""
+def server_context(cert: Path, key: Path, label: str = "Desk"):
+    """The TLS context the Desk serves with (CertificateError: unreadable or not a pair). A
+    handshake it refuses (a client speaking plain HTTP, garbage) is one log line: the event
+    loop drops that connection without a word."""
+    import logging
     import ssl
 
+    log = logging.getLogger(__name__)
+
+    class LoggedHandshake(ssl.SSLObject):
+        def do_handshake(self) -> None:
+            try:
+                super().do_handshake()
+            except (ssl.SSLWantReadError, ssl.SSLWantWriteError):
+                raise
+            except ssl.SSLError as exc:
+                log.warning("%s: TLS handshake refused (%s): that connection is closed",
+                            label, exc.reason or exc)
+                raise
+
     context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+    context.sslobject_class = LoggedHandshake
     try:
         context.load_cert_chain(cert, key)
     except (OSError, ssl.SSLError) as exc:

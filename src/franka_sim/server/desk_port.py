@@ -35,7 +35,7 @@ class DeskPort:
             cert, key = config.desk_cert, config.desk_key
         else:
             cert, key = await asyncio.to_thread(kept_certificate)
-        self._context = server_context(cert, key)
+        self._context = server_context(cert, key, f"Desk of {self.robot.label}")
         sock = socket.create_server((host, port), backlog=BACKLOG)
         sock.setblocking(False)
         self._sock = sock
