@@ -78,7 +78,8 @@ MODULES = {
     "combinations": ["combinations/test_combination_runs.py",
                      "combinations/test_matrix_factors.py"],
     "desk": ["desk/test_desk_state.py", "desk/test_desk_clients.py",
-             "desk/test_desk_bad_input.py", "desk/test_desk_recording.py"],
+             "desk/test_desk_bad_input.py", "desk/test_desk_recording.py",
+             "desk/test_desk_serving.py"],
 }
 
 
