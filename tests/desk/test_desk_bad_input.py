@@ -71,6 +71,9 @@ def test_a_malformed_body_is_400(sim):
         status, body = _request(sim.host, "POST", "/api/system/control-token:take", raw)
         assert status == 400 and body["error"], raw
     assert Control(sim.host).desk()["control_token"] is None
+    status, body = _request(sim.host, "POST", "/api/system/control-token:take",
+                            b"{" + b" " * 70000 + b"}")
+    assert status == 413 and body["error"]
 
 
 def test_garbage_instead_of_tls_costs_that_connection_only(sim):

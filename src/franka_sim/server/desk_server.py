@@ -76,7 +76,13 @@ class DeskServer:
         if answer.status == 200 and call.method != "GET":
             log.info("Desk of %s: %s %s by %s", self.robot.label, call.method, call.path,
                      call.user or "someone logging in")
-            await self.effects.apply()
+            try:
+                await self.effects.apply()
+            except OSError as exc:  # the FCI's or the tool's port taken meanwhile
+                log.error("Desk of %s: %s %s could not be applied: %s", self.robot.label,
+                          call.method, call.path, exc.strerror or exc)
+                answer = Answer(status=500, body={
+                    "code": "InternalError", "error": f"could not be applied: {exc}"})
         return _response(answer)
 
     async def _wait(self, call: Call, answer: Answer) -> Answer:
