@@ -109,6 +109,8 @@ def _motion_refused(host: str) -> str:
 def test_bring_up_from_locked_then_tear_down(sim, program, tmp_path):
     assert REFUSED in _refused(sim.host)
     client = Program(program, sim.host, home=tmp_path)
+    if program == "franky_desk":
+        assert client.expect("CHECKED") == ["None"]
     up = client.expect("UP")
     assert "Active" in up and "Execution" in up
     _moves(sim.host)

@@ -129,6 +129,9 @@ def test_the_older_desk_logs_in_and_sends_its_session():
     assert service.handle(Call("POST", "/desk/api/system/fci", {}, dict(cookie),
                                f"token={fci}".encode())).status == 200
     assert service.desk.arm_ready and service.desk.fci_active
+    assert service.handle(Call("DELETE", "/desk/api/system/fci", {},
+                               dict(cookie, **{"x-control-token": token}), b"")).status == 200
+    assert not service.desk.fci_active
 
 
 @pytest.mark.parametrize("auth", [None, "Basic " + base64.b64encode(b"admin:wrong").decode(),

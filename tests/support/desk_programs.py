@@ -27,6 +27,9 @@ def franky_desk(address, user, password, _=None) -> None:
 
     with franky.Desk(address, user, password) as desk:
         desk.take_control(wait_timeout=5)
+        desk.execute_self_test()  # (with the brakes locked, as the robot tests them)
+        desk.recover()  # nothing to recover: a no-op
+        say("CHECKED", desk.get_recovery_status())
         desk.unlock_brakes()
         desk.set_mode_execution()
         desk.enable_fci()

@@ -3,7 +3,7 @@
 No sockets and no clock: a call is a method, a refusal is a `DeskRefusal` (the HTTP status, a
 code from Franka's vocabulary, a reason), and anything that waits (a control-token take that
 queues behind the holder, a forced take awaiting the Pilot's button) is a pending `Request`
-the adapter waits on; `version` moves with every change, so a waiter knows when to look again.
+the adapter waits on; every change tells the `watchers`, so a waiter knows when to look again.
 What the Desk leaves the robot in is read off `fci_active`, `arm_ready` and
 `end_effector_powered`; the server applies it (server/desk_port.py).
 """
@@ -76,7 +76,6 @@ class Desk:
     token: Token | None = None
     pending: Request | None = None
     self_tests: str = "Finished"
-    version: int = 0
     _next_id: int = 1
     # Who hears the Pilot's button events ({"circle": True}): the adapter's subscribers.
     listeners: list[Callable[[dict], None]] = field(default_factory=list)
@@ -129,7 +128,6 @@ class Desk:
         }
 
     def _changed(self) -> None:
-        self.version += 1
         for watcher in list(self.watchers):
             watcher()
 
