@@ -64,6 +64,8 @@ def test_a_wrong_password_is_401_and_changes_nothing(sim):
 def test_an_unknown_endpoint_is_404_with_a_reason(sim):
     status, body = _request(sim.host, "GET", "/api/warp-drive")
     assert status == 404 and "/api/warp-drive" in body["error"]
+    status, body = _request(sim.host, "GET", "/desk/api/navigation/events")  # not a WebSocket
+    assert status == 400 and "WebSocket" in body["error"]
 
 
 def test_a_malformed_body_is_400(sim):

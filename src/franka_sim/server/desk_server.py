@@ -107,6 +107,9 @@ class DeskServer:
             return _response(self.service.refused(call, DeskRefusal(
                 401, "Unauthorized", "wrong or missing credentials")))
         ws = web.WebSocketResponse()
+        if not ws.can_prepare(request).ok:
+            return _response(self.service.refused(call, DeskRefusal(
+                400, "BadRequest", "the Pilot's events are a WebSocket (an Upgrade request)")))
         await ws.prepare(request)
         events: asyncio.Queue = asyncio.Queue()
         self.desk.listeners.append(events.put_nowait)
