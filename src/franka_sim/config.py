@@ -15,6 +15,11 @@ READY_POSE = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.p
 DEFAULT_ARM = "fr3"  # the name of the one arm a world holds when no --arm says otherwise
 
 
+# How the Desk boots (docs/desk.md): "ready" as the simulator always served, "locked" as after
+# power-on.
+DESK_BOOTS = ("ready", "locked")
+
+
 @dataclass(frozen=True)
 class ArmSpec:
     """One arm of the world: its name, the address it is served on, and where its base stands.

@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import ipaddress
 
-from franka_sim.config import Config
+from franka_sim.config import DESK_BOOTS, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -65,16 +65,15 @@ def checked(config: Config) -> Config:
 
 
 def _desk(config: Config) -> None:
-    from franka_sim.desk.state import BOOTS
-    from franka_sim.desk.users import parse_user
-
-    if config.desk_boot not in BOOTS:
-        raise ConfigError("--desk-boot", f"{config.desk_boot!r}: one of {', '.join(BOOTS)}")
+    if config.desk_boot not in DESK_BOOTS:
+        raise ConfigError("--desk-boot", f"{config.desk_boot!r}: one of {', '.join(DESK_BOOTS)}")
     port = config.desk_port
     if not 0 <= port <= 65535:
         raise ConfigError("--desk-port", f"{port} is not a TCP port (0: no Desk)")
     if port and (port in RESERVED_PORTS or port in (config.control_port, config.tool_port)):
         raise ConfigError("--desk-port", f"{port} is another service's port (the Desk's is 443)")
+    if config.desk_users:
+        from franka_sim.desk.users import parse_user
     for user in config.desk_users:
         try:
             parse_user(user)

@@ -77,3 +77,16 @@ def test_without_openssl_the_certificate_needs_cryptography(tmp_path, monkeypatc
         with pytest.raises(certificate.CertificateError, match=r"franka-sim\[desk\]"):
             certificate.kept_certificate(tmp_path)
         assert not (tmp_path / "cert.pem").exists()
+
+
+def test_a_simulator_without_a_desk_imports_none_of_it():
+    program = (
+        "import sys\n"
+        "from franka_sim import FrankaSim\n"
+        "sim = FrankaSim(host='127.0.0.1')\n"
+        "print(sorted(m for m in sys.modules if '.desk' in m))\n"
+        "print(sim.control.desk()['arm_ready'], sim.core.robot_mode.name)\n")
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["[]", "True kIdle"]

@@ -10,9 +10,10 @@ What the Desk leaves the robot in is read off `fci_active`, `arm_ready` and
 
 from __future__ import annotations
 
-import secrets
 from dataclasses import dataclass, field
 from typing import Callable
+
+from franka_sim.config import DESK_BOOTS
 
 LOCKED, UNLOCKED = "Locked", "Unlocked"
 PROGRAMMING, EXECUTION = "Programming", "Execution"
@@ -23,7 +24,13 @@ PILOT_BUTTONS = ("circle", "cross", "check", "up", "down", "left", "right")
 # circle button, as franky's prompt asks for).
 CONFIRM_BUTTON = "circle"
 JOINTS = 7
-BOOTS = ("ready", "locked")
+BOOTS = DESK_BOOTS
+
+
+def _secret() -> str:
+    import secrets
+
+    return secrets.token_urlsafe(24)
 
 
 class DeskRefusal(Exception):
@@ -68,7 +75,7 @@ class Desk:
 
     boot: str = "ready"
     serial: str = "franka-sim"
-    new_secret: Callable[[], str] = field(default=lambda: secrets.token_urlsafe(24))
+    new_secret: Callable[[], str] = field(default=lambda: _secret())
     brakes: str = field(init=False)
     operating_mode: str = field(init=False)
     fci: bool = field(init=False)
@@ -175,11 +182,13 @@ class Desk:
 
     def check_token(self, secret: str | None) -> Token:
         """The token a changing call presents (X-Control-Token), or the refusal."""
+        import hmac
+
         token = self.token
         if not secret:
             raise DeskRefusal(403, "MissingControlToken",
                               "this call needs the control token (X-Control-Token)")
-        if token is None or not secrets.compare_digest(secret, token.secret):
+        if token is None or not hmac.compare_digest(secret.encode(), token.secret.encode()):
             raise DeskRefusal(403, "InvalidControlToken",
                               "the control token given is not the one that holds control")
         return token

@@ -51,14 +51,14 @@ class ArmOps(FaultOps):
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None, taps=None, recordings=None,
-                 desk=None) -> None:
-        from franka_sim.desk.state import Desk  # (plain Python, no I/O: cheap)
-
+                 desk_boot: str = "ready") -> None:
         self.core, self.tool, self.driver = core, tool, driver
-        # The arm's Desk (desk/state.py), served over HTTPS or not: it holds the arm while its
+        # The arm's Desk (desk/state.py), served over HTTPS or not, made when first asked for
+        # (a robot whose Desk nobody calls never imports it): it holds the arm while its
         # brakes are locked or it is not in Execution (--desk-boot locked: from the start).
-        self.desk_state = desk if desk is not None else Desk()
-        core.status.held = not self.desk_state.arm_ready
+        self.desk_boot = desk_boot
+        self._desk = None
+        core.status.held = desk_boot != "ready"
         # What the Desk's state means for the robot's endpoints, applied (the server's
         # DeskEffects.apply; replay and tests: nothing to open or close).
         self.desk_effects = None
@@ -160,9 +160,19 @@ class ArmOps(FaultOps):
         await self._desk_applied()
         return result
 
+    @property
+    def desk_state(self):
+        if self._desk is None:
+            from franka_sim.desk.state import Desk
+
+            self._desk = Desk(boot=self.desk_boot)
+        return self._desk
+
     async def _desk_applied(self) -> None:
         """After a reset: the Desk as it boots, and the robot's endpoints as it says."""
-        self.desk_state.power_on()
+        if self._desk is None:
+            return  # never asked for: as it booted
+        self._desk.power_on()
         if self.desk_effects is not None:
             await self.desk_effects()
 
@@ -200,7 +210,7 @@ class ArmOps(FaultOps):
         core.reset(q, measured, last_sent)
         # The Desk starts again too (on the loop, after this job: `_desk_applied`); its arm
         # is held here, in the same job, so no cycle sees it otherwise.
-        core.hold(self.desk_state.boot != "ready")
+        core.hold(self.desk_boot != "ready")
         if tool is not None:
             tool.reset(measured.tool)
         self.driver.keep_running()

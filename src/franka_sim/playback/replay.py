@@ -31,7 +31,6 @@ from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ArmOps
 from franka_sim.control.table import BY_NAME, Effect
-from franka_sim.desk.state import Desk
 from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
@@ -95,7 +94,7 @@ class Replayer:
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
             clock=self.config.clock.value, arm=arm.name, arm_index=i,
             client_connected=lambda i=i: (i, "robot") in self.sessions,
-            desk=Desk(boot=self.config.desk_boot))
+            desk_boot=self.config.desk_boot)
             for i, arm in enumerate(parts.robots) if arm.kind == "arm"}
 
     # -- the cycle sequence ------------------------------------------------------------------------
