@@ -3,6 +3,8 @@
 #   docker build -t franka-sim .
 #   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1338:1338 -p 127.0.0.1:1340:1340 franka-sim
 #   docker run --rm --network host -e FRANKA_SIM_HOST=127.0.0.2 franka-sim
+#   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1340:1340 -p 127.0.0.1:443:443 \
+#       -e FRANKA_SIM_DESK_PORT=443 franka-sim --desk-boot locked
 #
 # Build arguments:
 #   BASE_IMAGE  any image with python3 (>= 3.11, with its venv module) and useradd; both stages
@@ -47,8 +49,9 @@ ENV PATH=/opt/franka-sim/bin:$PATH \
 # handshake, at the address the server sees the client at, and the client answers to wherever
 # the states came from: it needs no EXPOSE and no publishing, and passes Docker's NAT. A client
 # on the host connecting to the host's own address answers from the bridge's gateway instead;
-# the server follows its answers there (docs/deployment.md).
-EXPOSE 1337/tcp 1338/tcp 1340/tcp
+# the server follows its answers there (docs/deployment.md). 443: the Desk (the robot's web API),
+# served with `-e FRANKA_SIM_DESK_PORT=443` (docs/desk.md); off unless asked for, as outside.
+EXPOSE 1337/tcp 1338/tcp 1340/tcp 443/tcp
 
 # Ready once the control API answers /health; the server binds every address (0.0.0.0) unless
 # FRANKA_SIM_HOST names one, which the check then uses. Each check costs ~0.25 s of CPU.

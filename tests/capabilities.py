@@ -23,6 +23,7 @@ CAPABILITIES = {
     "plugin": "the pytest plugin as a user meets it",
     "deployment": "the image, compose, Kubernetes, the GitHub action",
     "combinations": "the serve flags in combination",
+    "desk": "the Desk, the robot's web API: its dialects, clients and effects on the robot",
 }
 
 MODULES = {
@@ -81,6 +82,9 @@ MODULES = {
                    "container/test_image.py", "container/test_pid1.py"],
     "combinations": ["combinations/test_combination_runs.py",
                      "combinations/test_matrix_factors.py"],
+    "desk": ["desk/test_desk_state.py", "desk/test_desk_clients.py",
+             "desk/test_desk_bad_input.py", "desk/test_desk_recording.py",
+             "desk/test_desk_serving.py"],
 }
 
 

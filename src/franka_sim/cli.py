@@ -116,6 +116,31 @@ def serve(
         help="Require this bearer token on every control API request (Authorization: Bearer "
         "TOKEN), for an address others can reach. Default: none.",
     ),
+    desk_port: int = typer.Option(
+        0, envvar="FRANKA_SIM_DESK_PORT", min=0, max=65535,
+        help="HTTPS port of the Desk, the robot's web API (FR3 system 5+ and the older Desk: "
+        "control token, brakes, operating mode, FCI; docs/desk.md), on the robot's address; "
+        "the robot's is 443. 0 (default): not served.",
+    ),
+    desk_boot: str = typer.Option(
+        "ready", envvar="FRANKA_SIM_DESK_BOOT", metavar="ready|locked",
+        help="ready: FCI active, brakes open, Execution (as without a Desk). locked: as after "
+        "power-on (brakes locked, Programming, FCI inactive: port 1337 refuses connections "
+        "until a Desk client activates it).",
+    ),
+    desk_user: list[str] = typer.Option(
+        [], "--desk-user", envvar="FRANKA_SIM_DESK_USERS", metavar="NAME:PASSWORD",
+        help="A Desk user (repeat for several). Default: franka:franka.",
+    ),
+    desk_cert: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_DESK_CERT", exists=True, dir_okay=False,
+        help="The Desk's TLS certificate (PEM), with --desk-key. Default: a self-signed one "
+        "made at the first start and kept per user.",
+    ),
+    desk_key: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_DESK_KEY", exists=True, dir_okay=False,
+        help="The private key (PEM) of --desk-cert.",
+    ),
     rt_priority: int = typer.Option(
         0, envvar="FRANKA_SIM_RT_PRIORITY", min=0, max=99,
         help="Run the server under SCHED_FIFO at this priority (1-99), as the robot's own "
@@ -151,6 +176,10 @@ def serve(
     if log_level.lower() not in ("debug", "info", "warning", "error"):
         raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
                                  param_hint="--log-level")
+    if desk_boot == "locked" and not desk_port:
+        # Only the Desk activates the FCI: locked without it, no client could ever connect.
+        raise typer.BadParameter("a robot booted locked is brought up through its Desk: give "
+                                 "--desk-port too (the robot's is 443)", param_hint="--desk-boot")
     try:
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:
@@ -173,7 +202,8 @@ def serve(
             joint_discontinuity_scale=joint_discontinuity_scale,
             scene=scene, tool=_tool(tool.value, no_gripper), control_port=control_port,
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
-            inject=inject, seed=seed,
+            inject=inject, seed=seed, desk_port=desk_port, desk_boot=desk_boot,
+            desk_users=tuple(desk_user), desk_cert=desk_cert, desk_key=desk_key,
         ))
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint=exc.flag) from None

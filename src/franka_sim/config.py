@@ -14,6 +14,11 @@ READY_POSE = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.p
 
 
 
+# How the Desk boots (docs/desk.md): "ready" as the simulator always served, "locked" as after
+# power-on.
+DESK_BOOTS = ("ready", "locked")
+
+
 @dataclass(frozen=True)
 class ArmSpec:
     """One arm of the world: its name, the address it is served on, and where its base stands.
@@ -70,6 +75,15 @@ class Config:
     record: Path | None = None  # write everything the run exchanged to this MCAP file
     inject: str | None = None  # network faults on every robot's UDP path (faults/spec.py)
     seed: int = 0  # the faults' seed: the same seed hits the same cycles
+    # The Desk (docs/desk.md): its HTTPS port on every arm's address (0: not served), how it
+    # boots ("ready": as the simulator always served; "locked": as after power-on), its users
+    # (NAME:PASSWORD; none: the documented default) and its certificate (None: one made and
+    # kept per user).
+    desk_port: int = 0
+    desk_boot: str = "ready"
+    desk_users: tuple[str, ...] = ()
+    desk_cert: Path | None = None
+    desk_key: Path | None = None
     # The arms of the world, each on its own address; empty: one arm on host, named after its
     # kind ("fr3", "fer").
     arms: tuple[ArmSpec, ...] = ()

@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import ipaddress
 
-from franka_sim.config import ROBOTS, Config
+from franka_sim.config import DESK_BOOTS, ROBOTS, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -50,6 +50,7 @@ def checked(config: Config) -> Config:
                                                              config.control_port):
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
                           "API's port")
+    _desk(config)
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing
@@ -66,6 +67,26 @@ def checked(config: Config) -> Config:
         except SceneError as exc:
             raise ConfigError("--scene", str(exc)) from None
     return dataclasses.replace(config, **changes) if changes else config
+
+
+def _desk(config: Config) -> None:
+    if config.desk_boot not in DESK_BOOTS:
+        raise ConfigError("--desk-boot", f"{config.desk_boot!r}: one of {', '.join(DESK_BOOTS)}")
+    port = config.desk_port
+    if not 0 <= port <= 65535:
+        raise ConfigError("--desk-port", f"{port} is not a TCP port (0: no Desk)")
+    if port and (port in RESERVED_PORTS or port in (config.control_port, config.tool_port)):
+        raise ConfigError("--desk-port", f"{port} is another service's port (the Desk's is 443)")
+    if config.desk_users:
+        from franka_sim.desk.users import parse_user
+    for user in config.desk_users:
+        try:
+            parse_user(user)
+        except ValueError as exc:
+            raise ConfigError("--desk-user", str(exc)) from None
+    if (config.desk_cert is None) != (config.desk_key is None):
+        raise ConfigError("--desk-cert", "a certificate and its key go together "
+                          "(--desk-cert and --desk-key)")
 
 
 def _address(flag: str, text: str, who: str = "") -> None:

@@ -32,8 +32,9 @@ import pytest
 
 MARKER = "franka_sim"
 _MARKER_FIELDS = {"clock": str, "scene": (str, os.PathLike), "enforce_motion_limits": bool,
-                  "enforce_comm_constraints": bool, "gripper": bool}
+                  "enforce_comm_constraints": bool, "gripper": bool, "desk_boot": str}
 _CLOCKS = ("lockstep", "realtime")
+_DESK_BOOTS = ("ready", "locked")
 _HANDLE = pytest.StashKey["SimHandle"]()
 _RECORD_MODES = ("failed", "all", "none")
 _RECORDING = pytest.StashKey["_Recording"]()
@@ -51,6 +52,14 @@ class SimHandle:
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
         self._log_start = len(server.sync())
         self.recording: Path | None = None  # this test's recording, while it is made
+
+    @property
+    def desk(self) -> str | None:
+        """HOST:PORT of its Desk (served when the marker says `desk_boot="locked"`), for
+        franky.Desk and the other Desk clients; None: not served."""
+        from franka_sim.testing.server_pool import DESK_PORT
+
+        return f"{self.host}:{DESK_PORT}" if self.settings.desk_boot != "ready" else None
 
     @property
     def log(self) -> list[str]:
@@ -84,7 +93,7 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers",
         f"{MARKER}(enforce_motion_limits=False, enforce_comm_constraints=False, gripper=True, "
-        "scene=None, clock=None): the franka_sim fixture of this test is a simulator of this "
+        "scene=None, clock=None, desk_boot='ready'): the franka_sim fixture of this test is a simulator of this "
         "configuration (started on demand, shared by the tests that ask for the same)")
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
 
@@ -155,7 +164,8 @@ def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:
                         f"{', '.join(sorted(_MARKER_FIELDS))})", pytrace=False)
         if value is None and name in ("clock", "scene"):
             continue  # the command line's choice
-        if not isinstance(value, expected) or (name == "clock" and value not in _CLOCKS):
+        if not isinstance(value, expected) or (name == "clock" and value not in _CLOCKS) or (
+                name == "desk_boot" and value not in _DESK_BOOTS):
             pytest.fail(f"@pytest.mark.{MARKER}: {name}={value!r} is not valid", pytrace=False)
         values[name] = _absolute(value, test_dir) if name == "scene" else value
     return values

@@ -32,6 +32,7 @@ log = logging.getLogger("franka_sim")
 # The control API's token travels in the environment, not on the command line (which `ps`
 # shows to every user of the machine).
 _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
+_DESK_USERS = "FRANKA_SIM_DESK_USERS"  # (their passwords too)
 
 
 def exec_serving(config: Config, *, rt_priority: int, log_level: str,
@@ -40,6 +41,9 @@ def exec_serving(config: Config, *, rt_priority: int, log_level: str,
     os.environ.pop(_TOKEN, None)
     if config.control_token is not None:
         os.environ[_TOKEN] = config.control_token
+    os.environ.pop(_DESK_USERS, None)
+    if config.desk_users:
+        os.environ[_DESK_USERS] = "\n".join(config.desk_users)
     _become_serving(serving_argument(config, rt_priority=rt_priority, log_level=log_level,
                                      viewer=viewer))
 
@@ -52,6 +56,7 @@ def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "
                 str(value) if isinstance(value, Path) else value
                 for name, value in asdict(config).items()}
     settings.pop("control_token")
+    settings.pop("desk_users")
     return json.dumps({"config": settings, "rt_priority": rt_priority, "log_level": log_level,
                        "viewer": viewer})
 
@@ -70,11 +75,14 @@ def _config(settings: dict) -> Config:
     from franka_sim.config import ArmSpec, ClockMode, Config  # (numpy: after SIGTERM's handler)
 
     settings = dict(settings)
-    for name in ("urdf", "record"):  # (a scene is a packaged name or a path: WorldParts says)
+    # (a scene is a packaged name or a path: WorldParts says)
+    for name in ("urdf", "record", "desk_cert", "desk_key"):
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
     settings["control_token"] = os.environ.get(_TOKEN)
+    users = os.environ.get(_DESK_USERS)
+    settings["desk_users"] = tuple(users.split("\n")) if users else ()
     settings["q0"] = tuple(settings["q0"])
     settings["arms"] = tuple(
         ArmSpec(arm["name"], arm["host"], None if arm["base"] is None else tuple(arm["base"]),
@@ -106,8 +114,8 @@ def main(blob: str) -> int:
     args = json.loads(blob)
     if not args.get("viewer"):
         leave_out_renderer()
-    if _KEEP_TLS not in os.environ:
-        leave_out_tls()  # before asyncio, uvloop and construct are imported
+    if _KEEP_TLS not in os.environ and not args["config"].get("desk_port"):
+        leave_out_tls()  # before asyncio, uvloop and construct are imported (the Desk: TLS)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:

@@ -35,6 +35,13 @@ NOT_FACTORS = {
     "strict_versions": "decides which libfranka versions connect, at Connect only: the "
                        "matrix's clients are pylibfranka 0.21 (v10), which a strict Panda "
                        "refuses by design (tests/clients/test_panda_arm.py)",
+    "desk_port": "the Desk's HTTPS port: the cycle never sees the web API, only what its calls "
+                 "change (the arm held, the FCI's port), which tests/desk drives",
+    "desk_boot": "locked refuses every FCI client until a Desk client brings the robot up, "
+                 "which a matrix run does not; tests/desk (and the plugin's marker) cover it",
+    "desk_user": "who may call the Desk: its HTTPS layer only (tests/desk)",
+    "desk_cert": "the Desk's TLS certificate: its HTTPS layer only (tests/desk)",
+    "desk_key": "the Desk's TLS key: its HTTPS layer only (tests/desk)",
 }
 
 # The world factor stands for these options together: a packaged scene and the robots it holds.

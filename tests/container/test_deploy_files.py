@@ -14,7 +14,7 @@ yaml = pytest.importorskip("yaml")
 
 ROOT = Path(__file__).resolve().parents[2]
 KUBERNETES = ROOT / "deploy" / "kubernetes"
-FCI, HAND, CONTROL = 1337, 1338, 1340
+FCI, HAND, CONTROL, DESK = 1337, 1338, 1340, 443
 
 
 def _manifests() -> list[dict]:
@@ -92,7 +92,7 @@ def test_the_dockerfile_builds_from_any_base_into_a_non_root_runtime():
     assert _dockerfile_user() != 0
     assert _instructions("ENTRYPOINT") == ['["franka-sim", "serve"]']
     assert "FRANKA_SIM_HOST=0.0.0.0" in " ".join(_instructions("ENV"))
-    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp"]
+    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp {DESK}/tcp"]
     (healthcheck,) = _instructions("HEALTHCHECK")
     assert "franka-sim check" in healthcheck
     assert "--no-index --find-links" in _dockerfile()  # offline from a wheelhouse

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from franka_sim.testing.server_pool import SimSettings, worker_address
+from franka_sim.testing.server_pool import DESK_PORT, SimSettings, worker_address
 
 ROOT = Path(__file__).resolve().parents[2]
 PROJECT = Path(__file__).with_name("project")
@@ -28,7 +28,8 @@ def _run_project(tmp_path: Path, *args: str, clock: str = "lockstep"):
     shutil.copytree(PROJECT, tmp_path / "project")
     record = tmp_path / "record.txt"
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
-    env.update(FRANKA_SIM_RECORD=str(record), FRANKA_SIM_EXPECTED_CLOCK=clock)
+    env.update(FRANKA_SIM_RECORD=str(record), FRANKA_SIM_EXPECTED_CLOCK=clock,
+               XDG_DATA_HOME=str(tmp_path / "data"))  # where a Desk keeps its certificate
     # Installed, the package's pytest11 entry point loads the plugin; from a source tree whose
     # installed metadata predates it, load it by name.
     installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
@@ -50,7 +51,7 @@ def _outcomes(output: str) -> dict[str, int]:
 
 def _check_run(code: int, output: str, seen) -> None:
     assert code == 1, output
-    assert _outcomes(output) == {"passed": 9, "failed": 1, "error": 1}, output
+    assert _outcomes(output) == {"passed": 10, "failed": 1, "error": 1}, output
     # The misspelt marker setting is named.
     assert "unknown setting 'grip'" in output
     # The failing test's report carries its own server log lines: its client, not the start.
@@ -63,7 +64,7 @@ def _check_run(code: int, output: str, seen) -> None:
     default = {host for _, host in seen["default"]}
     for worker in {worker for worker, _ in seen["no-gripper"]}:
         assert len({host for w, host in seen["no-gripper"] if w == worker}) == 1
-    assert not default & {host for _, host in seen["no-gripper"] + seen["limits"]}
+    assert not default & {host for _, host in seen["no-gripper"] + seen["limits"] + seen["locked"]}
     # Every server is gone with the session.
     for host in hosts:
         with pytest.raises(ConnectionRefusedError):
@@ -110,4 +111,7 @@ def test_every_setting_is_passed_as_an_explicit_flag():
     flags = SimSettings(clock="realtime", scene="/x/scene.xml", enforce_motion_limits=True,
                         gripper=False).flags()
     assert flags == ["--clock", "realtime", "--control-port", "1340", "--enforce-motion-limits",
-                     "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper"]
+                     "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper",
+                     "--desk-boot", "ready", "--desk-port", "0"]
+    assert SimSettings(desk_boot="locked").flags()[-4:] == [
+        "--desk-boot", "locked", "--desk-port", str(DESK_PORT)]

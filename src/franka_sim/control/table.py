@@ -34,6 +34,7 @@ class Effect(Enum):
     CHANGE = "changes the world"  # recorded with its cycle, and what replay re-applies
     RECORDING = "starts or finishes a recording"
     FAULTS = "reads or sets the robot's network faults"
+    DESK = "reads or changes the Desk (the robot's web API), not the world"
 
 
 @dataclass(frozen=True)
@@ -146,6 +147,24 @@ OPERATIONS: tuple[Operation, ...] = (
         "finish_recording", "DELETE", "/recording", Effect.RECORDING, ARM,
         """End the recording `start_recording` began; once this returns the file is complete.
         Returns {"path", "cycle", "dropped"} (events the recorder could not keep up with)."""),
+    Operation(
+        "desk", "GET", "/desk", Effect.DESK, ARM,
+        """The Desk's state (docs/desk.md): {"brakes", "operating_mode", "fci",
+        "end_effector_power", "control_token" ({"owner", "id"} or None), "pending_request"
+        ({"owner", "id", "force"} or None), "self_tests", "arm_ready"}."""),
+    Operation(
+        "press_pilot_button", "POST", "/desk/pilot", Effect.DESK, ARM,
+        """Press and release a Pilot button (circle, cross, check, up, down, left, right), as
+        someone at the robot: Desk clients listening hear it, and `circle` confirms a pending
+        forced control-token take. Returns what `desk()` does.""",
+        body=(need("button"),)),
+    Operation(
+        "desk_arm", "PUT", "/desk/arm", Effect.CHANGE, ARM,
+        """Set the brakes ("Locked", "Unlocked") and the operating mode ("Programming",
+        "Execution") as at the robot, without the control token (the Desk's own calls land
+        here too): an arm not unlocked in Execution reads as robot mode Other and refuses
+        motions. Returns what `desk()` does.""",
+        body=(may("brakes"), may("operating_mode"))),
     Operation(
         "faults", "GET", "/faults", Effect.FAULTS, BOTH,
         """The network faults injected on this robot's UDP path: {"spec", "fields", "seed",

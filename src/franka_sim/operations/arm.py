@@ -50,8 +50,18 @@ class ArmOps(FaultOps):
     def __init__(self, *, core: ArmCore, tool: ToolDevice | None, driver: Pacer,
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
-                 arm_index: int = 0, faults=None, taps=None, recordings=None) -> None:
+                 arm_index: int = 0, faults=None, taps=None, recordings=None,
+                 desk_boot: str = "ready") -> None:
         self.core, self.tool, self.driver = core, tool, driver
+        # The arm's Desk (desk/state.py), served over HTTPS or not, made when first asked for
+        # (a robot whose Desk nobody calls never imports it): it holds the arm while its
+        # brakes are locked or it is not in Execution (--desk-boot locked: from the start).
+        self.desk_boot = desk_boot
+        self._desk = None
+        core.status.held = desk_boot != "ready"
+        # What the Desk's state means for the robot's endpoints, applied (the server's
+        # DeskEffects.apply; replay and tests: nothing to open or close).
+        self.desk_effects = None
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
         self.worker, self.lock, self.description = worker, lock, description
@@ -146,8 +156,26 @@ class ArmOps(FaultOps):
             with self.lock:
                 self._refuse_busy()
                 return self._reset_now(arm, q, gripper_width)
-        return await self._job(reset, ("reset", {
+        result = await self._job(reset, ("reset", {
             "q": q.tolist(), "gripper_width": gripper_width}))
+        await self._desk_applied()
+        return result
+
+    @property
+    def desk_state(self):
+        if self._desk is None:
+            from franka_sim.desk.state import Desk
+
+            self._desk = Desk(boot=self.desk_boot)
+        return self._desk
+
+    async def _desk_applied(self) -> None:
+        """After a reset: the Desk as it boots, and the robot's endpoints as it says."""
+        if self._desk is None:
+            return  # never asked for: as it booted
+        self._desk.power_on()
+        if self.desk_effects is not None:
+            await self.desk_effects()
 
     def _reset_arguments(self, q, gripper_width) -> tuple[np.ndarray, float | None]:
         q = self.q0 if q is None else numbers("q", q, 7)
@@ -181,11 +209,48 @@ class ArmOps(FaultOps):
         arm.reset(q, gripper_width)
         measured = arm.measure()
         core.reset(q, measured, last_sent)
+        # The Desk starts again too (on the loop, after this job: `_desk_applied`); its arm
+        # is held here, in the same job, so no cycle sees it otherwise.
+        core.hold(self.desk_boot != "ready")
         if tool is not None:
             tool.reset(measured.tool)
         self.driver.keep_running()
         return {"q": q.tolist(), "cycle": core.message_id,
                 "gripper_width": None if self.hand is None else self.hand.width}
+
+    # -- the Desk ------------------------------------------------------------------------------
+    def desk(self) -> dict:
+        return self.desk_state.snapshot()
+
+    def press_pilot_button(self, button) -> dict:
+        from franka_sim.desk.state import DeskRefusal
+
+        try:
+            self.desk_state.press(button)
+        except DeskRefusal as refusal:
+            raise BadRequest(refusal.message) from None
+        return self.desk()
+
+    async def desk_arm(self, brakes=None, operating_mode=None) -> dict:
+        """The brakes and the operating mode as at the robot (neither given: as the Desk
+        says now, which is how the Desk's own calls end here); the arm held or freed in one
+        job, recorded with the Desk's whole arm state, which replay sets again."""
+        from franka_sim.desk.state import DeskRefusal
+
+        desk = self.desk_state
+        try:
+            desk.set_arm(brakes, operating_mode)
+        except DeskRefusal as refusal:
+            raise BadRequest(refusal.message) from None
+        held = not desk.arm_ready
+
+        def hold(world, arm) -> dict:
+            with self.lock:
+                self.core.hold(held)
+            self.driver.keep_running()
+            return self.desk()
+        return await self._job(hold, ("desk_arm", {
+            "brakes": desk.brakes, "operating_mode": desk.operating_mode}))
 
     # -- recording ---------------------------------------------------------------------------------
     async def start_recording(self, path) -> dict:
@@ -226,10 +291,12 @@ class ArmOps(FaultOps):
                              at, 200, result)
                 return {"path": str(recorder.path), "cycle": result["cycle"]}
         try:
-            return await self._job(start)
+            result = await self._job(start)
         except BaseException:
             recordings.discard(recorder)
             raise
+        await self._desk_applied()
+        return result
 
     async def finish_recording(self) -> dict:
         """End the recording `start_recording` began and close its file (a complete MCAP once

@@ -93,7 +93,8 @@ class Replayer:
             core=arm.core, tool=arm.tool, driver=_Driver(self), worker=_Worker(self),
             lock=threading.Lock(), description=arm.description, q0=arm.q0,
             clock=self.config.clock.value, arm=arm.name, arm_index=i,
-            client_connected=lambda i=i: (i, "robot") in self.sessions)
+            client_connected=lambda i=i: (i, "robot") in self.sessions,
+            desk_boot=self.config.desk_boot)
             for i, arm in enumerate(parts.robots) if arm.kind == "arm"}
 
     # -- the cycle sequence ------------------------------------------------------------------------

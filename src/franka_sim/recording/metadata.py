@@ -17,7 +17,7 @@ from franka_sim.recording import FORMAT_VERSION
 
 START_FRESH, START_RESET = "fresh", "reset"  # `start`: from a fresh world, or from a reset
 _FLAGS = ("enforce_comm_constraints", "enforce_motion_limits", "joint_discontinuity_scale",
-          "tool", "robot", "strict_versions")
+          "tool", "robot", "strict_versions", "desk_boot")
 
 
 def sha256(text: str) -> str:

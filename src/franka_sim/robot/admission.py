@@ -23,6 +23,9 @@ def admit_move(desc: ArmDescription, command_id: int, request, *, running: bool,
     spec = parse_move(request)
     if running:
         raise MoveRejected(MoveStatus.kCommandNotPossibleRejected, "a motion is already running")
+    if robot_mode is RobotMode.kOther:
+        raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
+                           "robot is in kOther: brakes locked or not in Execution (Desk)")
     if robot_mode is not RobotMode.kIdle:
         raise MoveRejected(MoveStatus.kCommandNotPossibleRejected,
                            f"robot is in {robot_mode.name}; recover first")

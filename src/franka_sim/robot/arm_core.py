@@ -252,6 +252,15 @@ class ArmCore(FciRobot):
         self.guard = None
         self.measured = measured
 
+    def hold(self, held: bool) -> None:
+        """The Desk locks the brakes or leaves Execution (held), or frees the arm again. A
+        running motion ends as one the robot stops itself (kAborted), the arm held where it is."""
+        if held and self.motion is not None:
+            self.status.answer_move(self.motion.command_id, MoveStatus.kAborted)
+            self._end_motion(RobotMode.kIdle)
+        self.status.held = held
+        self.status.flags_version += 1
+
     # -- the session's view ----------------------------------------------------------------------
     def client_gone(self) -> None:
         """The client closed TCP. Under enforcement its motion ends in the reflex. Without, the

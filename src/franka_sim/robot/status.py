@@ -18,11 +18,23 @@ from franka_sim.protocol.robot_messages import build_response
 
 class RobotStatus:
     def __init__(self) -> None:
-        self.robot_mode = RobotMode.kIdle
+        self._mode = RobotMode.kIdle
+        # The Desk holds the arm (brakes locked, or Programming mode): an idle arm reads as
+        # kOther, which no Move is admitted in (robot/admission.py), as on the robot.
+        self.held = False
         self.errors = np.zeros(NUM_ERRORS, dtype=bool)
         self.reflex_reason = np.zeros(NUM_ERRORS, dtype=bool)
         self.flags_version = 0
         self.replies: list[bytes] = []
+
+    @property
+    def robot_mode(self) -> RobotMode:
+        mode = self._mode
+        return RobotMode.kOther if self.held and mode is RobotMode.kIdle else mode
+
+    @robot_mode.setter
+    def robot_mode(self, mode: RobotMode) -> None:
+        self._mode = mode
 
     def latch(self, names: list[str]) -> None:
         """A reflex: the named errors latch, and become the reflex reason."""

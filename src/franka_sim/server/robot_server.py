@@ -64,11 +64,18 @@ class RobotServer:
                 core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
                 description=parts.description, q0=parts.q0, clock=config.clock.value,
                 client_connected=connected, arm=self.name, arm_index=index, faults=faults,
-                taps=taps, recordings=recordings)
+                taps=taps, recordings=recordings, desk_boot=config.desk_boot)
         else:
             self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
                                    robot_index=index, faults=faults)
         self._control_api = None  # its port, while it is open (server/control_port.py)
+        self._desk_port = None  # the Desk's (server/desk_port.py), while it is open
+        self.desk_effects = None  # what its Desk leaves it in (server/desk_effects.py)
+        if parts.kind == "arm" and (config.desk_port or config.desk_boot != "ready"):
+            from franka_sim.server.desk_effects import DeskEffects
+
+            self.desk_effects = DeskEffects(self)
+            self.control.desk_effects = self.desk_effects.apply
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
@@ -79,6 +86,11 @@ class RobotServer:
                          else "no tool")
         parts.append(f"control API on {config.control_port}" if config.control_port
                      else "no control API")
+        if self.desk_effects is not None and config.desk_port:
+            desk = self.control.desk_state
+            parts.append(f"Desk on {config.desk_port}, FCI "
+                         f"{'active' if desk.fci_active else 'inactive'}, brakes "
+                         f"{desk.brakes.lower()}")
         return "serving on {}:{} ({}".format(self.host, config.robot_port, "; ".join(parts))
 
     # -- lifecycle -------------------------------------------------------------------------------
@@ -87,9 +99,14 @@ class RobotServer:
         the robot and the port)."""
         config, host = self.config, self.host
         opened = []
+        effects = self.desk_effects
         try:
-            await self._open(self.fci.start(host, config.robot_port), config.robot_port, "")
-            opened.append(self.fci.stop)
+            # An inactive FCI (--desk-boot locked) is a closed port until the Desk activates it.
+            if effects is None or self.control.desk_state.fci_active:
+                await self._open(self.fci.start(host, config.robot_port), config.robot_port, "")
+                opened.append(self.fci.stop)
+                if effects is not None:
+                    effects.fci_open = True
             try:
                 self.udp.open(host)
             except OSError as exc:
@@ -99,9 +116,14 @@ class RobotServer:
                 await self._open(self.tool_endpoint.start(host, self.tool_port),
                                  self.tool_port, f" ({self.tool_kind.label})")
                 opened.append(self.tool_endpoint.stop)
+                if effects is not None:
+                    effects.tool_open = True
             if config.control_port:
                 await self._open(self._start_control_api(), config.control_port,
                                  " (control API)")
+                opened.append(self.stop_control_api)
+            if effects is not None and config.desk_port:
+                await self._open(self._start_desk(), config.desk_port, " (Desk)")
         except BaseException:
             for stop in reversed(opened):
                 await stop()
@@ -128,6 +150,16 @@ class RobotServer:
         if self._control_api is not None:
             await self._control_api.stop()
             self._control_api = None
+        if self._desk_port is not None:
+            await self._desk_port.stop()
+            self._desk_port = None
+
+    async def _start_desk(self) -> None:
+        from franka_sim.server.desk_port import DeskPort
+
+        port = DeskPort(self, self.desk_effects)
+        await port.start(self.host, self.config.desk_port)
+        self._desk_port = port
 
     async def stop_endpoints(self) -> None:
         await self.fci.stop()

@@ -17,6 +17,9 @@ from dataclasses import dataclass
 from franka_sim.testing.server_process import ServerProcess
 
 CONTROL_PORT = 1340
+# The Desk of a simulator that boots locked (the robot's is 443, which needs privileges): a
+# test's bring-up code reaches it at `franka_sim.desk` (HOST:PORT).
+DESK_PORT = 8443
 _START_TIMEOUT = 60.0  # MuJoCo's import and the model's compilation, on a busy CI machine
 _CLIENT_GONE_TIMEOUT = 0.25  # a finished test's client: its TCP close is in flight
 _ADDRESS_ATTEMPTS = 4
@@ -31,6 +34,7 @@ class SimSettings:
     enforce_motion_limits: bool = False
     enforce_comm_constraints: bool = False
     gripper: bool = True
+    desk_boot: str = "ready"  # "locked": as after power-on, its Desk served on DESK_PORT
 
     def flags(self) -> list[str]:
         """`franka-sim serve` flags, each setting explicit so an exported FRANKA_SIM_* does not
@@ -44,6 +48,8 @@ class SimSettings:
             flags += ["--scene", self.scene]
         if not self.gripper:
             flags.append("--no-gripper")
+        flags += ["--desk-boot", self.desk_boot,
+                  "--desk-port", str(DESK_PORT if self.desk_boot != "ready" else 0)]
         return flags
 
 

@@ -1,9 +1,13 @@
 """A user's test module: the franka_sim fixture, no conftest. Run by tests/plugin/test_plugin.py
 in a throw-away directory; each test records (name, worker, host) in $FRANKA_SIM_RECORD."""
 
+import base64
+import http.client
+import json
 import math
 import os
 import socket
+import ssl
 
 import numpy as np
 import pylibfranka
@@ -93,6 +97,41 @@ def test_a_step_aborts_under_enforced_motion_limits(franka_sim):
             q[3] += 0.05 if k > 5 else 0.0
             control.writeOnce(pylibfranka.JointPositions(q.tolist()))
     assert "joint_motion_generator_velocity_discontinuity" in franka_sim.control.state()["errors"]
+
+
+@pytest.mark.franka_sim(desk_boot="locked")
+def test_a_robot_booted_locked_moves_only_once_brought_up(franka_sim):
+    record(franka_sim, "locked")
+    with pytest.raises(pylibfranka.NetworkException, match="Connection to FCI refused"):
+        connect(franka_sim.host)
+    host, port = franka_sim.desk.rsplit(":", 1)
+    auth = {"Authorization": "Basic " + base64.b64encode(b"franka:franka").decode()}
+
+    def desk(path, body=None, token=None):
+        connection = http.client.HTTPSConnection(host, int(port), timeout=30,
+                                                 context=ssl._create_unverified_context())
+        headers = dict(auth, **({"X-Control-Token": token} if token else {}))
+        connection.request("POST", path, json.dumps(body) if body else None, headers)
+        answer = connection.getresponse()
+        data = answer.read()
+        connection.close()
+        assert answer.status == 200, data
+        return json.loads(data) if data else None
+
+    token = desk("/api/system/control-token:take", {"owner": "test", "timeout": 1})["token"]
+    desk("/api/arm/joints:unlock", token=token)
+    desk("/api/fci:activate", token=token)
+    robot = connect(franka_sim.host)  # the FCI is active, but Programming holds the arm
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Other
+    with pytest.raises(pylibfranka.CommandException, match="not possible"):
+        robot.start_joint_position_control(JI)
+    desk("/api/system/operating-mode:change", {"desiredOperatingMode": "Execution"}, token)
+    # (in realtime, the socket may still hold states from before the change: read them out)
+    for _ in range(5000):
+        if robot.read_once().robot_mode == pylibfranka.RobotMode.Idle:
+            break
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+    assert franka_sim.control.desk()["arm_ready"]
 
 
 @pytest.mark.franka_sim(grip=False)

@@ -1,0 +1,111 @@
+"""The older Desk's API (Panda, FR3 before system 5): a login that returns a session (sent
+back as the `authorization` cookie), the control token requested under `/admin/api` and shown
+in `/admin/api/system-status`, actions under `/desk/api` with form bodies. What franky's
+`DeskWebSession` and franka-deskapi's login-based calls send and parse (docs/desk.md)."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+
+from franka_sim.desk.calls import Answer, Call, Routes
+from franka_sim.desk.state import (EXECUTION, JOINTS, LOCKED, PROGRAMMING, UNLOCKED, Desk,
+                                   DeskRefusal)
+from franka_sim.desk.users import Users
+
+
+def routes(desk: Desk, users: Users) -> Routes:
+    api = Routes()
+    add = api.add
+
+    @add("POST", "/admin/api/login")
+    def login(call: Call) -> Answer:
+        body = call.json_object()
+        session = users.login(body.get("login"), body.get("password"))
+        if session is None:
+            raise DeskRefusal(401, "Unauthorized", "wrong user name or password")
+        return Answer(text=session)
+
+    @add("GET", "/admin/api/system-status")
+    def system_status(call: Call) -> Answer:
+        token = desk.token
+        return Answer(body={
+            "controlToken": {"activeToken": None if token is None else {
+                "id": token.id, "ownedBy": token.owner}},
+            "derived": {"operatingMode": desk.operating_mode},
+            "safety": {"brakeState": [desk.brakes] * JOINTS,
+                       "recoverableErrors": {"td2Timeout": False},
+                       "safetyControllerStatus": "Idle"},
+            "fci": {"active": desk.fci_active},
+            "endEffector": {"powered": desk.end_effector_powered},
+        })
+
+    @add("POST", "/admin/api/control-token/request")
+    def request_token(call: Call) -> Answer:
+        owner = call.json_object().get("requestedBy", call.user)
+        request = desk.take(owner, force="force" in call.query)
+        # Answered at once: the client polls system-status until its id is the active one.
+        return Answer(body={"id": request.token.id, "token": request.token.secret})
+
+    @add("DELETE", "/admin/api/control-token")
+    def release(call: Call) -> Answer:
+        body = call.json_object(optional=True)
+        desk.release(call.control_token or body.get("token"))
+        return Answer()
+
+    @add("POST", "/desk/api/system/fci")
+    def fci_on(call: Call) -> Answer:
+        desk.set_fci(call.control_token or _form_token(call), True)
+        return Answer()
+
+    @add("DELETE", "/desk/api/system/fci")
+    def fci_off(call: Call) -> Answer:
+        desk.set_fci(call.control_token or _form_token(call), False)
+        return Answer()
+
+    @add("POST", "/desk/api/joints/unlock")
+    def unlock(call: Call) -> Answer:
+        call.form()
+        desk.set_brakes(call.control_token, UNLOCKED)
+        return Answer()
+
+    @add("POST", "/desk/api/joints/lock")
+    def lock(call: Call) -> Answer:
+        call.form()
+        desk.set_brakes(call.control_token, LOCKED)
+        return Answer()
+
+    @add("POST", "/desk/api/operating-mode/programming")
+    def programming(call: Call) -> Answer:
+        call.form()
+        desk.set_operating_mode(call.control_token, PROGRAMMING)
+        return Answer()
+
+    @add("POST", "/desk/api/operating-mode/execution")
+    def execution(call: Call) -> Answer:
+        call.form()
+        desk.set_operating_mode(call.control_token, EXECUTION)
+        return Answer()
+
+    @add("POST", "/admin/api/safety/td2-tests/execute")
+    def self_tests(call: Call) -> Answer:
+        desk.run_self_tests(call.control_token)
+        return Answer(body={"code": "SuccessResponse"})
+
+    @add("POST", "/admin/api/safety/recoverable-safety-errors/acknowledge")
+    def acknowledge(call: Call) -> Answer:
+        desk.check_token(call.control_token)
+        return Answer()  # no recoverable safety error is simulated: nothing left to acknowledge
+
+    return api
+
+
+def _form_token(call: Call) -> str | None:
+    """The token the older Desk's FCI form carries (base64 of it)."""
+    encoded = call.form().get("token")
+    if not encoded:
+        return None
+    try:
+        return base64.b64decode(encoded, validate=True).decode("ascii")
+    except (binascii.Error, UnicodeDecodeError):
+        raise DeskRefusal(400, "BadRequest", "the form's token is not base64") from None

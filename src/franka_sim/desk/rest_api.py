@@ -1,0 +1,140 @@
+"""The FR3 system 5+ Desk API (`/api/...`): HTTP Basic on every call, JSON bodies, the
+control token in `X-Control-Token`, actions as `resource:verb`. What franky's `Desk`,
+franka-desk and franka-deskapi send and parse (docs/desk.md lists every route)."""
+
+from __future__ import annotations
+
+import math
+
+from franka_sim.desk.calls import Answer, Call, Routes
+from franka_sim.desk.state import (JOINTS, LOCKED, OPERATING_MODES, UNLOCKED, Desk,
+                                   DeskRefusal, Request)
+
+MAX_TAKE_WAIT = 300.0  # s a take may queue behind the holder (the adapter's bound)
+
+
+def routes(desk: Desk) -> Routes:
+    api = Routes()
+    add = api.add
+
+    @add("GET", "/api/system")
+    def system(call: Call) -> Answer:
+        return Answer(body={"status": "Started", "operatingMode": {"status": desk.operating_mode},
+                            "controlSerialNumber": desk.serial, "armType": "FR3"})
+
+    @add("GET", "/api/system/operating-mode")
+    def operating_mode(call: Call) -> Answer:
+        return Answer(body={"status": desk.operating_mode})
+
+    @add("POST", "/api/system/operating-mode:change")
+    def change_mode(call: Call) -> Answer:
+        desired = call.json_object().get("desiredOperatingMode")
+        if desired not in OPERATING_MODES:
+            raise DeskRefusal(400, "BadRequest", f"desiredOperatingMode {desired!r}: expected "
+                              f"{' or '.join(OPERATING_MODES)}")
+        desk.set_operating_mode(call.control_token, desired)
+        return Answer()
+
+    @add("GET", "/api/system/control-token")
+    def token_info(call: Call) -> Answer:
+        token, pending = desk.token, desk.pending
+        return Answer(body={
+            "owner": None if token is None else token.owner,
+            "tokenId": None if token is None else token.id,
+            "requester": None if pending is None else pending.token.owner})
+
+    @add("POST", "/api/system/control-token:take")
+    def take(call: Call) -> Answer:
+        body = call.json_object()
+        owner, timeout = body.get("owner", call.user), body.get("timeout", 0)
+        if (isinstance(timeout, bool) or not isinstance(timeout, (int, float))
+                or not math.isfinite(timeout) or timeout <= 0 or timeout > MAX_TAKE_WAIT):
+            raise DeskRefusal(400, "BadRequest", f"timeout {timeout!r}: expected seconds in "
+                              f"(0, {MAX_TAKE_WAIT:g}]")
+        request = desk.take(owner)
+        return Answer(request=request, timeout=float(timeout), then=_granted)
+
+    @add("POST", "/api/system/control-token:release")
+    def release(call: Call) -> Answer:
+        desk.release(call.control_token)
+        return Answer()
+
+    @add("GET", "/api/fci")
+    def fci(call: Call) -> Answer:
+        return Answer(body={"status": "Active" if desk.fci_active else "Inactive"})
+
+    @add("POST", "/api/fci:activate")
+    def fci_on(call: Call) -> Answer:
+        desk.set_fci(call.control_token, True)
+        return Answer()
+
+    @add("POST", "/api/fci:deactivate")
+    def fci_off(call: Call) -> Answer:
+        desk.set_fci(call.control_token, False)
+        return Answer()
+
+    @add("GET", "/api/arm")
+    def arm(call: Call) -> Answer:
+        return Answer(body={"status": "Connected", "type": "FR3"})
+
+    @add("GET", "/api/arm/joints")
+    def joints(call: Call) -> Answer:
+        return Answer(body=[{"brakeStatus": desk.brakes} for _ in range(JOINTS)])
+
+    @add("POST", "/api/arm/joints:unlock")
+    def unlock(call: Call) -> Answer:
+        desk.set_brakes(call.control_token, UNLOCKED)
+        return Answer()
+
+    @add("POST", "/api/arm/joints:lock")
+    def lock(call: Call) -> Answer:
+        desk.set_brakes(call.control_token, LOCKED)
+        return Answer()
+
+    @add("GET", "/api/arm/warnings")
+    def warnings(call: Call) -> Answer:
+        return Answer(body=[])
+
+    @add("GET", "/api/end-effector/power")
+    def ee_power(call: Call) -> Answer:
+        return Answer(body={"status": "On" if desk.end_effector_powered else "Off"})
+
+    @add("POST", "/api/end-effector/power:on")
+    def ee_on(call: Call) -> Answer:
+        desk.set_end_effector_power(call.control_token, True)
+        return Answer()
+
+    @add("POST", "/api/end-effector/power:off")
+    def ee_off(call: Call) -> Answer:
+        desk.set_end_effector_power(call.control_token, False)
+        return Answer()
+
+    @add("GET", "/api/safety/self-tests")
+    def self_tests(call: Call) -> Answer:
+        return Answer(body={"status": desk.self_tests})
+
+    @add("POST", "/api/safety/self-tests:execute")
+    def run_self_tests(call: Call) -> Answer:
+        desk.run_self_tests(call.control_token)
+        return Answer()
+
+    @add("GET", "/api/safety/recovery")
+    def recovery(call: Call) -> Answer:
+        # The Desk's safety errors are not simulated (docs/desk.md): nothing to recover.
+        return Answer(body={"recovery": None})
+
+    @add("POST", "/api/safety/recovery:confirm")
+    def confirm_recovery(call: Call) -> Answer:
+        call.json_object(optional=True)
+        raise DeskRefusal(424, "PreconditionFailed", "there is no safety error to recover",
+                          ("NoRecoveryPending",))
+
+    return api
+
+
+def _granted(request: Request) -> Answer:
+    """A take's answer once it was granted, or its timeout passed."""
+    if not request.granted:
+        raise DeskRefusal(424, "Timeout", "the control token is held by "
+                          "another user, who did not release it within the timeout")
+    return Answer(body={"token": request.token.secret, "tokenId": request.token.id})

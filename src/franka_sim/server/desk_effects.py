@@ -1,0 +1,43 @@
+"""What the Desk leaves the robot in, applied: the FCI's port open or closed, the tool's
+service answering or not (end-effector power), the arm held or free.
+
+As on the robot, an inactive FCI is a closed port 1337 (libfranka: "Connection to FCI
+refused"), and its client, if any, is cut off; an unpowered end effector's service stops
+answering the same way. The arm's hold is an operation (ArmOps.desk_arm): a job
+between two cycles, recorded, so replay sets it at the same cycle.
+"""
+
+from __future__ import annotations
+
+import logging
+
+log = logging.getLogger(__name__)
+
+
+class DeskEffects:
+    def __init__(self, robot) -> None:
+        self.robot = robot  # server/robot_server.py RobotServer (an arm's)
+        self.fci_open = False
+        self.tool_open = False
+
+    async def apply(self) -> None:
+        robot, desk = self.robot, self.robot.control.desk_state
+        if desk.fci_active != self.fci_open:
+            if desk.fci_active:
+                await robot.fci.start(robot.host, robot.config.robot_port)
+            else:
+                await robot.fci.stop()
+            self.fci_open = desk.fci_active
+            log.info("%s: FCI %s", robot.label, "active" if self.fci_open else
+                     "inactive (port %d refuses connections)" % robot.config.robot_port)
+        tool = robot.tool_endpoint
+        if tool is not None and desk.end_effector_powered != self.tool_open:
+            if desk.end_effector_powered:
+                await tool.start(robot.host, robot.tool_port)
+            else:
+                await tool.stop()
+            self.tool_open = desk.end_effector_powered
+            log.info("%s: end effector %s", robot.label,
+                     "powered" if self.tool_open else "unpowered (its service does not answer)")
+        if robot.core.status.held == desk.arm_ready:
+            await robot.control.desk_arm()

@@ -1,0 +1,106 @@
+"""Bad input to the Desk over HTTPS: each is refused alone (a 4xx with a JSON reason and one log
+line), the Desk unchanged, and it serves on; the end effector's power as the Desk switches it
+(the Hand's service stops answering)."""
+
+from __future__ import annotations
+
+import base64
+import http.client
+import json
+import socket
+import ssl
+
+import pylibfranka
+import pytest
+
+from franka_sim.control import Control
+from franka_sim.testing import running_sim
+
+PORT = 8443
+BASIC = {"Authorization": "Basic " + base64.b64encode(b"franka:franka").decode()}
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    data = tmp_path_factory.mktemp("desk-data")
+    with running_sim("--desk-port", str(PORT), "--control-port", "1340",
+                     env={"XDG_DATA_HOME": str(data)}) as served:
+        yield served
+
+
+def _request(host, method, path, body=None, headers=BASIC):
+    connection = http.client.HTTPSConnection(
+        host, PORT, timeout=30, context=ssl._create_unverified_context())
+    try:
+        connection.request(method, path, body=body, headers=headers)
+        response = connection.getresponse()
+        data = response.read()
+        return response.status, json.loads(data) if data else None
+    finally:
+        connection.close()
+
+
+def _take(host) -> str:
+    status, body = _request(host, "POST", "/api/system/control-token:take",
+                            json.dumps({"owner": "t", "timeout": 1}))
+    assert status == 200, body
+    return body["token"]
+
+
+def test_the_default_user_is_served(sim):
+    assert _request(sim.host, "GET", "/api/fci") == (200, {"status": "Active"})
+
+
+def test_a_wrong_password_is_401_and_changes_nothing(sim):
+    before = Control(sim.host).desk()
+    wrong = {"Authorization": "Basic " + base64.b64encode(b"franka:wrong").decode()}
+    status, body = _request(sim.host, "POST", "/api/system/control-token:take",
+                            json.dumps({"owner": "x", "timeout": 1}), headers=wrong)
+    assert status == 401 and body["error"]
+    assert Control(sim.host).desk() == before
+    assert any("401" in line and "refused" in line for line in sim.sync())
+
+
+def test_an_unknown_endpoint_is_404_with_a_reason(sim):
+    status, body = _request(sim.host, "GET", "/api/warp-drive")
+    assert status == 404 and "/api/warp-drive" in body["error"]
+    status, body = _request(sim.host, "GET", "/desk/api/navigation/events")  # not a WebSocket
+    assert status == 400 and "WebSocket" in body["error"]
+
+
+def test_a_malformed_body_is_400(sim):
+    for raw in (b"{not json", b"[]", json.dumps({"owner": "x", "timeout": "soon"}).encode()):
+        status, body = _request(sim.host, "POST", "/api/system/control-token:take", raw)
+        assert status == 400 and body["error"], raw
+    assert Control(sim.host).desk()["control_token"] is None
+    status, body = _request(sim.host, "POST", "/api/system/control-token:take",
+                            b"{" + b" " * 70000 + b"}")
+    assert status == 413 and body["error"]
+
+
+def test_garbage_instead_of_tls_costs_that_connection_only(sim):
+    for garbage in (b"GET / HTTP/1.1\r\nHost: x\r\n\r\n", bytes(range(256)) * 4):
+        with socket.create_connection((sim.host, PORT), timeout=10) as raw:
+            raw.sendall(garbage)
+            raw.shutdown(socket.SHUT_WR)
+            while raw.recv(4096):
+                pass
+    assert _request(sim.host, "GET", "/api/fci") == (200, {"status": "Active"})
+    assert sim.wait_for_log("TLS handshake refused (WRONG_VERSION_NUMBER)")
+    assert sim.wait_for_log("TLS handshake refused (HTTP_REQUEST)")
+
+
+def test_an_unpowered_end_effector_does_not_answer(sim):
+    Control(sim.host).reset()
+    pylibfranka.Gripper(sim.host)  # powered: it answers
+    token = _take(sim.host)
+    assert _request(sim.host, "POST", "/api/end-effector/power:off",
+                    headers={**BASIC, "X-Control-Token": token})[0] == 200
+    with pytest.raises(pylibfranka.NetworkException):
+        pylibfranka.Gripper(sim.host)
+    assert _request(sim.host, "POST", "/api/end-effector/power:on",
+                    headers={**BASIC, "X-Control-Token": token})[0] == 200
+    gripper = pylibfranka.Gripper(sim.host)
+    assert gripper.read_once().max_width > 0.07
+    del gripper
+    Control(sim.host).reset()

@@ -1,0 +1,92 @@
+"""Serving the Desk: its flags checked on one line, its certificate made once and kept per user
+(or one's own), the users' passwords kept off the command line, and nothing of it (TLS
+included) in a server without a Desk."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import ssl
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from franka_sim.desk import certificate
+from franka_sim.testing import fresh_loopback_address, running_sim
+
+PORT = 8443
+
+
+@pytest.mark.parametrize("args, reason", [
+    (["--desk-user", "nobody"], "expected NAME:PASSWORD"),
+    (["--desk-boot", "sideways"], "one of ready, locked"),
+    (["--desk-port", "1338"], "another service's port"),
+    (["--desk-boot", "locked"], "give --desk-port too"),
+])
+def test_bad_desk_flags_are_refused_on_one_line(args, reason):
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                           fresh_loopback_address(), *args], capture_output=True, text=True,
+                          env={**os.environ, "COLUMNS": "200"}, timeout=60)
+    assert done.returncode != 0
+    assert reason in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_certificate_needs_its_key(tmp_path):
+    cert, _ = certificate.kept_certificate(tmp_path)
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                           fresh_loopback_address(), "--desk-cert", str(cert)],
+                          capture_output=True, text=True, timeout=60,
+                          env={**os.environ, "COLUMNS": "200"})
+    assert done.returncode != 0 and "--desk-key" in done.stderr
+
+
+def test_the_certificate_is_made_once_and_kept(tmp_path):
+    env = {"XDG_DATA_HOME": str(tmp_path)}
+    served = []
+    for _ in range(2):
+        with running_sim("--desk-port", str(PORT), env=env) as sim:
+            served.append(ssl.get_server_certificate((sim.host, PORT)))
+    kept = tmp_path / "franka-sim" / "desk"
+    assert served[0] == served[1] == (kept / "cert.pem").read_text()
+    assert (kept / "key.pem").stat().st_mode & 0o077 == 0
+
+
+def test_ones_own_certificate_is_served(tmp_path):
+    cert, key = certificate.kept_certificate(tmp_path / "own")
+    with running_sim("--desk-port", str(PORT), "--desk-cert", str(cert), "--desk-key", str(key),
+                     "--desk-user", "lab:very-secret",
+                     env={"XDG_DATA_HOME": str(tmp_path / "data")}) as sim:
+        assert ssl.get_server_certificate((sim.host, PORT)) == cert.read_text()
+        assert not (tmp_path / "data" / "franka-sim").exists()
+        cmdline = Path(f"/proc/{sim.proc.pid}/cmdline").read_bytes()
+        assert b"very-secret" not in cmdline
+        maps = Path(f"/proc/{sim.proc.pid}/maps").read_text()
+        assert "_ssl." in maps  # the Desk keeps TLS; without it the process has none
+
+
+def test_without_openssl_the_certificate_needs_cryptography(tmp_path, monkeypatch):
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    if importlib.util.find_spec("cryptography") is not None:
+        cert, key = certificate.kept_certificate(tmp_path)
+        assert "BEGIN CERTIFICATE" in cert.read_text()
+        certificate.server_context(cert, key)
+    else:
+        with pytest.raises(certificate.CertificateError, match=r"franka-sim\[desk\]"):
+            certificate.kept_certificate(tmp_path)
+        assert not (tmp_path / "cert.pem").exists()
+
+
+def test_a_simulator_without_a_desk_imports_none_of_it():
+    program = (
+        "import sys\n"
+        "from franka_sim import FrankaSim\n"
+        "sim = FrankaSim(host='127.0.0.1')\n"
+        "print(sorted(m for m in sys.modules if '.desk' in m))\n"
+        "print(sim.control.desk()['arm_ready'], sim.core.robot_mode.name)\n")
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["[]", "True kIdle"]
