@@ -133,6 +133,7 @@ class _Thread:
 
     def __init__(self) -> None:
         self.watched: list = []
+        self.jobs_waiting = False  # a control-API job queued behind the tick
 
     async def call(self, fn, *args):
         return fn(None, *args)
@@ -189,3 +190,47 @@ def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_sockets():
     assert sent[first:] == [sent[first - 1] + 1]
     assert harness.core.success_rate > 0.0
     assert thread.watched == [(endpoint.sock,)] * 3  # and it waits for the next answer again
+
+
+class _AnsweringEndpoint(_Endpoint):
+    """A client that answers each state at once (a C++ loop does, within the tick's spin),
+    `answers` times."""
+
+    def __init__(self, answers: int, answered=lambda: None) -> None:
+        super().__init__()
+        self.answers, self.answered = answers, answered
+
+    def read(self, limit: int = 64) -> list:
+        if self.answers and self.sent and not self.on_socket:
+            self.answers -= 1
+            self.on_socket.append(encode_command(message_id=self.sent[-1], tau_J_d=[0.0] * 7))
+            self.answered()
+        return super().read(limit)
+
+
+def _answered_cycles(job_comes: bool) -> int:
+    """How many cycles one lockstep tick runs for a client that answers at once (6 times);
+    `job_comes`: a job is queued for the cycle thread as the first answer arrives."""
+    harness = Harness()
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    thread = _Thread()
+    endpoint = _AnsweringEndpoint(0, lambda: setattr(thread, "jobs_waiting", job_comes))
+    driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
+                         deliver=lambda replies: None, has_client=lambda: True,
+                         watcher=ClockWatcher())
+    asyncio.run(driver.start([endpoint]))
+    assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
+    thread.tick(None, True)  # the motion's first state; the client starts answering now
+    endpoint.answers = 6
+    before = len(endpoint.sent)
+    thread.tick(None, False)
+    assert thread.watched[-1] == (endpoint.sock,)  # either way it then waits for an answer
+    return len(endpoint.sent) - before
+
+
+def test_a_queued_job_ends_a_lockstep_tick_a_quick_client_would_keep():
+    """A tick runs cycle after cycle while the answers come within its spin; a job queued
+    for the cycle thread (a control-API call) ends it after its cycle, so the job runs
+    before the next one instead of after the motion."""
+    assert _answered_cycles(job_comes=False) == 6
+    assert _answered_cycles(job_comes=True) == 1

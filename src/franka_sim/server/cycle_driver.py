@@ -139,9 +139,12 @@ class CycleDriver:
             with self.lock:
                 deadline = self._tick_locked(due)
             while self.clock.answer_awaited:
-                if not self._await_answer():  # (the answer, handed to the cycle, may have
-                    self.thread.watch(self._sockets)  # ended the motion: it was awaited)
-                    break
+                # A control-API job waits for this tick: let it run before the next cycle (a
+                # client answering within the spin would otherwise keep the tick, and the
+                # job, waiting for the whole motion).
+                if self.thread.jobs_waiting or not self._await_answer():
+                    self.thread.watch(self._sockets)  # (the answer, handed to the cycle, may
+                    break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
             return deadline

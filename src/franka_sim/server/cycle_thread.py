@@ -94,6 +94,11 @@ class CycleThread:
         except OSError:  # the pair's buffer is full (wake-ups are pending), or it is stopped
             pass
 
+    @property
+    def jobs_waiting(self) -> bool:
+        """A job (or a wake) is queued: a tick that would run on should return first."""
+        return bool(self._jobs)
+
     async def call(self, fn: Callable, *args) -> Any:
         """Run fn(backend, *args) in the worker and await its result (not for the hot path)."""
         loop = asyncio.get_running_loop()
