@@ -30,9 +30,12 @@ from pathlib import Path
 
 import pytest
 
+from franka_sim.config import ROBOTS  # plain data: no numpy, no MuJoCo
+
 MARKER = "franka_sim"
 _MARKER_FIELDS = {"clock": str, "scene": (str, os.PathLike), "enforce_motion_limits": bool,
-                  "enforce_comm_constraints": bool, "gripper": bool, "desk_boot": str}
+                  "enforce_comm_constraints": bool, "gripper": bool, "desk_boot": str,
+                  "robot": str}
 _CLOCKS = ("lockstep", "realtime")
 _DESK_BOOTS = ("ready", "locked")
 _HANDLE = pytest.StashKey["SimHandle"]()
@@ -93,7 +96,7 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers",
         f"{MARKER}(enforce_motion_limits=False, enforce_comm_constraints=False, gripper=True, "
-        "scene=None, clock=None, desk_boot='ready'): the franka_sim fixture of this test is a simulator of this "
+        "scene=None, clock=None, desk_boot='ready', robot='fr3'): the franka_sim fixture of this test is a simulator of this "
         "configuration (started on demand, shared by the tests that ask for the same)")
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
 
@@ -165,7 +168,8 @@ def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:
         if value is None and name in ("clock", "scene"):
             continue  # the command line's choice
         if not isinstance(value, expected) or (name == "clock" and value not in _CLOCKS) or (
-                name == "desk_boot" and value not in _DESK_BOOTS):
+                name == "desk_boot" and value not in _DESK_BOOTS) or (
+                name == "robot" and value not in ROBOTS):
             pytest.fail(f"@pytest.mark.{MARKER}: {name}={value!r} is not valid", pytrace=False)
         values[name] = _absolute(value, test_dir) if name == "scene" else value
     return values

@@ -51,7 +51,7 @@ def _outcomes(output: str) -> dict[str, int]:
 
 def _check_run(code: int, output: str, seen) -> None:
     assert code == 1, output
-    assert _outcomes(output) == {"passed": 10, "failed": 1, "error": 1}, output
+    assert _outcomes(output) == {"passed": 11, "failed": 1, "error": 1}, output
     # The misspelt marker setting is named.
     assert "unknown setting 'grip'" in output
     # The failing test's report carries its own server log lines: its client, not the start.
@@ -64,7 +64,8 @@ def _check_run(code: int, output: str, seen) -> None:
     default = {host for _, host in seen["default"]}
     for worker in {worker for worker, _ in seen["no-gripper"]}:
         assert len({host for w, host in seen["no-gripper"] if w == worker}) == 1
-    assert not default & {host for _, host in seen["no-gripper"] + seen["limits"] + seen["locked"]}
+    assert not default & {host for _, host in
+                          seen["no-gripper"] + seen["limits"] + seen["locked"] + seen["panda"]}
     # Every server is gone with the session.
     for host in hosts:
         with pytest.raises(ConnectionRefusedError):
@@ -110,8 +111,10 @@ def test_worker_addresses_are_private_and_apart():
 def test_every_setting_is_passed_as_an_explicit_flag():
     flags = SimSettings(clock="realtime", scene="/x/scene.xml", enforce_motion_limits=True,
                         gripper=False).flags()
-    assert flags == ["--clock", "realtime", "--control-port", "1340", "--enforce-motion-limits",
+    assert flags == ["--clock", "realtime", "--robot", "fr3", "--control-port", "1340",
+                     "--enforce-motion-limits",
                      "--no-enforce-comm-constraints", "--scene", "/x/scene.xml", "--no-gripper",
                      "--desk-boot", "ready", "--desk-port", "0"]
+    assert SimSettings(robot="fer").flags()[2:4] == ["--robot", "fer"]
     assert SimSettings(desk_boot="locked").flags()[-4:] == [
         "--desk-boot", "locked", "--desk-port", str(DESK_PORT)]

@@ -85,3 +85,30 @@ def test_a_client_that_reconnects_at_once_is_never_taken_for_a_second_client(sim
         assert r.read_once().robot_mode == pylibfranka.RobotMode.Idle
         del r
     assert not sim.log_matching("refused FCI client")
+
+
+def _read_exactly(s: socket.socket, n: int) -> bytes:
+    data = b""
+    while len(data) < n and (chunk := s.recv(n - len(data))):
+        data += chunk
+    return data
+
+
+def test_a_model_library_for_another_machine_is_answered_k_error_and_serving_goes_on(sim):
+    """libfranka 0.9 (protocol 5) asks for the library of its own machine; one this machine
+    cannot build for is the robot's kError (one log line), and the session and the server go
+    on: the same connection's next request is answered."""
+    from franka_sim.model_library.build import this_machine
+
+    other = 1 if this_machine()[0] != "kX86" else 0  # kX86, else kX64
+    with socket.create_connection((sim.host, ROBOT_PORT), timeout=5) as s:
+        s.sendall(struct.pack("<IIIHH", 0, 0, 16, 5, 40000))
+        assert struct.unpack("<IIIBH", _read_exactly(s, 15)) == (0, 0, 15, 0, 5)
+        s.sendall(struct.pack("<IIIBB", 13, 1, 14, other, 0))  # v5's LoadModelLibrary
+        assert struct.unpack("<IIIB", _read_exactly(s, 13)) == (13, 1, 13, 1)  # kError
+        s.sendall(struct.pack("<III", 12, 2, 12))  # v5's AutomaticErrorRecovery
+        command, command_id, size, status = struct.unpack("<IIIB", _read_exactly(s, 13))
+        assert (command, command_id, size) == (12, 2, 13)
+    assert sim.log_matching("this machine makes one for")
+    r = _connect(sim.host)
+    assert r.read_once().robot_mode == pylibfranka.RobotMode.Idle

@@ -35,11 +35,13 @@ class SimSettings:
     enforce_comm_constraints: bool = False
     gripper: bool = True
     desk_boot: str = "ready"  # "locked": as after power-on, its Desk served on DESK_PORT
+    robot: str = "fr3"  # the arm: "fr3", or "fer" (the Panda)
 
     def flags(self) -> list[str]:
         """`franka-sim serve` flags, each setting explicit so an exported FRANKA_SIM_* does not
         change what the tests asked for."""
-        flags = ["--clock", self.clock, "--control-port", str(CONTROL_PORT),
+        flags = ["--clock", self.clock, "--robot", self.robot,
+                 "--control-port", str(CONTROL_PORT),
                  "--enforce-motion-limits" if self.enforce_motion_limits
                  else "--no-enforce-motion-limits",
                  "--enforce-comm-constraints" if self.enforce_comm_constraints

@@ -144,3 +144,21 @@ def test_fails_and_shows_the_robot_log(franka_sim):
     robot = connect(franka_sim.host)
     robot.read_once()
     assert robot is None, "deliberately failing"
+
+
+@pytest.mark.franka_sim(robot="fer")
+def test_a_panda_reaches_what_an_fr3_cannot(franka_sim):
+    record(franka_sim, "panda")
+    assert franka_sim.control.health()["robot"] == "fer"
+    robot = connect(franka_sim.host)
+    control = robot.start_joint_position_control(JI)
+    state, _ = control.readOnce()
+    q = np.array(state.q_d)
+    for k in range(1, 1001):  # joint 6 from 1.571 to 0.3 rad (an FR3 stops at 0.54) in 1 s
+        state, _ = control.readOnce()
+        s = 0.5 * (1 - np.cos(np.pi * k / 1000))
+        command = pylibfranka.JointPositions((q + s * np.r_[0, 0, 0, 0, 0, 0.3 - q[5], 0]).tolist())
+        command.motion_finished = k == 1000
+        control.writeOnce(command)
+    assert abs(robot.read_once().q[5] - 0.3) < 2e-3
+    assert franka_sim.control.state()["errors"] == []
