@@ -62,7 +62,17 @@ class Program:
 
     def expect(self, word: str) -> list[str]:
         """The next line that starts with `word` (its other words), skipping the rest (WAIT,
-        and what a client prints itself, such as franky's prompt to press the button)."""
+        and what a client prints itself, such as franky's prompt to press the button). A
+        program silent for 120 s is ended and its stderr shown (a net against a hung client,
+        not a timing bound: every step here takes well under a second)."""
+        timer = threading.Timer(120.0, self.proc.kill)
+        timer.start()
+        try:
+            return self._expect(word)
+        finally:
+            timer.cancel()
+
+    def _expect(self, word: str) -> list[str]:
         while True:
             line = self.proc.stdout.readline()
             if not line:

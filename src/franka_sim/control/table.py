@@ -166,6 +166,11 @@ OPERATIONS: tuple[Operation, ...] = (
         motions. Returns what `desk()` does.""",
         body=(may("brakes"), may("operating_mode"))),
     Operation(
+        "home_gripper", "POST", "/gripper/homing", Effect.CHANGE, ARM,
+        """Home the Franka Hand as the Desk's homing does, no client needed (the Desk's own
+        call lands here). Returns {"homing": true} once it has started; Conflict while a Hand
+        action (a client's, or a homing) runs, NotFound without a Hand (--tool none)."""),
+    Operation(
         "faults", "GET", "/faults", Effect.FAULTS, BOTH,
         """The network faults injected on this robot's UDP path: {"spec", "fields", "seed",
         "states", "commands", ...}, the last two counting what was seen, dropped, delayed,

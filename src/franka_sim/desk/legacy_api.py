@@ -1,7 +1,8 @@
 """The older Desk's API (Panda, FR3 before system 5): a login that returns a session (sent
 back as the `authorization` cookie), the control token requested under `/admin/api` and shown
-in `/admin/api/system-status`, actions under `/desk/api` with form bodies. What franky's
-`DeskWebSession` and franka-deskapi's login-based calls send and parse (docs/desk.md)."""
+in `/admin/api/system-status` and `/admin/api/control-token`, actions under `/desk/api` with
+form bodies. What franky's `DeskWebSession`, franka-deskapi's login-based calls and the
+franka_lock_unlock script (written for a Panda's system 4) send and parse (docs/desk.md)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,39 @@ def routes(desk: Desk, users: Users) -> Routes:
         if session is None:
             raise DeskRefusal(401, "Unauthorized", "wrong user name or password")
         return Answer(text=session)
+
+    @add("POST", "/admin/api/logout")
+    def logout(call: Call) -> Answer:
+        users.logout(call.user)
+        return Answer()
+
+    @add("GET", "/admin/api/control-token")
+    def active_token(call: Call) -> Answer:
+        token = desk.token
+        return Answer(body={"activeToken": None if token is None else {
+            "id": token.id, "ownedBy": token.owner}})
+
+    @add("POST", "/admin/api/control-token/fci")
+    def fci_with_token(call: Call) -> Answer:
+        body = call.json_object()
+        desk.set_fci(call.control_token or body.get("token"), True)
+        return Answer()
+
+    # System 4's brake actions: their multipart body ("force") changes nothing here.
+    @add("POST", "/desk/api/robot/open-brakes")
+    def open_brakes(call: Call) -> Answer:
+        desk.set_brakes(call.control_token, UNLOCKED)
+        return Answer()
+
+    @add("POST", "/desk/api/robot/close-brakes")
+    def close_brakes(call: Call) -> Answer:
+        desk.set_brakes(call.control_token, LOCKED)
+        return Answer()
+
+    @add("POST", "/desk/api/gripper/homing")
+    def home_gripper(call: Call) -> Answer:
+        desk.home_gripper(call.control_token)
+        return Answer()
 
     @add("GET", "/admin/api/system-status")
     def system_status(call: Call) -> Answer:

@@ -74,6 +74,9 @@ class Desk:
     simulator always served; `locked`: as after power-on)."""
 
     boot: str = "ready"
+    # The arm's kind: a Panda ("fer") has no Programming mode to boot in (its system 4 Desk
+    # only opens the brakes and activates the FCI; the enabling device decides the rest).
+    robot: str = "fr3"
     serial: str = "franka-sim"
     new_secret: Callable[[], str] = field(default=lambda: _secret())
     brakes: str = field(init=False)
@@ -83,6 +86,7 @@ class Desk:
     token: Token | None = None
     pending: Request | None = None
     self_tests: str = "Finished"
+    gripper_homings: int = 0  # the Hand homings the Desk asked for (server/desk_effects.py)
     _next_id: int = 1
     # Who hears the Pilot's button events ({"circle": True}): the adapter's subscribers.
     listeners: list[Callable[[dict], None]] = field(default_factory=list)
@@ -97,7 +101,7 @@ class Desk:
     def _power_on(self) -> None:
         ready = self.boot == "ready"
         self.brakes = UNLOCKED if ready else LOCKED
-        self.operating_mode = EXECUTION if ready else PROGRAMMING
+        self.operating_mode = EXECUTION if ready or self.robot == "fer" else PROGRAMMING
         self.fci = ready
         self.end_effector_powered = True
         self.token = None
@@ -229,6 +233,14 @@ class Desk:
     def set_end_effector_power(self, secret: str | None, on: bool) -> None:
         self.check_token(secret)
         self.end_effector_powered = on
+        self._changed()
+
+    def home_gripper(self, secret: str | None) -> None:
+        """The Desk's gripper homing: the Hand homes (its end effector must be powered)."""
+        self.check_token(secret)
+        if not self.end_effector_powered:
+            raise DeskRefusal(409, "Conflict", "the end effector is not powered")
+        self.gripper_homings += 1
         self._changed()
 
     def run_self_tests(self, secret: str | None) -> None:

@@ -72,6 +72,11 @@ class Users:
             return None
         return user
 
+    def logout(self, user: str | None) -> None:
+        """The older Desk's logout: that user's sessions end."""
+        for session in [s for s, who in self.sessions.items() if who == user]:
+            del self.sessions[session]
+
     def session(self, value: str | None) -> str | None:
         if not value:
             return None

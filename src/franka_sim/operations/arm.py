@@ -166,7 +166,7 @@ class ArmOps(FaultOps):
         if self._desk is None:
             from franka_sim.desk.state import Desk
 
-            self._desk = Desk(boot=self.desk_boot)
+            self._desk = Desk(boot=self.desk_boot, robot=self.description.name)
         return self._desk
 
     async def _desk_applied(self) -> None:
@@ -230,6 +230,18 @@ class ArmOps(FaultOps):
         except DeskRefusal as refusal:
             raise BadRequest(refusal.message) from None
         return self.desk()
+
+    async def home_gripper(self) -> dict:
+        if not isinstance(self.tool, Hand):
+            raise NotFound("no Franka Hand on this arm (--tool none)")
+
+        def home(world, arm) -> dict:
+            with self.lock:
+                if not self.tool.home():
+                    raise Conflict("the Hand is busy: an action is under way")
+            self.driver.keep_running()
+            return {"homing": True}
+        return await self._job(home, ("home_gripper", {}))
 
     async def desk_arm(self, brakes=None, operating_mode=None) -> dict:
         """The brakes and the operating mode as at the robot (neither given: as the Desk

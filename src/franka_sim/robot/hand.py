@@ -97,7 +97,8 @@ class Hand:
         if status is None:
             return
         self._action = None
-        self._replies.append(build_gripper_response(action.kind, action.command_id, status))
+        if action.command_id is not None:  # (None: the Desk's homing, which no client awaits)
+            self._replies.append(build_gripper_response(action.kind, action.command_id, status))
         if status is GripperStatus.kSuccess and isinstance(action, Grasp):
             self._grasp = action.args
             self.is_grasped = True
@@ -158,6 +159,14 @@ class Hand:
                               min(args.speed, MAX_SPEED), min(args.force, MAX_FORCE))
             return self._start(Grasp(command_id, self.cycle + 1, self.width, args))
         raise AssertionError(f"unhandled gripper command {command!r}")  # Connect: the session's
+
+    def home(self) -> bool:
+        """A homing no client asked for (the Desk's, someone at the robot): started unless an
+        action is under way (False), whose client's answer it would otherwise cut short."""
+        if self._action is not None:
+            return False
+        self._start(Homing(None, self.cycle + 1, self.width))
+        return True
 
     @property
     def busy(self) -> bool:

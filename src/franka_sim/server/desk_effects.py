@@ -19,6 +19,7 @@ class DeskEffects:
         self.robot = robot  # server/robot_server.py RobotServer (an arm's)
         self.fci_open = False
         self.tool_open = False
+        self.homings = 0  # the Desk's gripper homings started
 
     async def apply(self) -> None:
         robot, desk = self.robot, self.robot.control.desk_state
@@ -41,3 +42,6 @@ class DeskEffects:
                      "powered" if self.tool_open else "unpowered (its service does not answer)")
         if robot.core.status.held == desk.arm_ready:
             await robot.control.desk_arm()
+        while self.homings < desk.gripper_homings:
+            self.homings += 1
+            await robot.control.home_gripper()

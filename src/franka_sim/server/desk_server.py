@@ -16,6 +16,7 @@ from aiohttp import WSMsgType, web
 
 from franka_sim.desk.calls import MAX_BODY, Answer, Call
 from franka_sim.desk.service import PILOT_EVENTS, DeskService
+from franka_sim.control.errors import ControlError
 from franka_sim.desk.state import DeskRefusal
 from franka_sim.desk.users import DEFAULT_USER, Users, parse_user
 
@@ -83,6 +84,11 @@ class DeskServer:
                           call.method, call.path, exc.strerror or exc)
                 answer = Answer(status=500, body={
                     "code": "InternalError", "error": f"could not be applied: {exc}"})
+            except ControlError as refusal:  # the robot refused it (the Hand busy homing)
+                log.info("Desk of %s: %s %s refused: %s", self.robot.label, call.method,
+                         call.path, refusal.message)
+                answer = Answer(status=refusal.status, body={
+                    "code": type(refusal).__name__, "error": refusal.message})
         return _response(answer)
 
     async def _wait(self, call: Call, answer: Answer) -> Answer:
