@@ -113,8 +113,7 @@ COMMAND_V5 = _numbered(
     "AutomaticErrorRecovery LoadModelLibrary")
 COMMAND_V6 = _numbered(
     "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
-    "SetGuidingMode SetEEToK SetNEToEE SetLoad SetFilters AutomaticErrorRecovery "
-    "LoadModelLibrary")
+    "SetGuidingMode SetEEToK SetNEToEE SetLoad AutomaticErrorRecovery LoadModelLibrary")
 GETTER_SETTER_STATUS_V5 = _numbered(
     "kSuccess kCommandNotPossibleRejected kInvalidArgumentRejected")
 MOVE_STATUS_V5 = _numbered(

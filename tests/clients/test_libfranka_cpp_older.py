@@ -1,4 +1,5 @@
-"""libfranka's own C++ examples of older tags (0.9.2: robot protocol 5, 0.13: 7, 0.15: 9),
+"""libfranka's own C++ examples of older tags (0.9.2: robot protocol 5, 0.12.1: 6, 0.13.6: 7,
+0.14.1: 8, 0.15.3: 9),
 built from their sources and run unmodified against the simulator in lockstep: each prints
 what it prints on a robot, and the recording of its run shows the robot did what it asked
 (tests/support/libfranka_cpp_checks.py).

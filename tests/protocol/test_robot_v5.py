@@ -1,7 +1,7 @@
 """Version-5 and version-6 clients' conversations, sans-IO (libfranka 0.9 and 0.10–0.12;
-protocol_specs/robot_v5.md): their ids read as v10's, replies written with their ids and their
-statuses by name, GetCartesianLimit and SetFilters answered by the dialect, their 370-byte
-RobotCommand read as v10's with torque_command_finished false."""
+protocol_specs/robot_v5.md): their ids read as v10's, replies written with their ids and (v5)
+their statuses by name, v5's GetCartesianLimit and SetFilters answered by the dialect, their
+370-byte RobotCommand read as v10's with torque_command_finished false."""
 
 from __future__ import annotations
 
@@ -67,10 +67,10 @@ def test_a_shifted_id_reads_as_v10s_and_its_reply_goes_back_under_it(module, wir
     assert struct.unpack_from("<IIIB", reply) == (wire_id, 9, 13, 0)
 
 
-@pytest.mark.parametrize("module", [v5, v6])
-def test_a_status_v5_has_no_name_for_is_the_nearest_it_has(module):
-    """v10's safety statuses came after v6: rejected by a safety function reads as not
+def test_a_status_v5_has_no_name_for_is_the_nearest_it_has():
+    """v10's safety statuses came after v5: rejected by a safety function reads as not
     possible, preempted by one as preempted."""
+    module = v5
     session, robot = _connected(module)
     robot.status = v10.GetterSetterStatus.kCommandRejectedDueToActivatedSafetyFunctions
     (reply,) = session.feed(_request(module, module.Command.SetCollisionBehavior, 1,
@@ -108,15 +108,35 @@ def test_v5s_get_cartesian_limit_is_answered_without_a_virtual_wall():
     assert np.array_equal(np.reshape(parsed.object_frame, (4, 4)), np.eye(4))
 
 
-def test_v6_has_no_get_cartesian_limit():
+def test_v6_has_neither_get_cartesian_limit_nor_set_filters():
+    """libfranka 0.10.0 to 0.12.1 (their `common` at the tag) number AutomaticErrorRecovery 10
+    and LoadModelLibrary 11, as v7: an id past 11 is no command of theirs."""
     session, robot = _connected(v6)
-    assert "GetCartesianLimit" not in v6.Command.__members__
-    with pytest.raises(SessionError, match="unknown command 13"):  # v6's last id is 12
-        session.feed(struct.pack("<III", 13, 4, 12))
+    assert {"GetCartesianLimit", "SetFilters"}.isdisjoint(v6.Command.__members__)
+    assert (int(v6.Command.AutomaticErrorRecovery), int(v6.Command.LoadModelLibrary)) == (10, 11)
+    with pytest.raises(SessionError, match="unknown command 12"):
+        session.feed(struct.pack("<III", 12, 4, 12))
 
 
-@pytest.mark.parametrize("module", [v5, v6])
-def test_set_filters_is_taken_and_logged(module, caplog):
+def test_v6_writes_the_safety_statuses_as_v10_numbers_them():
+    """v6 has kCommandRejectedDueToActivatedSafetyFunctions and Move's
+    kPreemptedDueToActivatedSafetyFunctions, at v10's values: nothing is renumbered."""
+    session, robot = _connected(v6)
+    robot.status = v10.GetterSetterStatus.kCommandRejectedDueToActivatedSafetyFunctions
+    (reply,) = session.feed(_request(v6, v6.Command.SetCollisionBehavior, 1, **COLLISION))
+    assert reply[12] == v10.GetterSetterStatus.kCommandRejectedDueToActivatedSafetyFunctions == 3
+    robot.status = v10.AutomaticErrorRecoveryStatus.kReflexAborted
+    (reply,) = session.feed(_request(v6, v6.Command.AutomaticErrorRecovery, 2))
+    assert struct.unpack_from("<IIIB", reply) == (
+        10, 2, 13, v10.AutomaticErrorRecoveryStatus.kReflexAborted)
+    final = rm.build_response(v10.Command.Move, 3,
+                              v10.MoveStatus.kPreemptedDueToActivatedSafetyFunctions)
+    assert session.wire(final)[12] == v10.MoveStatus.kPreemptedDueToActivatedSafetyFunctions
+    assert v10.MoveStatus.kPreemptedDueToActivatedSafetyFunctions != v5.MoveStatus.kPreempted
+
+
+def test_set_filters_is_taken_and_logged(caplog):
+    module = v5
     session, robot = _connected(module)
     with caplog.at_level(logging.INFO):
         (reply,) = session.feed(_request(module, module.Command.SetFilters, 5, **{
@@ -126,7 +146,7 @@ def test_set_filters_is_taken_and_logged(module, caplog):
     assert "SetFilters taken" in caplog.text
 
 
-@pytest.mark.parametrize("module, wire_id", [(v5, 13), (v6, 12)])
+@pytest.mark.parametrize("module, wire_id", [(v5, 13), (v6, 11)])
 def test_load_model_library_has_its_versions_id(module, wire_id):
     session, _ = _connected(module, library=lambda request: b"\x7fELF")
     (reply,) = session.feed(_request(module, module.Command.LoadModelLibrary, 6,
@@ -136,21 +156,22 @@ def test_load_model_library_has_its_versions_id(module, wire_id):
     assert parsed.status == "kSuccess" and parsed.library == b"\x7fELF"
 
 
-def test_a_370_byte_command_reads_as_v10s_with_torque_command_finished_false():
-    """Torque control in v5 ends with motion_generation_finished; the byte v10 added is
-    read as false."""
+@pytest.mark.parametrize("module", [v5, v6])
+def test_a_370_byte_command_reads_as_v10s_with_torque_command_finished_false(module):
+    """Torque control in v5 and v6 ends with motion_generation_finished; the byte v10 added
+    is read as false."""
     fields = {"message_id": 77, "q_c": np.arange(7.0), "dq_c": np.zeros(7),
               "O_T_EE_c": np.eye(4).ravel(order="F"), "O_dP_EE_c": np.ones(6),
               "elbow_c": [0.5, -1.0], "valid_elbow": True, "motion_generation_finished": True,
               "tau_J_d": np.linspace(-1, 1, 7), "torque_command_finished": True}
     v10_bytes = encode_command(**fields)
     older = v10_bytes[:v5.ROBOT_COMMAND_SIZE]  # the v5 layout is v10's without the last byte
-    read = decode_command(v5.Dialect().command(older))
+    read = decode_command(module.Dialect().command(older))
     assert read["torque_command_finished"] == False  # noqa: E712 - a numpy bool
     for name in ("message_id", "q_c", "O_dP_EE_c", "elbow_c", "motion_generation_finished",
                  "tau_J_d"):
         assert np.array_equal(read[name], fields[name]), name
-    assert v5.Dialect().command(v10_bytes[:200]) == v10_bytes[:200]  # left for the endpoint
+    assert module.Dialect().command(v10_bytes[:200]) == v10_bytes[:200]  # for the endpoint
 
 
 @pytest.mark.parametrize("kind, refused, own", [("fer", 10, 5), ("fr3", 5, 10)])

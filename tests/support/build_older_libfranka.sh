@@ -3,11 +3,19 @@
 #
 # Usage: build_older_libfranka.sh SOURCE_DIR BUILD_DIR
 #
-# SOURCE_DIR is a libfranka checkout the user supplies at a tag (0.9.2, 0.13.x, 0.15.x) with its
-# `common` submodule checked out at the commit that tag records, for example:
+# SOURCE_DIR is a libfranka checkout the user supplies at a tag (0.9.2, 0.12.1, 0.13.6, 0.14.1,
+# 0.15.3) with its `common` submodule checked out at the commit that tag records, for example:
 #   git clone --branch 0.13.6 --recurse-submodules https://github.com/frankarobotics/libfranka
 # This script fetches nothing. It needs cmake, a C++ compiler, Poco and Eigen 3
 # (Debian: apt-get install cmake build-essential libpoco-dev libeigen3-dev).
+# From 0.14 on libfranka also needs Pinocchio (its CMake config and what that config asks for:
+# urdfdom and its headers, Boost, coal). Where the system has none, the PyPI wheels carry them:
+#   python3 -m venv VENV && VENV/bin/pip install pin cmeel-urdfdom-headers
+# then pass their prefix in the environment (cmake reads CMAKE_PREFIX_PATH from it):
+#   CMAKE_PREFIX_PATH=VENV/lib/pythonX.Y/site-packages/cmeel.prefix build_older_libfranka.sh ...
+# The examples then find those libraries by the build tree's RPATH; keep VENV while they run.
+# From 0.15 on it also needs fmt (Debian: libfmt-dev); without it libfranka's CMake would
+# download fmt, which this script forbids (FETCHCONTENT_FULLY_DISCONNECTED), so it fails.
 # BUILD_DIR must lie outside this repository; afterwards it holds examples/<name>, and
 #   FRANKA_SIM_LIBFRANKA_BUILDS=BUILD_DIR[:BUILD_DIR...]
 # points the tests at it. Only the examples the tests run are built.
@@ -23,6 +31,10 @@ if [ ! -f "$src/common/include/research_interface/robot/service_types.h" ]; then
 fi
 mkdir -p "$2"
 build=$(cd "$2" && pwd)
-cmake -S "$src" -B "$build" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTS=OFF -DBUILD_EXAMPLES=ON
+if [ -n "${CMAKE_PREFIX_PATH:-}" ]; then
+    echo "CMAKE_PREFIX_PATH=$CMAKE_PREFIX_PATH"
+fi
+cmake -S "$src" -B "$build" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTS=OFF -DBUILD_EXAMPLES=ON \
+    -DFETCHCONTENT_FULLY_DISCONNECTED=ON
 make -C "$build" -j"${JOBS:-2}" communication_test echo_robot_state generate_joint_position_motion \
     generate_cartesian_pose_motion cartesian_impedance_control grasp_object

@@ -108,11 +108,16 @@ def check_generate_cartesian_pose_motion(recording: Recording, complete: bool) -
 
 
 def check_cartesian_impedance_control(recording: Recording, complete: bool) -> None:
-    """Torque control computed from the Model the robot's library gave (coriolis, zero
-    jacobian): the robot runs the client's torques and the arm holds its pose."""
+    """Torque control computed from the Model the robot gave (coriolis, zero jacobian; from
+    0.14 on the dynamics from the URDF it asked for): the robot runs the client's torques and
+    the arm holds its pose."""
     assert logged(recording, "model library sent"), "the example loads its Model"
     assert "LoadModelLibrary" in [r.get("command") for r in requests(recording)]
     assert replies(recording, "LoadModelLibrary") == ["kSuccess"]
+    if connect_versions(recording)["robot"] >= 8:  # libfranka 0.14 on: dynamics from the URDF
+        assert replies(recording, "GetRobotModel") == ["kSuccess"]
+    else:  # the whole Model from the library
+        assert "GetRobotModel" not in [r.get("command") for r in requests(recording)]
     torque = motions(recording)[-1]
     assert len(torque) > 300 and not torque[-1]["motion_generation_finished"]
     states = recording.states()

@@ -1,47 +1,24 @@
-"""Robot protocol 6 (libfranka 0.10 to 0.12): version 5 without GetCartesianLimit, so its ids
-from SetCollisionBehavior on are one lower (protocol_specs/robot_v5.md, "Version 6"); statuses,
-the RobotCommand and the RobotState are v5's."""
+"""Robot protocol 6 (libfranka 0.10 to 0.12): v7's commands, ids and statuses (robot_v7.py;
+neither GetCartesianLimit nor SetFilters, both safety statuses) with v5's RobotCommand of 370
+bytes and no kNone generator (protocol_specs/robot_v5.md, "Version 6"). The version went to 6
+with GetCartesianLimit gone; SetFilters went and the safety statuses came before libfranka
+0.10.0 took that `common` commit, so no released client speaks v5's other differences as 6."""
 
 from __future__ import annotations
 
-from enum import IntEnum
-
-from construct import Enum, Int32ul, Struct
-
-from . import robot_v5
+from . import robot_v5, robot_v7
 
 VERSION = 6
 
-
-class Command(IntEnum):
-    Connect = 0
-    Move = 1
-    StopMove = 2
-    SetCollisionBehavior = 3
-    SetJointImpedance = 4
-    SetCartesianImpedance = 5
-    SetGuidingMode = 6
-    SetEEToK = 7
-    SetNEToEE = 8
-    SetLoad = 9
-    SetFilters = 10
-    AutomaticErrorRecovery = 11
-    LoadModelLibrary = 12
-
-
-CommandHeader = Struct(
-    "command" / Enum(Int32ul, Command),
-    "command_id" / Int32ul,
-    "size" / Int32ul,
-)
-REQUEST_STRUCTS = robot_v5._requests(Command, CommandHeader)
-REQUEST_SIZES = {c: s.sizeof() for c, s in REQUEST_STRUCTS.items()}
+Command = robot_v7.Command
+CommandHeader = robot_v7.CommandHeader
+REQUEST_STRUCTS = robot_v7.REQUEST_STRUCTS
+REQUEST_SIZES = robot_v7.REQUEST_SIZES
 LoadModelLibraryRequest = REQUEST_STRUCTS[Command.LoadModelLibrary]
 
 
-class Dialect(robot_v5.Dialect):
+class Dialect(robot_v7.Dialect):
+    """v7's, but the 370-byte RobotCommand read as v10's (as v5's)."""
+
     version = VERSION
-    commands = Command
-    header = CommandHeader
-    request_sizes = REQUEST_SIZES
-    request_structs = REQUEST_STRUCTS
+    command = robot_v5.Dialect.command
