@@ -84,7 +84,7 @@ MODULES = {
                      "combinations/test_matrix_factors.py"],
     "desk": ["desk/test_desk_state.py", "desk/test_desk_clients.py",
              "desk/test_desk_bad_input.py", "desk/test_desk_recording.py",
-             "desk/test_desk_serving.py"],
+             "desk/test_desk_serving.py", "desk/test_desk_lock_unlock.py"],
 }
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import faulthandler
 import os
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -25,8 +24,10 @@ TESTS = Path(__file__).resolve().parent
 # file of HUNG and exits (a C watchdog: pylibfranka waits for a reply holding the interpreter's
 # lock, so nothing in Python could act), and the run goes on without it.
 HUNG_AFTER = 600.0  # s; the slowest test takes ~70 s here
-HUNG = Path(tempfile.gettempdir()) / "franka-sim-hung-tests"
-_SESSION_START = time.time()
+# One folder per run (the pid of the process that runs the session, the xdist workers'
+# parent): another run's tests in progress on the same machine are no hung tests of this one.
+HUNG = Path(tempfile.gettempdir()) / "franka-sim-hung-tests" / str(
+    os.getppid() if "PYTEST_XDIST_WORKER" in os.environ else os.getpid())
 
 
 def pytest_collection_modifyitems(items):
@@ -43,7 +44,7 @@ def pytest_collection_modifyitems(items):
 
 @pytest.fixture(autouse=True)
 def _watchdog(request):
-    HUNG.mkdir(exist_ok=True)
+    HUNG.mkdir(parents=True, exist_ok=True)
     name = request.node.nodeid.replace("/", "_").replace("::", "__")[:150]
     with open(HUNG / f"{name}.{os.getpid()}.txt", "w") as dump:
         dump.write(f"{request.node.nodeid} ran for {HUNG_AFTER:.0f} s:\n")
@@ -59,9 +60,8 @@ def _watchdog(request):
 def pytest_terminal_summary(terminalreporter):
     """The stacks of the tests the watchdog ended during this run."""
     for dump in sorted(HUNG.glob("*.txt")) if HUNG.is_dir() else ():
-        if dump.stat().st_mtime >= _SESSION_START:
-            terminalreporter.write_sep("=", f"hung: {dump.name}")
-            terminalreporter.write_line(dump.read_text())
+        terminalreporter.write_sep("=", f"hung: {dump.name}")
+        terminalreporter.write_line(dump.read_text())
 
 
 @pytest.fixture(autouse=True)
