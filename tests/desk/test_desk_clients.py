@@ -19,22 +19,17 @@ import pylibfranka
 import pytest
 
 from franka_sim.control import Control
-from franka_sim.testing import running_sim
 
+from desk.conftest import PASSWORD, PORT, USER, locked_desk
 from support.clients import connect, move_to
 
 PROGRAMS = Path(__file__).resolve().parent.parent / "support" / "desk_programs.py"
-USER, PASSWORD = "admin", "secret"
-PORT = 8443  # unprivileged; the robot's 443 is the same code (docs/desk.md)
 REFUSED = "Connection to FCI refused"
 
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    data = tmp_path_factory.mktemp("desk-data")
-    with running_sim("--clock", "lockstep", "--control-port", "1340", "--desk-port", str(PORT),
-                     "--desk-boot", "locked", "--desk-user", f"{USER}:{PASSWORD}",
-                     env={"XDG_DATA_HOME": str(data)}) as sim:
+    with locked_desk(tmp_path_factory) as sim:
         yield sim
 
 

@@ -22,19 +22,15 @@ import pytest
 
 from franka_sim.control import Conflict, Control
 from franka_sim.desk.users import browser_password
-from franka_sim.testing import running_sim
+from desk.conftest import PASSWORD, PORT, USER, locked_desk
 from support.clients import connect
 
-USER, PASSWORD, PORT = "admin", "secret", 8443
 SCRIPT = os.environ.get("FRANKA_SIM_LOCK_UNLOCK")
 
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    data = tmp_path_factory.mktemp("desk-data")
-    with running_sim("--clock", "lockstep", "--robot", "fer", "--desk-port", str(PORT),
-                     "--desk-boot", "locked", "--desk-user", f"{USER}:{PASSWORD}",
-                     env={"XDG_DATA_HOME": str(data)}) as sim:
+    with locked_desk(tmp_path_factory, "--robot", "fer") as sim:
         yield sim
 
 
