@@ -158,6 +158,12 @@ def serve(
     viewer: bool = typer.Option(
         False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
     ),
+    web: int = typer.Option(
+        0, "--web", envvar="FRANKA_SIM_WEB_PORT", min=0, max=65535, metavar="PORT",
+        help="Serve the web view on this port of the first arm's address: the world in 3D and "
+        "each arm's live plots in a browser (docs/viewing.md; needs franka-sim\\[web]). "
+        "0 (default): not served.",
+    ),
     inject: str | None = typer.Option(
         None, envvar="FRANKA_SIM_INJECT", metavar="SPEC",
         help="Network faults on every robot's UDP path (each arm, the mobile base), both directions unless dir= says one: "
@@ -192,6 +198,12 @@ def serve(
         except NoDisplay as exc:
             typer.echo(f"franka-sim: {exc}", err=True)
             raise typer.Exit(1) from None
+    if web:
+        from franka_sim.web import web_missing
+
+        if missing := web_missing():
+            typer.echo(f"franka-sim: --web: {missing}", err=True)
+            raise typer.Exit(1)
     from franka_sim.config_rules import ConfigError, checked
 
     try:
@@ -204,6 +216,7 @@ def serve(
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
             inject=inject, seed=seed, desk_port=desk_port, desk_boot=desk_boot,
             desk_users=tuple(desk_user), desk_cert=desk_cert, desk_key=desk_key,
+            web_port=web,
         ))
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint=exc.flag) from None

@@ -51,6 +51,7 @@ def checked(config: Config) -> Config:
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
                           "API's port")
     _desk(config)
+    _web(config)
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing
@@ -87,6 +88,21 @@ def _desk(config: Config) -> None:
     if (config.desk_cert is None) != (config.desk_key is None):
         raise ConfigError("--desk-cert", "a certificate and its key go together "
                           "(--desk-cert and --desk-key)")
+
+
+def _web(config: Config) -> None:
+    port = config.web_port
+    if not 0 <= port <= 65535:
+        raise ConfigError("--web", f"{port} is not a TCP port (0: no web view)")
+    if not port:
+        return
+    if port in RESERVED_PORTS or port in (config.control_port, config.tool_port,
+                                          config.desk_port):
+        raise ConfigError("--web", f"{port} is another service's port (docs/viewing.md)")
+    from franka_sim.web import web_missing
+
+    if missing := web_missing():
+        raise ConfigError("--web", missing)
 
 
 def _address(flag: str, text: str, who: str = "") -> None:
