@@ -48,10 +48,11 @@ def _series(*labels: str) -> tuple[dict, ...]:
 class ArmPanel:
     """`gui`: viser's GuiApi; `index`: the arm's robot index in a snapshot's states."""
 
-    def __init__(self, gui, name: str, index: int) -> None:
+    def __init__(self, gui, name: str, index: int, t0: float | None = None) -> None:
+        """`t0`: the plots' time origin (None: the first snapshot's time)."""
         self.index = index
         self._rows: deque = deque()  # (t, q, q_d, tau_J, tau_J_d, F_ext, success rate)
-        self._t0: float | None = None
+        self._t0 = t0
         self._last_plot = 0.0
         self._last_state: bytes | None = None
         with gui.add_folder(f"arm {name}"):
@@ -85,6 +86,9 @@ class ArmPanel:
         if self._t0 is None:
             self._t0 = snapshot.time
         t = snapshot.time - self._t0
+        if self._rows and t < self._rows[-1][0]:  # a timeline scrubbed back: start again
+            self._rows.clear()
+            self._last_plot = -PLOT_PERIOD
         self.mode.value = mode_name(int(s["robot_mode"]))
         self.errors.value = error_names(s["errors"])
         if np.any(s["reflex_reason"]):
@@ -97,7 +101,7 @@ class ArmPanel:
                      s["O_F_ext_hat_K"][:3].copy(), float(s["control_command_success_rate"])))
         while rows and rows[0][0] < t - WINDOW:
             rows.popleft()
-        if snapshot.time - self._last_plot >= PLOT_PERIOD:
+        if abs(snapshot.time - self._last_plot) >= PLOT_PERIOD:
             self._last_plot = snapshot.time
             self._plot()
 
