@@ -55,7 +55,8 @@ def wheels(context: Path) -> Path:
     """The runtime requirements and the build backend as wheels, pinned to the versions this
     environment runs (so the image runs what the tests ran), in `context`/wheelhouse."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())
-    wanted = project["project"]["dependencies"] + project["build-system"]["requires"]
+    wanted = (project["project"]["dependencies"] + project["build-system"]["requires"]
+              + project["project"]["optional-dependencies"]["web"])  # the image has the view
     pins = "".join(f"{d.metadata['Name']}=={d.version}\n" for d in metadata.distributions()
                    if d.metadata["Name"] and d.metadata["Name"].lower() != "franka-sim")
     constraints = context.parent / "constraints.txt"
