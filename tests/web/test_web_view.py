@@ -137,3 +137,22 @@ def test_motions_move_the_arm_on_screen_and_the_readouts_match_state(page, serve
         max(cols.min() - margin, 0):cols.max() + margin] = True
     assert changed[box].sum() >= 0.9 * changed.sum(), "pixels changed away from the arm"
     assert console_errors(page) == []
+    assert plot_has_lines(page, "q vs q_d (rad)"), "the q plot draws no line"
+
+
+def plot_has_lines(browser, title: str) -> bool:
+    """The uPlot of that title shows its series' colours (web/arm_panel.py's strokes)."""
+    from PIL import Image
+    import io
+
+    from selenium.webdriver.common.by import By
+
+    for plot in browser.find_elements(By.CSS_SELECTOR, ".uplot"):
+        if title in plot.text:
+            browser.execute_script("arguments[0].scrollIntoView()", plot)
+            image = np.asarray(Image.open(io.BytesIO(plot.screenshot_as_png)).convert("RGB"))
+            image = image[: int(image.shape[0] * 0.75)].astype(int)  # (not the legend's keys)
+            blue = (np.abs(image - (0x1F, 0x77, 0xB4)).max(axis=2) < 40).sum()
+            orange = (np.abs(image - (0xFF, 0x7F, 0x0E)).max(axis=2) < 40).sum()
+            return blue + orange > 100
+    return False

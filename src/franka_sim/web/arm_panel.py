@@ -39,6 +39,13 @@ def numbers(values) -> str:
     return " ".join(f"{float(v):.{DIGITS}f}" for v in values)
 
 
+_PLOTS = (("q vs q_d (rad)", ("q", "q_d")), ("tau_J vs tau_J_d (Nm)", ("tau_J", "tau_J_d")),
+          ("external force at K (N)", ("Fx", "Fy", "Fz")),
+          ("command success rate", ("success rate",)))
+# x is seconds, not a date (uPlot's default); y follows the data.
+_SCALES = {"x": {"time": False, "auto": True}, "y": {"auto": True}}
+
+
 def _series(*labels: str) -> tuple[dict, ...]:
     return ({"label": "t (s)"},
             *({"label": label, "stroke": _COLORS[i], "width": 1.5}
@@ -55,7 +62,9 @@ class ArmPanel:
         self._t0 = t0
         self._last_plot = 0.0
         self._last_state: bytes | None = None
-        with gui.add_folder(f"arm {name}"):
+        self._gui = gui
+        self._folder = gui.add_folder(f"arm {name}")
+        with self._folder:
             self.mode = gui.add_text("robot mode", "no state sent yet (no client)",
                                      disabled=True)
             self.errors = gui.add_text("errors", "-", disabled=True)
@@ -65,15 +74,9 @@ class ArmPanel:
             self.wrench = gui.add_text("O_F_ext_hat_K", "-", disabled=True)
             self.joint = gui.add_dropdown("joint", [str(j) for j in range(1, 8)],
                                           initial_value="1")
-            empty = (np.zeros(0),) * 3
-            self.q_plot = gui.add_uplot(empty, _series("q", "q_d"), title="q vs q_d (rad)",
-                                        aspect=2.0)
-            self.tau_plot = gui.add_uplot(empty, _series("tau_J", "tau_J_d"),
-                                          title="tau_J vs tau_J_d (Nm)", aspect=2.0)
-            self.force_plot = gui.add_uplot((np.zeros(0),) * 4, _series("Fx", "Fy", "Fz"),
-                                            title="external force at K (N)", aspect=2.0)
-            self.rate_plot = gui.add_uplot((np.zeros(0),) * 2, _series("success rate"),
-                                           title="command success rate", aspect=2.0)
+        # The plots are made with their first two points: a uPlot made empty keeps the empty
+        # scale it started with (viser 1.1), whatever data follows.
+        self.plots: tuple | None = None
 
     def show(self, snapshot) -> None:
         """Readouts from the snapshot's state of this arm; the plots every PLOT_PERIOD."""
@@ -107,11 +110,21 @@ class ArmPanel:
 
     def _plot(self) -> None:
         rows, j = self._rows, int(self.joint.value) - 1
+        if len(rows) < 2:
+            return
         t = np.array([r[0] for r in rows])
-        self.q_plot.data = (t, np.array([r[1][j] for r in rows]),
-                            np.array([r[2][j] for r in rows]))
-        self.tau_plot.data = (t, np.array([r[3][j] for r in rows]),
-                              np.array([r[4][j] for r in rows]))
         forces = np.array([r[5] for r in rows]).reshape(-1, 3)
-        self.force_plot.data = (t, forces[:, 0], forces[:, 1], forces[:, 2])
-        self.rate_plot.data = (t, np.array([r[6] for r in rows]))
+        data = ((t, np.array([r[1][j] for r in rows]), np.array([r[2][j] for r in rows])),
+                (t, np.array([r[3][j] for r in rows]), np.array([r[4][j] for r in rows])),
+                (t, forces[:, 0], forces[:, 1], forces[:, 2]),
+                (t, np.array([r[6] for r in rows])))
+        if self.plots is None:
+            gui = self._gui
+            with self._folder:
+                self.plots = tuple(
+                    gui.add_uplot(values, _series(*labels), title=title, scales=_SCALES,
+                                  aspect=2.0)
+                    for values, (title, labels) in zip(data, _PLOTS))
+            return
+        for plot, values in zip(self.plots, data):
+            plot.data = values

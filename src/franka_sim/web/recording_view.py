@@ -109,7 +109,7 @@ def serve_recording(recording, host: str, port: int) -> None:
 
     @server.on_client_connect
     def _(client) -> None:
-        client.camera.position = (1.6, -1.2, 1.1)
+        client.camera.position = (1.25, -0.95, 0.85)
         client.camera.look_at = (0.3, 0.0, 0.35)
 
     show(0.0)
