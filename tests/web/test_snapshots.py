@@ -1,0 +1,81 @@
+"""The web view's hand-off, without a browser or a server: the cycle thread's snapshot is a copy
+taken at most every PERIOD after a send, and only while someone watches (the tap is attached
+with the first watcher and detached with the last)."""
+
+from __future__ import annotations
+
+import threading
+
+import mujoco
+import numpy as np
+import pytest
+
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.web.snapshots import PERIOD, SnapshotTap
+
+pytest.importorskip("viser", reason="the web view needs franka-sim[web] (viser)")
+
+
+class Endpoint:
+    def __init__(self) -> None:
+        self.sent = []
+
+    def send_state(self, data) -> None:
+        self.sent.append(data)
+
+
+def data_of_a_free_box():
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='.1 .1 .1' type='box'/></body>"
+        "</worldbody></mujoco>")
+    return mujoco.MjData(model)
+
+
+def driver(endpoints) -> CycleDriver:
+    made = CycleDriver(lambda physics: None, thread=None, lock=threading.Lock(), lockstep=False,
+                       deliver=lambda replies: None, has_client=lambda: True, watcher=None)
+    made.endpoints = tuple(endpoints)
+    return made
+
+
+def test_a_snapshot_is_a_copy_of_what_was_sent_at_most_every_period():
+    data = data_of_a_free_box()
+    tap = SnapshotTap(data)
+    endpoints = [Endpoint(), Endpoint()]
+    cycle = driver(endpoints)
+    cycle._send((b"a" * 8, None))  # nobody watching: nothing kept
+    assert tap.latest is None and tap.taken == 0
+    cycle.snapshots = tap
+    first = cycle._send((b"one", None))
+    assert tap.taken == 1 and tap.latest.states == (b"one", None)
+    assert tap.latest.time == first and tap.due == first + PERIOD
+    data.qpos[0] = 5.0  # the world moves on: the snapshot does not
+    assert tap.latest.qpos[0] != 5.0
+    cycle._send((b"two", b"x"))  # within PERIOD of the last one: not taken
+    assert tap.taken == 1 and tap.latest.states == (b"one", None)
+    tap.due = 0.0  # (PERIOD has passed)
+    cycle._send((b"three", b"y"))
+    assert tap.taken == 2 and tap.latest.states == (b"three", b"y")
+    assert tap.latest.qpos[0] == 5.0
+    assert [e.sent for e in endpoints] == [[b"a" * 8, b"one", b"two", b"three"], [b"x", b"y"]]
+
+
+def test_the_tap_is_attached_only_while_someone_watches():
+    from franka_sim.web.live import LiveView
+
+    data = data_of_a_free_box()
+    attached, refreshed = [], []
+    view = LiveView("127.0.0.1", 0, data.model, data, [], attach=attached.append,
+                    refresh=refreshed.append)
+    view._connected(Client())
+    view._connected(Client())
+    assert attached == [view.tap] and refreshed == [view.tap] and view.watchers == 2
+    view._disconnected(None)
+    assert attached == [view.tap]
+    view._disconnected(None)
+    assert attached == [view.tap, None] and view.watchers == 0
+
+
+class Client:
+    class camera:  # noqa: N801 - what viser's ClientHandle offers
+        position = look_at = None
