@@ -18,6 +18,11 @@ VISIBLE_GROUPS = (0, 1, 2)  # MuJoCo's default: group 3 and above (collision) hi
 PLANE_EXTENT = 2.0  # m: half the side of the square an infinite plane is drawn as
 
 
+# Shapes with edges: shaded per face (a cylinder's vertices are shared by its side and its ends,
+# whose averaged normals would smear the edge).
+_FLAT = (mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_PLANE)
+
+
 def _rgb(rgba) -> tuple[int, int, int]:
     return tuple(int(round(255 * float(c))) for c in rgba[:3])
 
@@ -33,7 +38,7 @@ def geom_mesh(model, g: int) -> trimesh.Trimesh | None:
     if kind == t.mjGEOM_CAPSULE:
         return trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[16, 8])
     if kind == t.mjGEOM_CYLINDER:
-        return trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=24)
+        return trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=48)
     if kind == t.mjGEOM_ELLIPSOID:
         mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         mesh.apply_scale(size)
@@ -79,7 +84,7 @@ class WorldView:
                 f"{frame}/g{g}", np.asarray(mesh.vertices, np.float32),
                 np.asarray(mesh.faces, np.uint32), color=geom_color(model, g),
                 position=model.geom_pos[g].copy(), wxyz=model.geom_quat[g].copy(),
-                flat_shading=False)
+                flat_shading=bool(model.geom_type[g] in _FLAT))
         self.show(None)
 
     def _frame(self, scene, body: int) -> str:
