@@ -79,3 +79,61 @@ def test_the_tap_is_attached_only_while_someone_watches():
 class Client:
     class camera:  # noqa: N801 - what viser's ClientHandle offers
         position = look_at = None
+
+
+class Field:
+    def __init__(self, value=None) -> None:
+        self.value = value
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+
+class Gui:
+    """What ArmPanel asks of viser's GuiApi, each field a plain value holder."""
+
+    def add_folder(self, label):
+        return Field()
+
+    def add_text(self, label, initial_value, **kwargs):
+        return Field(initial_value)
+
+    def add_dropdown(self, label, options, initial_value=None, **kwargs):
+        return Field(initial_value)
+
+    def add_uplot(self, data, series, **kwargs):
+        return Field(data)
+
+
+def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
+    from franka_sim.protocol.codec import STATE_DTYPE
+    from franka_sim.protocol.enums import RobotMode
+    from franka_sim.protocol.errors import ERROR_NAMES
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.snapshots import Snapshot
+
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    reflex = ERROR_NAMES.index("joint_position_limits_violation")
+
+    def show(t, mode, error=None):
+        state = np.zeros(1, STATE_DTYPE)[0]
+        state["robot_mode"] = int(mode)
+        if error is not None:
+            state["errors"][error] = state["reflex_reason"][error] = 1
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+
+    show(0.0, RobotMode.kIdle)
+    show(0.5, RobotMode.kMove)
+    show(0.6, RobotMode.kMove)  # no change: no line
+    show(1.0, RobotMode.kReflex, reflex)
+    assert panel.mode.value == "Reflex"
+    assert panel.errors.value == panel.reflex.value == "joint_position_limits_violation"
+    assert panel.events.value.splitlines() == [
+        "1.000 s: Reflex; errors: joint_position_limits_violation; "
+        "reflex: joint_position_limits_violation",
+        "0.500 s: Move",
+        "0.000 s: Idle; errors: none"]
+    assert panel.plots is not None and len(panel.plots[0].value[0]) >= 2  # (made, with data)

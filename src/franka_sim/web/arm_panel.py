@@ -4,7 +4,8 @@ a snapshot holds (decoded on the web thread: exactly what the arm's client was s
 Plots: q against q_d and tau_J against tau_J_d for the joint the dropdown picks, the external
 wrench's force, and the command success rate, over the last WINDOW seconds. Readouts: the
 robot mode, the active errors, the last reflex's reasons, q and the wrench as numbers (what a
-test compares to the control API's /state).
+test compares to the control API's /state), and the last few changes of mode, errors and
+reflex, each with its time.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from franka_sim.protocol.errors import ERROR_NAMES
 WINDOW = 10.0  # s of history in the plots
 PLOT_PERIOD = 0.2  # s between two plot updates (the readouts follow every frame)
 DIGITS = 4  # decimals of the numeric readouts
+EVENTS = 6  # lines of the events readout (mode, errors and reflexes as they change)
 _COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
 
 
@@ -62,6 +64,8 @@ class ArmPanel:
         self._t0 = t0
         self._last_plot = 0.0
         self._last_state: bytes | None = None
+        self._status: tuple | None = None  # (mode, errors, reflex) last shown
+        self._events: deque = deque(maxlen=EVENTS)
         self._gui = gui
         self._folder = gui.add_folder(f"arm {name}")
         with self._folder:
@@ -72,6 +76,7 @@ class ArmPanel:
             self.success = gui.add_text("success rate", "-", disabled=True)
             self.q = gui.add_text("q (rad)", "-", disabled=True)
             self.wrench = gui.add_text("O_F_ext_hat_K", "-", disabled=True)
+            self.events = gui.add_text("events", "", multiline=True, disabled=True)
             self.joint = gui.add_dropdown("joint", [str(j) for j in range(1, 8)],
                                           initial_value="1")
         # The plots are made with their first two points: a uPlot made empty keeps the empty
@@ -92,10 +97,12 @@ class ArmPanel:
         if self._rows and t < self._rows[-1][0]:  # a timeline scrubbed back: start again
             self._rows.clear()
             self._last_plot = -PLOT_PERIOD
-        self.mode.value = mode_name(int(s["robot_mode"]))
-        self.errors.value = error_names(s["errors"])
-        if np.any(s["reflex_reason"]):
-            self.reflex.value = error_names(s["reflex_reason"])
+        mode, errors = mode_name(int(s["robot_mode"])), error_names(s["errors"])
+        reflex = error_names(s["reflex_reason"])
+        self.mode.value, self.errors.value = mode, errors
+        if reflex != "none":
+            self.reflex.value = reflex
+        self._note((mode, errors, reflex), t)
         self.success.value = f"{float(s['control_command_success_rate']):.3f}"
         self.q.value = numbers(s["q"])
         self.wrench.value = numbers(s["O_F_ext_hat_K"])
@@ -107,6 +114,21 @@ class ArmPanel:
         if abs(snapshot.time - self._last_plot) >= PLOT_PERIOD:
             self._last_plot = snapshot.time
             self._plot()
+
+    def _note(self, status: tuple, t: float) -> None:
+        """A line in `events` each time the mode, the errors or the reflex's reasons change (as
+        seen ~30 times a second: a change undone within 30 ms may go unseen)."""
+        if status == self._status:
+            return
+        before, self._status = self._status, status
+        mode, errors, reflex = status
+        line = f"{t:.3f} s: {mode}"
+        if before is None or errors != before[1]:
+            line += f"; errors: {errors}"
+        if reflex != "none" and (before is None or reflex != before[2]):
+            line += f"; reflex: {reflex}"
+        self._events.append(line)
+        self.events.value = "\n".join(reversed(self._events))  # newest first
 
     def _plot(self) -> None:
         rows, j = self._rows, int(self.joint.value) - 1
