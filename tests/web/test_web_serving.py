@@ -9,6 +9,7 @@ import subprocess
 import sys
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -78,3 +79,22 @@ def test_bad_requests_are_answered_4xx_or_dropped_and_serving_goes_on():
         assert not any("Traceback" in line for line in log), "\n".join(log)
         assert len(server.log_matching("web view: opening handshake failed")) >= 2
         assert server.proc.poll() is None
+
+
+def test_view_says_on_one_line_what_it_cannot_show(tmp_path):
+    pytest.importorskip("viser")
+    junk = tmp_path / "junk.mcap"
+    junk.write_text("junk")
+    host = fresh_loopback_address()
+    recording = (Path(__file__).resolve().parents[1] / "data" / "older_libfranka" / "0.13.6"
+                 / "communication_test.mcap")
+    with socket.create_server((host, WEB_PORT)):
+        cases = {"No such file": [str(tmp_path / "missing.mcap")],
+                 "not an MCAP file": [str(junk)],
+                 f"port {WEB_PORT} on {host} is in use": [str(recording), "--host", host,
+                                                          "--port", str(WEB_PORT)]}
+        for said, args in cases.items():
+            done = subprocess.run([sys.executable, "-m", "franka_sim", "view", *args],
+                                  capture_output=True, text=True, timeout=120)
+            assert done.returncode == 1
+            assert done.stderr.count("\n") == 1 and said in done.stderr, done.stderr
