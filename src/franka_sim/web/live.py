@@ -48,14 +48,14 @@ class LiveView:
     def start(self) -> None:
         """Serve the page on (host, port); OSError if the port cannot be had."""
         import viser
-        _quiet_libraries()
+        quiet_libraries()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: we log one line
             server = viser.ViserServer(host=self.host, port=self.port, label=TITLE,
                                        verbose=False)
         # viser's share button opens a tunnel to a public relay: never from a robot's server.
         server.request_share_url = lambda verbose=True: None
         if self.port and server.get_port() != self.port:  # viser moves on to a free port
-            _stop_quietly(server)
+            stop_quietly(server)
             raise OSError(errno.EADDRINUSE, f"the web view's port {self.port} on {self.host} "
                           "is in use")
         self.port = server.get_port()
@@ -77,7 +77,7 @@ class LiveView:
         if self._thread.is_alive():
             self._thread.join(2.0)
         if self.server is not None:
-            _stop_quietly(self.server)
+            stop_quietly(self.server)
             self.server = None
 
     @property
@@ -131,12 +131,12 @@ def _name_this_thread(name: bytes) -> None:
         pass
 
 
-def _stop_quietly(server) -> None:
+def stop_quietly(server) -> None:
     with contextlib.redirect_stdout(io.StringIO()):  # ("Server stopped")
         server.stop()
 
 
-def _quiet_libraries() -> None:
+def quiet_libraries() -> None:
     """A malformed request to the web port is the browser's problem, not the robot's: one
     line each (websockets logs a traceback per bad handshake by default)."""
     class OneLine(logging.Filter):

@@ -8,18 +8,17 @@ view and the arm panels are the live view's own (web/world_view.py, web/arm_pane
 
 from __future__ import annotations
 
-import logging
+import contextlib
+import io
 import tempfile
 import threading
 
 import numpy as np
 
 from franka_sim.web.arm_panel import ArmPanel
-from franka_sim.web.live import TITLE, _quiet_libraries, _stop_quietly
+from franka_sim.web.live import TITLE, quiet_libraries, stop_quietly
 from franka_sim.web.snapshots import Snapshot
 from franka_sim.web.world_view import WorldView
-
-log = logging.getLogger(__name__)
 
 FRAME_PERIOD = 1 / 30  # s between two frames while playing
 SPEEDS = ("0.25", "0.5", "1", "2", "4")
@@ -74,16 +73,13 @@ def serve_recording(recording, host: str, port: int) -> None:
     with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
         physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
     timeline = RecordingTimeline(recording, physics)
-    _quiet_libraries()
-    import contextlib
-    import io
-
+    quiet_libraries()
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, label=f"{TITLE}: {recording.path.name}",
                                    verbose=False)
     server.request_share_url = lambda verbose=True: None  # (never a tunnel: live.py)
     if server.get_port() != port:
-        _stop_quietly(server)
+        stop_quietly(server)
         raise OSError(f"port {port} on {host} is in use")
     server.scene.set_up_direction("+z")
     server.gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
@@ -127,4 +123,4 @@ def serve_recording(recording, host: str, port: int) -> None:
     except KeyboardInterrupt:
         pass
     finally:
-        _stop_quietly(server)
+        stop_quietly(server)
