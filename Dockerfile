@@ -17,6 +17,9 @@ ARG BASE_IMAGE=python:3.11-slim
 # --- build: the wheel from this source tree, installed into /opt/franka-sim ---------------------
 FROM ${BASE_IMAGE} AS build
 ARG WHEELHOUSE=wheelhouse
+# The package's extras the image carries: `web` serves the web view (docs/viewing.md; ~47 MB).
+# `--build-arg EXTRAS=` leaves it out.
+ARG EXTRAS=web
 ENV PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_CACHE_DIR=1 PIP_ROOT_USER_ACTION=ignore
 WORKDIR /src
 # The context is filtered by .dockerignore: the package sources, and the wheelhouse if any.
@@ -29,7 +32,7 @@ RUN set -eu; \
     python3 -m venv /opt/franka-sim; \
     /opt/franka-sim/bin/pip wheel --quiet $from --no-deps --wheel-dir /dist .; \
     wheel=$(ls /dist/franka_sim-*.whl); \
-    /opt/franka-sim/bin/pip install --quiet $from "$wheel[web]"; \
+    /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
     /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
     find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
 

@@ -93,7 +93,8 @@ def test_the_dockerfile_builds_from_any_base_into_a_non_root_runtime():
     assert _instructions("ENTRYPOINT") == ['["franka-sim", "serve"]']
     assert "FRANKA_SIM_HOST=0.0.0.0" in " ".join(_instructions("ENV"))
     assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp {DESK}/tcp {WEB}/tcp"]
-    assert '"$wheel[web]"' in _dockerfile()  # the image can serve the web view
+    assert "ARG EXTRAS=web" in _dockerfile()  # the image can serve the web view
+    assert '"$wheel${EXTRAS:+[$EXTRAS]}"' in _dockerfile()
     (healthcheck,) = _instructions("HEALTHCHECK")
     assert "franka-sim check" in healthcheck
     assert "--no-index --find-links" in _dockerfile()  # offline from a wheelhouse
