@@ -43,11 +43,11 @@ class LiveView:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="fsim-web", daemon=True)
         self.server = None
-        self.frames = 0  # frames drawn (tests and benchmarks read it)
 
     def start(self) -> None:
         """Serve the page on (host, port); OSError if the port cannot be had."""
         import viser
+
         quiet_libraries()
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: we log one line
             server = viser.ViserServer(host=self.host, port=self.port, label=TITLE,
@@ -105,10 +105,9 @@ class LiveView:
 
     def _run(self) -> None:
         _name_this_thread(b"fsim-web")
-        shown = None
+        shown, failed = None, False
         while not self._stop.is_set():
-            if not self._wake.wait(1.0):
-                continue
+            self._wake.wait()  # (nobody watching: asleep; stop() wakes it too)
             snapshot = self.tap.latest
             if snapshot is not None and snapshot is not shown:
                 shown = snapshot
@@ -118,8 +117,9 @@ class LiveView:
                         for panel in self.panels:
                             panel.show(snapshot)
                 except Exception:  # noqa: BLE001 - the view goes on; the robot never cares
-                    log.exception("the web view could not draw a frame")
-                self.frames += 1
+                    if not failed:  # (once: not 30 tracebacks a second)
+                        log.exception("the web view could not draw a frame")
+                    failed = True
             self._stop.wait(FRAME_PERIOD)
 
 
