@@ -30,7 +30,8 @@ CAPABILITIES = {
 
 MODULES = {
     "viewing": ["web/test_web_view.py", "web/test_web_serving.py", "web/test_arm_look.py",
-                "web/test_recording_view.py", "web/test_snapshots.py"],
+                "web/test_recording_view.py", "web/test_snapshots.py",
+                "web/test_meshes.py"],
     "versions": ["protocol/test_robot_v9.py", "protocol/test_robot_v5.py",
                  "physics/test_model_library.py", "clients/test_older_libfranka.py",
                  "clients/test_panda_python.py", "clients/test_panda_arm.py",

@@ -158,6 +158,12 @@ def serve(
     viewer: bool = typer.Option(
         False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
     ),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description installed at DIR "
+        "(its meshes/ folder; .dae needs pycollada) instead of our own shapes, in the viewer "
+        "and the web view (docs/viewing.md). Only what is drawn changes.",
+    ),
     web: int = typer.Option(
         0, "--web", envvar="FRANKA_SIM_WEB_PORT", min=0, max=65535, metavar="PORT",
         help="Serve the web view on this port of the first arm's address: the world in 3D and "
@@ -216,7 +222,7 @@ def serve(
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
             inject=inject, seed=seed, desk_port=desk_port, desk_boot=desk_boot,
             desk_users=tuple(desk_user), desk_cert=desk_cert, desk_key=desk_key,
-            web_port=web,
+            web_port=web, meshes=meshes,
         ))
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint=exc.flag) from None

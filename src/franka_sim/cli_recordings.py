@@ -85,16 +85,22 @@ def render(
                                 help="The video to write (.mp4)."),
     camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
     fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
+        "serve --meshes).",
+    ),
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
+    from franka_sim.physics.scene import SceneError
     from franka_sim.playback.render import RenderError
     from franka_sim.playback.render import render as make_video
 
     loaded = _open(recording)
     try:
-        frames = make_video(loaded, output, fps=fps, camera=camera)
-    except RenderError as exc:
+        frames = make_video(loaded, output, fps=fps, camera=camera, meshes=meshes)
+    except (RenderError, SceneError) as exc:  # (SceneError: --meshes)
         typer.echo(f"franka-sim: {exc}", err=True)
         raise typer.Exit(1) from None
     typer.echo(f"{output}: {frames} frames")
@@ -105,6 +111,11 @@ def view(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     host: str = typer.Option("127.0.0.1", help="Address to serve the page on."),
     port: int = typer.Option(8080, min=1, max=65535, help="Port to serve the page on."),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
+        "serve --meshes).",
+    ),
 ) -> None:
     """Watch a recording in a browser: the world in 3D with a timeline to scrub or play, and
     each arm's readouts and plots (docs/viewing.md; needs franka-sim\\[web]). Until Ctrl-C."""
@@ -113,14 +124,18 @@ def view(
     if missing := web_missing():
         typer.echo(f"franka-sim: {missing}", err=True)
         raise typer.Exit(1)
+    from franka_sim.physics.scene import SceneError
     from franka_sim.recording.metadata import Incompatible
     from franka_sim.web.recording_view import serve_recording
 
     loaded = _open(recording)
     try:
-        serve_recording(loaded, host, port)
+        serve_recording(loaded, host, port, meshes)
     except Incompatible as exc:
         typer.echo(f"franka-sim: {recording}: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except SceneError as exc:  # --meshes
+        typer.echo(f"franka-sim: {exc}", err=True)
         raise typer.Exit(1) from None
     except OSError as exc:
         typer.echo(f"franka-sim: {exc.strerror or exc}", err=True)

@@ -52,6 +52,7 @@ def checked(config: Config) -> Config:
                           "API's port")
     _desk(config)
     _web(config)
+    _meshes(config)
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing
@@ -103,6 +104,19 @@ def _web(config: Config) -> None:
 
     if missing := web_missing():
         raise ConfigError("--web", missing)
+
+
+def _meshes(config: Config) -> None:
+    """Every arm kind's visual meshes are there (reading them waits for the world's build)."""
+    if config.meshes is None:
+        return
+    from franka_sim.physics.arm_meshes import MeshError, find_meshes
+
+    for robot in sorted({config.robot_of(spec) for spec in config.arm_specs()}):
+        try:
+            find_meshes(config.meshes, robot)
+        except MeshError as exc:
+            raise ConfigError("--meshes", str(exc)) from None
 
 
 def _address(flag: str, text: str, who: str = "") -> None:

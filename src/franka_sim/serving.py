@@ -76,7 +76,7 @@ def _config(settings: dict) -> Config:
 
     settings = dict(settings)
     # (a scene is a packaged name or a path: WorldParts says)
-    for name in ("urdf", "record", "desk_cert", "desk_key"):
+    for name in ("urdf", "record", "desk_cert", "desk_key", "meshes"):
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])

@@ -4,10 +4,6 @@ none of the collision envelopes (physics/arm_look.py)."""
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen, before this process imports mujoco
-
 import subprocess
 import sys
 from pathlib import Path
@@ -17,9 +13,9 @@ import pytest
 
 from franka_sim.physics.arm_look import CAP_RGBA, COLLISION_GROUP, LINK_RGBA, VISUAL_GROUP
 from franka_sim.testing import running_sim
+from support.rendering import render_frame
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "pick_and_place.py"
-FRAMES_PER_SECOND = 2.0
 
 
 @pytest.fixture(scope="module")
@@ -33,41 +29,19 @@ def recording(tmp_path_factory):
     return path
 
 
-@pytest.fixture(scope="module")
-def frames(recording):
-    from franka_sim.playback.render import Frames, RenderError
-    from franka_sim.recording.reader import open_recording
-
-    try:
-        colour = Frames(open_recording(recording), fps=FRAMES_PER_SECOND)
-        segments = Frames(open_recording(recording), fps=FRAMES_PER_SECOND, segmentation=True)
-    except RenderError as exc:
-        pytest.skip(str(exc))
-    yield colour, segments
-    colour.close()
-    segments.close()
+def _geoms_named(names, pattern) -> set[int]:
+    return {g for g, name in enumerate(names) if pattern(name)}
 
 
-def _geoms_named(model, pattern) -> set[int]:
-    return {g for g in range(model.ngeom) if pattern(model.geom(g).name)}
-
-
-def test_a_frame_shows_the_links_white_the_caps_dark_and_no_collision_envelope(frames):
-    import mujoco
-
-    colour, segments = frames
-    model = colour.model
-    links = _geoms_named(model, lambda n: "_visual" in n and n.startswith("link"))
-    caps = _geoms_named(model, lambda n: n.endswith("_cap"))
-    hand = _geoms_named(model, lambda n: n.startswith("hand_visual"))
-    envelopes = {g for g in range(model.ngeom) if model.geom_group[g] == COLLISION_GROUP}
+def test_a_frame_shows_the_links_white_the_caps_dark_and_no_collision_envelope(recording,
+                                                                              tmp_path):
+    rgb, geom, names, groups = render_frame(recording, tmp_path, which=0.5)  # cube carried
+    links = _geoms_named(names, lambda n: "_visual" in n and n.startswith("link"))
+    caps = _geoms_named(names, lambda n: n.endswith("_cap"))
+    hand = _geoms_named(names, lambda n: n.startswith("hand_visual"))
+    envelopes = {g for g in range(len(names)) if groups[g] == COLLISION_GROUP}
     assert links and caps and hand and envelopes
-    assert all(model.geom_group[g] == VISUAL_GROUP for g in links | caps | hand)
-    middle = len(colour.cycles) // 2  # the arm carrying the cube
-    for k, (rgb, seg) in enumerate(zip(colour, segments)):
-        if k == middle:
-            break
-    geom = np.where(seg[..., 1] == mujoco.mjtObj.mjOBJ_GEOM, seg[..., 0], -1)
+    assert all(groups[g] == VISUAL_GROUP for g in links | caps | hand)
     shown = set(np.unique(geom)) - {-1}
     assert not shown & envelopes, "a collision envelope is drawn"
     for name, ids, material in (("links", links, LINK_RGBA), ("caps", caps, CAP_RGBA),

@@ -5,7 +5,8 @@ Made by us, procedurally, from the arm's description and the envelopes' own sizi
 axis, a dark base plate, and the Franka Hand's white body with its dark flange (its fingers
 are the tool's own geoms). Visual geoms touch nothing (contype and conaffinity 0) and weigh
 nothing (the compiler takes no inertia from geoms), so the physics is the same bits with or
-without them. They are MuJoCo group 2, which the viewer, `render` and the web view draw; the
+without them. With `--meshes DIR` an installed franka_description's own visual meshes take
+their place (physics/arm_meshes.py; add_mesh_look). They are MuJoCo group 2, which the viewer, `render` and the web view draw; the
 collision envelopes are group 3, which all three leave out.
 """
 
@@ -79,3 +80,17 @@ def add_hand_look(hand_body: mujoco.MjsBody, prefix: str, hand: str) -> None:
     hand_body.add_geom(name=f"{prefix}{hand}_flange", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                        pos=[0.0, 0.0, 0.005], size=[0.04, 0.005, 0], material=prefix + CAP_MATERIAL,
                        **VISUAL)
+
+
+def add_mesh_look(spec: mujoco.MjSpec, body: mujoco.MjsBody, name: str, parts, prefix: str,
+                  pos=(0.0, 0.0, 0.0), quat=(1.0, 0.0, 0.0, 0.0)) -> None:
+    """`parts` (physics/arm_meshes.py: vertices, faces, rgba) as the visual geoms of `name` on
+    `body`, the mesh's frame at `pos`, `quat` in the body's."""
+    for k, (vertices, faces, rgba) in enumerate(parts):
+        mesh = spec.add_mesh(name=f"{prefix}{name}_visual_mesh{k}")
+        mesh.uservert = np.asarray(vertices, float).ravel().tolist()
+        mesh.userface = np.asarray(faces, np.int32).ravel().tolist()
+        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # (open surfaces are fine)
+        body.add_geom(name=f"{prefix}{name}_visual{k}", type=mujoco.mjtGeom.mjGEOM_MESH,
+                      meshname=mesh.name, pos=list(pos), quat=list(quat), rgba=list(rgba),
+                      **VISUAL)

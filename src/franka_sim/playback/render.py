@@ -38,7 +38,7 @@ class Frames:
     shows: the arm's look is tested that way)."""
 
     def __init__(self, recording: Recording, *, fps: float = 30.0, camera: str | None = None,
-                 segmentation: bool = False) -> None:
+                 segmentation: bool = False, meshes: Path | None = None) -> None:
         if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
             os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
         import mujoco
@@ -49,7 +49,9 @@ class Frames:
         if len(states) == 0:
             raise RenderError(f"{recording.path}: no state recorded")
         with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
-            physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
+            config = replay_config(recording.metadata, workdir)
+            config.meshes = meshes  # (how it is drawn: never part of a recording)
+            physics = WorldParts(config).make_physics()
         self.model, self.data = physics.world.model, physics.world.data
         self._arm = next(iter(physics.world.arms.values()))
         self._camera = _camera(self.model, camera)
@@ -87,14 +89,14 @@ class Frames:
 
 
 def render(recording: Recording, output: Path, *, fps: float = 30.0,
-           camera: str | None = None) -> int:
+           camera: str | None = None, meshes: Path | None = None) -> int:
     """Write the video; the number of frames."""
     try:
         import imageio_ffmpeg
     except ImportError:
         raise RenderError("rendering needs imageio-ffmpeg: pip install 'franka-sim[render]'") \
             from None
-    frames = Frames(recording, fps=fps, camera=camera)
+    frames = Frames(recording, fps=fps, camera=camera, meshes=meshes)
     writer = imageio_ffmpeg.write_frames(str(output), (WIDTH, HEIGHT), fps=fps,
                                          macro_block_size=1, quality=6)
     writer.send(None)

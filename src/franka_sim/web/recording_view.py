@@ -63,7 +63,7 @@ class RecordingTimeline:
         return Snapshot(seconds, tuple(sent), qpos, *self._mocap)
 
 
-def serve_recording(recording, host: str, port: int) -> None:
+def serve_recording(recording, host: str, port: int, meshes=None) -> None:
     """Serve the view of `recording` until Ctrl-C (OSError: the port cannot be had)."""
     import viser
 
@@ -71,7 +71,9 @@ def serve_recording(recording, host: str, port: int) -> None:
     from franka_sim.recording.metadata import replay_config
 
     with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
-        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
+        config = replay_config(recording.metadata, workdir)
+        config.meshes = meshes  # (--meshes: how it is drawn)
+        physics = WorldParts(config).make_physics()
     timeline = RecordingTimeline(recording, physics)
     quiet_libraries()
     with contextlib.redirect_stdout(io.StringIO()):
