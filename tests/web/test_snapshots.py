@@ -5,6 +5,7 @@ with the first watcher and detached with the last)."""
 from __future__ import annotations
 
 import threading
+import types
 
 import mujoco
 import numpy as np
@@ -67,6 +68,7 @@ def test_the_tap_is_attached_only_while_someone_watches():
     attached, refreshed = [], []
     view = LiveView("127.0.0.1", 0, data.model, data, [], attach=attached.append,
                     refresh=refreshed.append)
+    view.world = types.SimpleNamespace(camera=lambda: ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
     view._connected(Client())
     view._connected(Client())
     assert attached == [view.tap] and refreshed == [view.tap] and view.watchers == 2

@@ -85,8 +85,7 @@ class LiveView:
         return self._watchers
 
     def _connected(self, client) -> None:
-        client.camera.position = (1.25, -0.95, 0.85)
-        client.camera.look_at = (0.3, 0.0, 0.35)
+        client.camera.position, client.camera.look_at = self.world.camera()
         with self._lock:
             self._watchers += 1
             if self._watchers == 1:

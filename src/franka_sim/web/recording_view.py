@@ -107,8 +107,7 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
 
     @server.on_client_connect
     def _(client) -> None:
-        client.camera.position = (1.25, -0.95, 0.85)
-        client.camera.look_at = (0.3, 0.0, 0.35)
+        client.camera.position, client.camera.look_at = world.camera()
 
     show(0.0)
     print(f"franka-sim: {recording.path} on http://{host}:{server.get_port()} (Ctrl-C ends)",

@@ -87,6 +87,17 @@ class WorldView:
                 flat_shading=bool(model.geom_type[g] in _FLAT))
         self.show(None)
 
+    def camera(self) -> tuple[np.ndarray, np.ndarray]:
+        """(position, look_at) of a first view of every arm: from the front right, above the
+        middle of their bases, further back the further apart they stand."""
+        model, data = self.model, self.data
+        bases = np.array([data.xpos[b] for b in range(model.nbody)
+                          if model.body(b).name.split("/")[-1] == "link0"])
+        middle = bases.mean(axis=0) if len(bases) else np.zeros(3)
+        spread = float(np.ptp(bases, axis=0).max()) if len(bases) > 1 else 0.0
+        look_at = middle + (0.3, 0.0, 0.35)
+        return look_at + (0.95 + 0.4 * spread, -0.95 - 0.8 * spread, 0.5 + 0.3 * spread), look_at
+
     def _frame(self, scene, body: int) -> str:
         name = f"/world/b{body}"
         if body not in self._frames:
