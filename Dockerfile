@@ -17,6 +17,9 @@ ARG BASE_IMAGE=python:3.11-slim
 # --- build: the wheel from this source tree, installed into /opt/franka-sim ---------------------
 FROM ${BASE_IMAGE} AS build
 ARG WHEELHOUSE=wheelhouse
+# The package's extras the image carries: `web` serves the web view (docs/viewing.md; ~47 MB).
+# `--build-arg EXTRAS=` leaves it out.
+ARG EXTRAS=web
 ENV PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_CACHE_DIR=1 PIP_ROOT_USER_ACTION=ignore
 WORKDIR /src
 # The context is filtered by .dockerignore: the package sources, and the wheelhouse if any.
@@ -28,7 +31,8 @@ RUN set -eu; \
     fi; \
     python3 -m venv /opt/franka-sim; \
     /opt/franka-sim/bin/pip wheel --quiet $from --no-deps --wheel-dir /dist .; \
-    /opt/franka-sim/bin/pip install --quiet $from /dist/franka_sim-*.whl; \
+    wheel=$(ls /dist/franka_sim-*.whl); \
+    /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
     /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
     find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
 
@@ -51,7 +55,9 @@ ENV PATH=/opt/franka-sim/bin:$PATH \
 # on the host connecting to the host's own address answers from the bridge's gateway instead;
 # the server follows its answers there (docs/deployment.md). 443: the Desk (the robot's web API),
 # served with `-e FRANKA_SIM_DESK_PORT=443` (docs/desk.md); off unless asked for, as outside.
-EXPOSE 1337/tcp 1338/tcp 1340/tcp 443/tcp
+# 8080: the web view (a browser's, plain HTTP and a WebSocket), served with
+# `-e FRANKA_SIM_WEB_PORT=8080` (docs/viewing.md); the image carries the `web` extra.
+EXPOSE 1337/tcp 1338/tcp 1340/tcp 443/tcp 8080/tcp
 
 # Ready once the control API answers /health; the server binds every address (0.0.0.0) unless
 # FRANKA_SIM_HOST names one, which the check then uses. Each check costs ~0.25 s of CPU.

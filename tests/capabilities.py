@@ -24,9 +24,14 @@ CAPABILITIES = {
     "deployment": "the image, compose, Kubernetes, the GitHub action",
     "combinations": "the serve flags in combination",
     "desk": "the Desk, the robot's web API: its dialects, clients and effects on the robot",
+    "viewing": "the web view (live, in a headless browser) and how the arm looks in it and "
+               "in a render",
 }
 
 MODULES = {
+    "viewing": ["web/test_web_view.py", "web/test_web_serving.py", "web/test_arm_look.py",
+                "web/test_recording_view.py", "web/test_snapshots.py",
+                "web/test_meshes.py"],
     "versions": ["protocol/test_robot_v9.py", "protocol/test_robot_v5.py",
                  "physics/test_model_library.py", "clients/test_older_libfranka.py",
                  "clients/test_panda_python.py", "clients/test_panda_arm.py",

@@ -136,10 +136,24 @@ class WorldParts:
                                  "(one address per robot)")
         mounts = scene_mounts(self.scene)
         kind, rides = tool_kind(self.config.tool), self.config.mobile_base is not None
+        looks = self._looks(specs)
         return [ArmPlacement(description, spec.name if len(specs) > 1 else "",
                              base=spec.base if spec.base is not None else mounts.get(spec.name),
-                             tool=None if kind is None else kind.mount, rides=rides)
+                             tool=None if kind is None else kind.mount, rides=rides,
+                             look=looks.get(self.config.robot_of(spec)))
                 for spec, description in zip(specs, descriptions)]
+
+    def _looks(self, specs) -> dict:
+        """--meshes: each arm kind's visual meshes, read once (MeshError: unusable)."""
+        if self.config.meshes is None:
+            return {}
+        from franka_sim.physics.arm_meshes import MeshError, load_look
+
+        kinds = {self.config.robot_of(spec) for spec in specs}
+        try:
+            return {kind: load_look(self.config.meshes, kind) for kind in kinds}
+        except MeshError as exc:
+            raise SceneError(f"--meshes: {exc}") from None
 
     def _check(self) -> None:
         check_world(self.placements, self.scene)

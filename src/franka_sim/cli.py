@@ -158,6 +158,18 @@ def serve(
     viewer: bool = typer.Option(
         False, "--viewer", help="Show the arm live in MuJoCo's viewer (needs a display).",
     ),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description installed at DIR "
+        "(its meshes/ folder; .dae needs pycollada) instead of our own shapes, in the viewer "
+        "and the web view (docs/viewing.md). Only what is drawn changes.",
+    ),
+    web: int = typer.Option(
+        0, "--web", envvar="FRANKA_SIM_WEB_PORT", min=0, max=65535, metavar="PORT",
+        help="Serve the web view on this port of the first arm's address: the world in 3D and "
+        "each arm's live plots in a browser (docs/viewing.md; needs franka-sim\\[web]). "
+        "0 (default): not served.",
+    ),
     inject: str | None = typer.Option(
         None, envvar="FRANKA_SIM_INJECT", metavar="SPEC",
         help="Network faults on every robot's UDP path (each arm, the mobile base), both directions unless dir= says one: "
@@ -192,6 +204,12 @@ def serve(
         except NoDisplay as exc:
             typer.echo(f"franka-sim: {exc}", err=True)
             raise typer.Exit(1) from None
+    if web:
+        from franka_sim.web import web_missing
+
+        if missing := web_missing():
+            typer.echo(f"franka-sim: --web: {missing}", err=True)
+            raise typer.Exit(1)
     from franka_sim.config_rules import ConfigError, checked
 
     try:
@@ -204,6 +222,7 @@ def serve(
             control_token=control_token, arms=arms, record=record, mobile_base=mobile_base,
             inject=inject, seed=seed, desk_port=desk_port, desk_boot=desk_boot,
             desk_users=tuple(desk_user), desk_cert=desk_cert, desk_key=desk_key,
+            web_port=web, meshes=meshes,
         ))
     except ConfigError as exc:
         raise typer.BadParameter(str(exc), param_hint=exc.flag) from None
@@ -287,94 +306,8 @@ def check(
         raise typer.Exit(1)
 
 
-def _open(path: Path):
-    """The recording at `path`, or its one-line error and exit 1."""
-    from franka_sim.recording import mcap_missing
-
-    if missing := mcap_missing():
-        typer.echo(f"franka-sim: {missing}", err=True)
-        raise typer.Exit(1)
-    from franka_sim.recording.reader import RecordingError, open_recording
-
-    try:
-        return open_recording(path)
-    except RecordingError as exc:
-        typer.echo(f"franka-sim: {exc}", err=True)
-        raise typer.Exit(1) from None
-
-
-@app.command()
-def replay(
-    recording: Path = typer.Argument(..., metavar="RECORDING", help="An MCAP file from "
-                                     "`franka-sim serve --record`."),
-    until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
-) -> None:
-    """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
-    `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
-    from franka_sim.recording.metadata import Incompatible
-    from franka_sim.playback.replay import replay as run_replay
-
-    loaded = _open(recording)
-    try:
-        outcome = run_replay(loaded, until)
-    except Incompatible as exc:
-        typer.echo(f"franka-sim: {recording}: {exc}", err=True)
-        raise typer.Exit(1) from None
-    typer.echo(outcome.line())
-    if not outcome.identical:
-        raise typer.Exit(1)
-
-
-@app.command()
-def plot(
-    recording: Path = typer.Argument(..., metavar="RECORDING"),
-    output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
-    joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
-    start: float | None = typer.Option(None, "--from", help="From this robot time \\[s]."),
-    end: float | None = typer.Option(None, "--to", help="To this robot time \\[s]."),
-    fields: str | None = typer.Option(
-        None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
-    robot: str | None = typer.Option(
-        None, help="The robot to draw, by name, in a recording of several (default: the first)."),
-) -> None:
-    """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
-    rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
-    from franka_sim.playback.plot import PlotError, parse_fields, parse_joints
-    from franka_sim.playback.plot import plot as draw
-    from franka_sim.recording.reader import RecordingError
-
-    try:
-        chosen, extra = parse_joints(joints), parse_fields(fields)
-        loaded = _open(recording)
-        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra, robot=robot)
-    except (PlotError, RecordingError) as exc:
-        typer.echo(f"franka-sim: {exc}", err=True)
-        raise typer.Exit(1) from None
-    except OSError as exc:
-        typer.echo(f"franka-sim: cannot write {output}: {exc.strerror or exc}", err=True)
-        raise typer.Exit(1) from None
-
-
-@app.command()
-def render(
-    recording: Path = typer.Argument(..., metavar="RECORDING"),
-    output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
-                                help="The video to write (.mp4)."),
-    camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
-    fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
-) -> None:
-    """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
-    needs franka-sim\\[render])."""
-    from franka_sim.playback.render import RenderError
-    from franka_sim.playback.render import render as make_video
-
-    loaded = _open(recording)
-    try:
-        frames = make_video(loaded, output, fps=fps, camera=camera)
-    except RenderError as exc:
-        typer.echo(f"franka-sim: {exc}", err=True)
-        raise typer.Exit(1) from None
-    typer.echo(f"{output}: {frames} frames")
+# The commands that read a recording (replay, plot, render, view) live beside: registered here.
+from franka_sim import cli_recordings  # noqa: E402,F401
 
 
 def main() -> None:

@@ -84,6 +84,12 @@ class Config:
     desk_users: tuple[str, ...] = ()
     desk_cert: Path | None = None
     desk_key: Path | None = None
+    # The web view (docs/viewing.md): the world in 3D and each arm's live plots, on the first
+    # arm's address; 0: not served.
+    web_port: int = 0
+    # An installed franka_description whose visual meshes draw the arms (docs/viewing.md);
+    # None: our own shapes. Only what is drawn changes.
+    meshes: Path | None = None
     # The arms of the world, each on its own address; empty: one arm on host, named after its
     # kind ("fr3", "fer").
     arms: tuple[ArmSpec, ...] = ()

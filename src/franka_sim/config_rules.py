@@ -51,6 +51,8 @@ def checked(config: Config) -> Config:
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
                           "API's port")
     _desk(config)
+    _web(config)
+    _meshes(config)
     changes: dict = {}
     if config.record is not None:
         from franka_sim.recording import mcap_missing
@@ -87,6 +89,34 @@ def _desk(config: Config) -> None:
     if (config.desk_cert is None) != (config.desk_key is None):
         raise ConfigError("--desk-cert", "a certificate and its key go together "
                           "(--desk-cert and --desk-key)")
+
+
+def _web(config: Config) -> None:
+    port = config.web_port
+    if not 0 <= port <= 65535:
+        raise ConfigError("--web", f"{port} is not a TCP port (0: no web view)")
+    if not port:
+        return
+    if port in RESERVED_PORTS or port in (config.control_port, config.tool_port,
+                                          config.desk_port):
+        raise ConfigError("--web", f"{port} is another service's port (docs/viewing.md)")
+    from franka_sim.web import web_missing
+
+    if missing := web_missing():
+        raise ConfigError("--web", missing)
+
+
+def _meshes(config: Config) -> None:
+    """Every arm kind's visual meshes are there (reading them waits for the world's build)."""
+    if config.meshes is None:
+        return
+    from franka_sim.physics.arm_meshes import MeshError, find_meshes
+
+    for robot in sorted({config.robot_of(spec) for spec in config.arm_specs()}):
+        try:
+            find_meshes(config.meshes, robot)
+        except MeshError as exc:
+            raise ConfigError("--meshes", str(exc)) from None
 
 
 def _address(flag: str, text: str, who: str = "") -> None:

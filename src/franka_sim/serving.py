@@ -76,7 +76,7 @@ def _config(settings: dict) -> Config:
 
     settings = dict(settings)
     # (a scene is a packaged name or a path: WorldParts says)
-    for name in ("urdf", "record", "desk_cert", "desk_key"):
+    for name in ("urdf", "record", "desk_cert", "desk_key", "meshes"):
         if settings[name] is not None:
             settings[name] = Path(settings[name])
     settings["clock"] = ClockMode(settings["clock"])
@@ -114,8 +114,11 @@ def main(blob: str) -> int:
     args = json.loads(blob)
     if not args.get("viewer"):
         leave_out_renderer()
-    if _KEEP_TLS not in os.environ and not args["config"].get("desk_port"):
-        leave_out_tls()  # before asyncio, uvloop and construct are imported (the Desk: TLS)
+    if _KEEP_TLS not in os.environ and not (args["config"].get("desk_port")
+                                            or args["config"].get("web_port")):
+        # before asyncio, uvloop and construct are imported (the Desk: TLS; the web view:
+        # viser imports `ssl` for a tunnel it never opens here)
+        leave_out_tls()
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:

@@ -42,6 +42,12 @@ NOT_FACTORS = {
     "desk_user": "who may call the Desk: its HTTPS layer only (tests/desk)",
     "desk_cert": "the Desk's TLS certificate: its HTTPS layer only (tests/desk)",
     "desk_key": "the Desk's TLS key: its HTTPS layer only (tests/desk)",
+    "meshes": "what the arms are drawn with (visual geoms that touch and weigh nothing); "
+              "tests/web/test_meshes.py builds a world with them",
+    "web": "the web view only reads what the cycle hands off (a copy of what it sent, every "
+           "30 ms while someone watches) and changes nothing a client sees; tests/web drives "
+           "it in a headless browser during motions, benchmarks/web_watchers.py measures the "
+           "cycle with watchers",
 }
 
 # The world factor stands for these options together: a packaged scene and the robots it holds.

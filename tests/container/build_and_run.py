@@ -8,9 +8,10 @@ why") with exit status 1, and whatever the run started is stopped and removed fi
   base    a python3 base image made with debootstrap (debian_base.py)
   wheels  the runtime dependencies and the build backend, as wheels made on this host
   build   the image from the repository's Dockerfile, with no network inside the build
-  run     the container, --network host, serving on --host
+  run     the container, --network host, serving on --host, its web view on 8080
   health  its HEALTHCHECK (`franka-sim check`) turns healthy
   drive   pylibfranka from this host: connect, a short joint motion, the Hand's homing
+  web     the web view's page from the image (the `web` extra, nothing fetched)
   stop    `docker stop` (SIGTERM to PID 1) ends it at once and cleanly (exit status 0)
 With --bridge, run, health and drive are instead (published.py):
   publish the container on the daemon's default bridge, ports 1337, 1338 and 1340 published on
@@ -55,7 +56,8 @@ def wheels(context: Path) -> Path:
     """The runtime requirements and the build backend as wheels, pinned to the versions this
     environment runs (so the image runs what the tests ran), in `context`/wheelhouse."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())
-    wanted = project["project"]["dependencies"] + project["build-system"]["requires"]
+    wanted = (project["project"]["dependencies"] + project["build-system"]["requires"]
+              + project["project"]["optional-dependencies"]["web"])  # the image has the view
     pins = "".join(f"{d.metadata['Name']}=={d.version}\n" for d in metadata.distributions()
                    if d.metadata["Name"] and d.metadata["Name"].lower() != "franka-sim")
     constraints = context.parent / "constraints.txt"
@@ -110,6 +112,22 @@ def run(docker: Docker, image: str, name: str, *network: str, timeout: float = 6
             raise StepFailed("run", f"the container exited ({code}): {last_line(logs)}")
         time.sleep(0.2)
     raise StepFailed("run", f"not serving after {timeout:.0f} s")
+
+
+WEB_PORT = 8080
+
+
+def web_page(host: str) -> None:
+    """The web view's page, served from the image's installed viser client."""
+    import urllib.request
+
+    try:
+        with urllib.request.urlopen(f"http://{host}:{WEB_PORT}/", timeout=30) as page:
+            body = page.read()
+    except OSError as exc:
+        raise StepFailed("web", f"no page on {host}:{WEB_PORT}: {exc}") from None
+    if b"<html" not in body[:4000].lower():
+        raise StepFailed("web", f"{host}:{WEB_PORT} answered no HTML page")
 
 
 def healthy(docker: Docker, name: str, timeout: float = 90.0) -> float:
@@ -219,12 +237,15 @@ def _steps(args, cleanup: ExitStack) -> dict:
         report.update(published.run_and_drive(docker, args.image, name, args.host, cleanup, run))
         report["stop_s"] = round(stop(docker, name), 2)
         return report
-    run(docker, args.image, name, "--network", "host", "--env", f"FRANKA_SIM_HOST={args.host}")
+    run(docker, args.image, name, "--network", "host", "--env", f"FRANKA_SIM_HOST={args.host}",
+        "--env", f"FRANKA_SIM_WEB_PORT={WEB_PORT}")
     took("run")
     healthy(docker, name)
     took("health")
     drive(args.host)
     took("drive")
+    web_page(args.host)
+    took("web")
     report["stop_s"] = round(stop(docker, name), 2)
     return report
 

@@ -14,7 +14,7 @@ yaml = pytest.importorskip("yaml")
 
 ROOT = Path(__file__).resolve().parents[2]
 KUBERNETES = ROOT / "deploy" / "kubernetes"
-FCI, HAND, CONTROL, DESK = 1337, 1338, 1340, 443
+FCI, HAND, CONTROL, DESK, WEB = 1337, 1338, 1340, 443, 8080
 
 
 def _manifests() -> list[dict]:
@@ -54,7 +54,7 @@ def test_each_robot_has_a_stable_name_through_a_headless_service():
     assert robots["spec"]["selector"]["matchLabels"].items() <= labels.items()
     assert service["spec"]["selector"].items() <= labels.items()
     ports = {(p["port"], p.get("protocol", "TCP")) for p in service["spec"]["ports"]}
-    assert ports == {(FCI, "TCP"), (HAND, "TCP"), (CONTROL, "TCP")}
+    assert ports == {(FCI, "TCP"), (HAND, "TCP"), (CONTROL, "TCP"), (WEB, "TCP")}
 
 
 def test_robots_are_probed_with_franka_sim_check_and_sized_by_measurement():
@@ -92,7 +92,9 @@ def test_the_dockerfile_builds_from_any_base_into_a_non_root_runtime():
     assert _dockerfile_user() != 0
     assert _instructions("ENTRYPOINT") == ['["franka-sim", "serve"]']
     assert "FRANKA_SIM_HOST=0.0.0.0" in " ".join(_instructions("ENV"))
-    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp {DESK}/tcp"]
+    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp {DESK}/tcp {WEB}/tcp"]
+    assert "ARG EXTRAS=web" in _dockerfile()  # the image can serve the web view
+    assert '"$wheel${EXTRAS:+[$EXTRAS]}"' in _dockerfile()
     (healthcheck,) = _instructions("HEALTHCHECK")
     assert "franka-sim check" in healthcheck
     assert "--no-index --find-links" in _dockerfile()  # offline from a wheelhouse
@@ -116,7 +118,11 @@ def test_compose_puts_two_robots_and_a_client_on_one_network_without_published_p
     (network,) = compose["networks"]
     for name, service in services.items():
         assert service["networks"] == [network], name
-        assert "ports" not in service and "network_mode" not in service, name  # no NAT
+        assert "network_mode" not in service, name
+        # No NAT for the robot's ports: only the web view's (plain TCP) may be published.
+        for published in service.get("ports", []):
+            assert published.endswith(f":{WEB}"), (name, published)
+            assert service["environment"]["FRANKA_SIM_WEB_PORT"] == str(WEB)
     client = services["client"]
     assert {r: {"condition": "service_healthy"} for r in robots} == client["depends_on"]
     command = " ".join(client["command"])

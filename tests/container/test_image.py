@@ -64,7 +64,8 @@ def built(daemon, tmp_path_factory):
 
 
 def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built, daemon):
-    assert built["image_mb"] < 350
+    assert built["image_mb"] < 400  # 370 MB with the web extra (317 without)
+    assert "web_s" in built  # its web view served its page
     assert built["stop_s"] < 3.0  # docker stop's kill timeout is 10 s
     assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()  # nothing left
 

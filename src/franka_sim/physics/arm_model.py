@@ -21,6 +21,9 @@ import numpy as np
 from franka_sim.description import hand
 from franka_sim.description.urdf import (ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, FLANGE_LINK,
                                          ArmDescription)
+from franka_sim.physics.arm_look import (COLLISION_GROUP, add_hand_look, add_link_look,
+                                         add_materials, add_mesh_look)
+from franka_sim.physics.arm_meshes import HAND_MESH, HAND_YAW
 from franka_sim.physics.tool import ToolMount
 
 # Motor rotor inertia reflected through the gearbox, kg·m², per joint. libfranka's Model (the
@@ -128,7 +131,7 @@ def _add_capsules(body: mujoco.MjsBody, capsules, offset: np.ndarray, owner: str
                       fromto=np.concatenate(ends), size=[radius, 0, 0], contype=contype,
                       conaffinity=conaffinity, priority=ARM_CONTACT_PRIORITY,
                       solref=ARM_CONTACT_SOLREF, solimp=ARM_CONTACT_SOLIMP,
-                      rgba=[0.9, 0.9, 0.9, 1.0])
+                      group=COLLISION_GROUP, rgba=[0.9, 0.9, 0.9, 0.5])
 
 
 def set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
@@ -143,7 +146,7 @@ def set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
 def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             base: tuple[float, float, float, float] | None = None, armature=ROTOR_INERTIA_FR3,
             tool: ToolMount | None = None, extra_bits: tuple[int, int] = (0, 0),
-            parent: mujoco.MjsBody | None = None) -> None:
+            parent: mujoco.MjsBody | None = None, look: dict | None = None) -> None:
     """The arm + Hand into `spec`, its names prefixed, its base at `base` = (x, y, z, yaw) in
     the world frame (None: the world origin; the arm's root frame is then the world's, else a
     static body named after the root link).
@@ -152,8 +155,11 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
     the hand body (physics/tool.py), keeping the composite the reported Hand.
     `extra_bits` (contype, conaffinity) are OR'ed into every geom's (see arm_bits). `parent`:
     the body the arm stands on (the mobile base), `base` then in its frame; None: the world.
+    `look`: visual meshes by link (physics/arm_meshes.py), in place of our own shapes.
     """
+    look = look or {}
     root = spec.worldbody if parent is None else parent
+    add_materials(spec, prefix)
     if base is not None:
         x, y, z, yaw = base
         root = root.add_body(name=prefix + desc.root, pos=[x, y, z],
@@ -176,6 +182,7 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
         holders[joint.index] = body
 
     moving_links = {joint.child for joint in desc.joints}
+    joint_of = {joint.child: joint for joint in desc.joints}
     for name, frame in desc.frames.items():
         if name == desc.root:
             continue
@@ -196,11 +203,23 @@ def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             set_inertial(body, inertial.mass, inertial.com, inertial.inertia_in_link)
         if name in COLLISION_CAPSULES:
             _add_capsules(body, COLLISION_CAPSULES[name], offset, name, prefix, extra_bits)
+            moved_by = joint_of.get(name) if name in moving_links else None
+            if name in look:
+                add_mesh_look(spec, body, name, look[name], prefix, pos=offset[:3, 3],
+                              quat=quat(offset[:3, :3]))
+            else:
+                add_link_look(body, name, COLLISION_CAPSULES[name], offset, prefix,
+                              None if moved_by is None else moved_by.axis)
 
     flange = desc.frames[FLANGE_LINK]
     hand_body = holders[flange.body].add_body(name=prefix + HAND_BODY, pos=flange.offset[:3, 3],
                                               quat=quat(flange.offset[:3, :3]))
     _add_capsules(hand_body, HAND_CAPSULES, np.eye(4), HAND_BODY, prefix, extra_bits)
+    if HAND_MESH in look:
+        add_mesh_look(spec, hand_body, HAND_BODY, look[HAND_MESH], prefix,
+                      quat=[np.cos(HAND_YAW / 2), 0.0, 0.0, np.sin(HAND_YAW / 2)])
+    else:
+        add_hand_look(hand_body, prefix, HAND_BODY)
     if tool is not None:
         tool.build(spec, hand_body, prefix, extra_bits)
     else:

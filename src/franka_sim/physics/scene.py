@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import importlib.resources
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -43,6 +43,8 @@ class ArmPlacement:
     tool: ToolMount | None = None  # a tool's moving parts on the hand body (physics/tool.py)
     armature: tuple[float, ...] = ROTOR_INERTIA_FR3
     rides: bool = False
+    # Visual meshes by link (physics/arm_meshes.py, --meshes); None: our own shapes.
+    look: dict | None = field(default=None, compare=False, hash=False)
 
     @property
     def prefix(self) -> str:
@@ -91,7 +93,7 @@ def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
         if arm.rides:  # a root body of its own on the base, even at the base's origin
             parent, base = carrier, base or (0.0, 0.0, 0.0, 0.0)
         add_arm(spec, arm.desc, prefix=arm.prefix, base=base, armature=arm.armature,
-                tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent)
+                tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent, look=arm.look)
     if scene_xml is not None:
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)

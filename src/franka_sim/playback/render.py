@@ -31,54 +31,82 @@ def frame_cycles(first: int, last: int, fps: float) -> np.ndarray:
     return np.round(first + np.arange(int((last - first) / step) + 1) * step).astype(int)
 
 
+class Frames:
+    """A recording's video frames, drawn on demand: `model` (its world's), `cycles` (which
+    cycle each frame shows), and iterating gives each frame as an (HEIGHT, WIDTH, 3) uint8
+    array, or with `segmentation` the (object id, object type) of each pixel (which geom it
+    shows: the arm's look is tested that way)."""
+
+    def __init__(self, recording: Recording, *, fps: float = 30.0, camera: str | None = None,
+                 segmentation: bool = False, meshes: Path | None = None) -> None:
+        if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
+            os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
+        import mujoco
+
+        from franka_sim.assembly import WorldParts
+
+        states = recording.states()
+        if len(states) == 0:
+            raise RenderError(f"{recording.path}: no state recorded")
+        with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
+            config = replay_config(recording.metadata, workdir)
+            config.meshes = meshes  # (how it is drawn: never part of a recording)
+            physics = WorldParts(config).make_physics()
+        self.model, self.data = physics.world.model, physics.world.data
+        self._arm = next(iter(physics.world.arms.values()))
+        self._camera = _camera(self.model, camera)
+        try:
+            self._renderer = mujoco.Renderer(self.model, HEIGHT, WIDTH)
+        except Exception as exc:  # noqa: BLE001 - no GL context: say which way to get one
+            raise RenderError(f"no offscreen OpenGL (MUJOCO_GL={os.environ['MUJOCO_GL']}: "
+                              f"{exc}); install libegl1 (or libosmesa6 with "
+                              "MUJOCO_GL=osmesa)") from None
+        if segmentation:
+            self._renderer.enable_segmentation_rendering()
+        self._states = states
+        self._ids = states["message_id"].astype(np.int64)
+        self._poses = [(e.json()["cycle"], np.array(e.json()["qpos"]))
+                       for e in recording.of("bodies")]
+        self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
+        self.cycles = frame_cycles(int(self._ids[0]), int(self._ids[-1]), fps)
+
+    def __iter__(self):
+        import mujoco
+
+        model, data, renderer = self.model, self.data, self._renderer
+        for n in self.cycles:
+            k = self._pose_cycles.searchsorted(n, side="right") - 1
+            if k >= 0 and len(self._poses[k][1]) == model.nq:
+                data.qpos[:] = self._poses[k][1]
+            i = min(self._ids.searchsorted(n), len(self._ids) - 1)
+            data.qpos[self._arm.qs] = self._states["q"][i]
+            mujoco.mj_forward(model, data)
+            renderer.update_scene(data, camera=self._camera)
+            yield np.ascontiguousarray(renderer.render())
+
+    def close(self) -> None:
+        self._renderer.close()
+
+
 def render(recording: Recording, output: Path, *, fps: float = 30.0,
-           camera: str | None = None) -> int:
+           camera: str | None = None, meshes: Path | None = None) -> int:
     """Write the video; the number of frames."""
-    if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's default: no GL)
-        os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
     try:
         import imageio_ffmpeg
     except ImportError:
         raise RenderError("rendering needs imageio-ffmpeg: pip install 'franka-sim[render]'") \
             from None
-    import mujoco
-
-    from franka_sim.assembly import WorldParts
-
-    states = recording.states()
-    if len(states) == 0:
-        raise RenderError(f"{recording.path}: no state recorded")
-    with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
-        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
-    model, data = physics.world.model, physics.world.data
-    arm = next(iter(physics.world.arms.values()))
-    cam = _camera(model, camera)
-    try:
-        renderer = mujoco.Renderer(model, HEIGHT, WIDTH)
-    except Exception as exc:  # noqa: BLE001 - no GL context: say which way to get one
-        raise RenderError(f"no offscreen OpenGL (MUJOCO_GL={os.environ['MUJOCO_GL']}: {exc}); "
-                          "install libegl1 (or libosmesa6 with MUJOCO_GL=osmesa)") from None
-    ids = states["message_id"].astype(np.int64)
-    poses = [(e.json()["cycle"], np.array(e.json()["qpos"])) for e in recording.of("bodies")]
-    pose_cycles = np.array([c for c, _ in poses], dtype=np.int64)
-    cycles = frame_cycles(int(ids[0]), int(ids[-1]), fps)
+    frames = Frames(recording, fps=fps, camera=camera, meshes=meshes)
     writer = imageio_ffmpeg.write_frames(str(output), (WIDTH, HEIGHT), fps=fps,
                                          macro_block_size=1, quality=6)
     writer.send(None)
     try:
-        for n in cycles:
-            k = pose_cycles.searchsorted(n, side="right") - 1
-            if k >= 0 and len(poses[k][1]) == model.nq:
-                data.qpos[:] = poses[k][1]
-            i = min(ids.searchsorted(n), len(ids) - 1)
-            data.qpos[arm.qs] = states["q"][i]
-            mujoco.mj_forward(model, data)
-            renderer.update_scene(data, camera=cam)
-            writer.send(np.ascontiguousarray(renderer.render()))
+        for frame in frames:
+            writer.send(frame)
     finally:
         writer.close()
-        renderer.close()
-    return len(cycles)
+        frames.close()
+    return len(frames.cycles)
 
 
 def _camera(model, name: str | None):

@@ -46,6 +46,9 @@ class CycleDriver:
         self.cycle = None
         self.clock: Clock | None = None
         self.faults = None  # server/network_faults.py NetworkFaults while faults are injected
+        # web/snapshots.py SnapshotTap while someone watches the web view: a copy of what was
+        # sent, at most every 30 ms (one `if` per send otherwise).
+        self.snapshots = None
         self._sockets: tuple = ()
         self._awaiting: list[tuple[int, Callable[[], None]]] = []  # loop: (cycle, deliver)
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -125,7 +128,11 @@ class CycleDriver:
         for endpoint, state in zip(self.endpoints, states):
             if state is not None:
                 endpoint.send_state(state)
-        return time.monotonic()
+        now = time.monotonic()
+        tap = self.snapshots
+        if tap is not None and now >= tap.due:
+            tap.take(states, now)
+        return now
 
     def _post(self, message_id: int, replies) -> None:
         if replies or self._awaiting:

@@ -77,6 +77,7 @@ class FrankaSim(EmbeddedOperations):
         # --record: the whole run, from the world's first cycle (OSError: cannot be written).
         self.recorder = None if config.record is None else self.recordings.open(
             config.record, start=START_FRESH)
+        self.web = None  # web/live.py LiveView while --web serves it
         self._started = False
         self.failed = asyncio.Event()  # set once the world stopped simulating (`failure`)
 
@@ -84,13 +85,17 @@ class FrankaSim(EmbeddedOperations):
     async def start(self) -> "FrankaSim":
         """Serve every arm, or none: an endpoint that cannot open closes all that did."""
         await self.worker.start(on_failure=lambda reason: self.failed.set())
+        config = self.config
         started = []
         try:
             for robot in self.robots:
                 await robot.start()
                 started.append(robot)
             await self.driver.start([robot.udp for robot in self.robots])
+            if config.web_port:
+                await self._start_web()
         except BaseException:
+            await self.driver.stop()
             for robot in reversed(started):
                 await robot.stop_control_api()
                 await robot.stop_endpoints()
@@ -100,7 +105,6 @@ class FrankaSim(EmbeddedOperations):
         self._started = True
         if self.recorder is not None:
             self.recorder.start()  # (what the taps queued so far is written first)
-        config = self.config
         for robot in self.robots:
             log.info("simulated %s %s; clock %s; scene %s)",
                      _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
@@ -112,6 +116,9 @@ class FrankaSim(EmbeddedOperations):
         if not self._started:
             return
         self._started = False
+        if self.web is not None:
+            await asyncio.to_thread(self.web.stop)
+            self.web = None
         for robot in self.robots:
             await robot.stop_control_api()
         for robot in self.robots:
@@ -133,6 +140,22 @@ class FrankaSim(EmbeddedOperations):
         """Why the world stopped simulating (its cycle failed), or None while it runs. Its
         control APIs then answer /health with 503 and this reason; `failed` is set."""
         return self.worker.failure
+
+    async def _start_web(self) -> None:
+        """The web view on the first arm's address (web/live.py; viser imported now, in a
+        worker thread: the loop meanwhile serves the robots)."""
+        from franka_sim.web.live import LiveView
+
+        world = await self.worker.call(lambda physics: physics.world)
+        loop, driver, worker = asyncio.get_running_loop(), self.driver, self.worker
+        arms = [(robot.name, i) for i, robot in enumerate(self.robots)
+                if robot.parts.kind == "arm"]
+        view = LiveView(
+            self.config.arm_specs()[0].host, self.config.web_port, world.model, world.data,
+            arms, attach=lambda tap: setattr(driver, "snapshots", tap),
+            refresh=lambda tap: worker.submit(tap.take_now, (), lambda _result: None, loop))
+        await asyncio.to_thread(view.start)
+        self.web = view
 
     # -- the first (or only) arm, as a lone robot's simulator offers it ----------------------------
     @property

@@ -1,0 +1,142 @@
+"""`franka-sim replay | plot | render | view`: the commands that read a recording, on the CLI's
+app (cli.py imports this module, which registers them)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from franka_sim.cli import app
+
+
+def _open(path: Path):
+    """The recording at `path`, or its one-line error and exit 1."""
+    from franka_sim.recording import mcap_missing
+
+    if missing := mcap_missing():
+        typer.echo(f"franka-sim: {missing}", err=True)
+        raise typer.Exit(1)
+    from franka_sim.recording.reader import RecordingError, open_recording
+
+    try:
+        return open_recording(path)
+    except RecordingError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def replay(
+    recording: Path = typer.Argument(..., metavar="RECORDING", help="An MCAP file from "
+                                     "`franka-sim serve --record`."),
+    until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
+) -> None:
+    """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
+    `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
+    from franka_sim.recording.metadata import Incompatible
+    from franka_sim.playback.replay import replay as run_replay
+
+    loaded = _open(recording)
+    try:
+        outcome = run_replay(loaded, until)
+    except Incompatible as exc:
+        typer.echo(f"franka-sim: {recording}: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(outcome.line())
+    if not outcome.identical:
+        raise typer.Exit(1)
+
+
+@app.command()
+def plot(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
+    joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
+    start: float | None = typer.Option(None, "--from", help="From this robot time \\[s]."),
+    end: float | None = typer.Option(None, "--to", help="To this robot time \\[s]."),
+    fields: str | None = typer.Option(
+        None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
+    robot: str | None = typer.Option(
+        None, help="The robot to draw, by name, in a recording of several (default: the first)."),
+) -> None:
+    """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
+    rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
+    from franka_sim.playback.plot import PlotError, parse_fields, parse_joints
+    from franka_sim.playback.plot import plot as draw
+    from franka_sim.recording.reader import RecordingError
+
+    try:
+        chosen, extra = parse_joints(joints), parse_fields(fields)
+        loaded = _open(recording)
+        draw(loaded, output, joints=chosen, start=start, end=end, fields=extra, robot=robot)
+    except (PlotError, RecordingError) as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        typer.echo(f"franka-sim: cannot write {output}: {exc.strerror or exc}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def render(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
+                                help="The video to write (.mp4)."),
+    camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
+    fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
+        "serve --meshes).",
+    ),
+) -> None:
+    """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
+    needs franka-sim\\[render])."""
+    from franka_sim.physics.scene import SceneError
+    from franka_sim.playback.render import RenderError
+    from franka_sim.playback.render import render as make_video
+
+    loaded = _open(recording)
+    try:
+        frames = make_video(loaded, output, fps=fps, camera=camera, meshes=meshes)
+    except (RenderError, SceneError) as exc:  # (SceneError: --meshes)
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(f"{output}: {frames} frames")
+
+
+@app.command()
+def view(
+    recording: Path = typer.Argument(..., metavar="RECORDING"),
+    host: str = typer.Option("127.0.0.1", help="Address to serve the page on."),
+    port: int = typer.Option(8080, min=1, max=65535, help="Port to serve the page on."),
+    meshes: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
+        "serve --meshes).",
+    ),
+) -> None:
+    """Watch a recording in a browser: the world in 3D with a timeline to scrub or play, and
+    each arm's readouts and plots (docs/viewing.md; needs franka-sim\\[web]). Until Ctrl-C."""
+    from franka_sim.web import web_missing
+
+    if missing := web_missing():
+        typer.echo(f"franka-sim: {missing}", err=True)
+        raise typer.Exit(1)
+    from franka_sim.physics.scene import SceneError
+    from franka_sim.recording.metadata import Incompatible
+    from franka_sim.web.recording_view import serve_recording
+
+    loaded = _open(recording)
+    try:
+        serve_recording(loaded, host, port, meshes)
+    except Incompatible as exc:
+        typer.echo(f"franka-sim: {recording}: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except SceneError as exc:  # --meshes
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    except OSError as exc:
+        typer.echo(f"franka-sim: {exc.strerror or exc}", err=True)
+        raise typer.Exit(1) from None

@@ -1,0 +1,152 @@
+"""One arm's live plots and readouts in the web view's side panel, from the RobotState bytes
+a snapshot holds (decoded on the web thread: exactly what the arm's client was sent).
+
+Plots: q against q_d and tau_J against tau_J_d for the joint the dropdown picks, the external
+wrench's force, and the command success rate, over the last WINDOW seconds. Readouts: the
+robot mode, the active errors, the last reflex's reasons, q and the wrench as numbers (what a
+test compares to the control API's /state), and the last few changes of mode, errors and
+reflex, each with its time.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from franka_sim.protocol.codec import decode_state
+from franka_sim.protocol.enums import RobotMode
+from franka_sim.protocol.errors import ERROR_NAMES
+
+WINDOW = 10.0  # s of history in the plots
+PLOT_PERIOD = 0.2  # s between two plot updates (the readouts follow every frame)
+DIGITS = 4  # decimals of the numeric readouts
+EVENTS = 6  # lines of the events readout (mode, errors and reflexes as they change)
+_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
+
+
+def mode_name(value: int) -> str:
+    try:
+        return RobotMode(value).name[1:]
+    except ValueError:
+        return f"unknown ({value})"
+
+
+def error_names(bits) -> str:
+    names = [ERROR_NAMES[i] for i in np.flatnonzero(bits)]
+    return ", ".join(names) or "none"
+
+
+def numbers(values) -> str:
+    return " ".join(f"{float(v):.{DIGITS}f}" for v in values)
+
+
+_PLOTS = (("q vs q_d (rad)", ("q", "q_d")), ("tau_J vs tau_J_d (Nm)", ("tau_J", "tau_J_d")),
+          ("external force at K (N)", ("Fx", "Fy", "Fz")),
+          ("command success rate", ("success rate",)))
+# x is seconds, not a date (uPlot's default); y follows the data.
+_SCALES = {"x": {"time": False, "auto": True}, "y": {"auto": True}}
+
+
+def _series(*labels: str) -> tuple[dict, ...]:
+    return ({"label": "t (s)"},
+            *({"label": label, "stroke": _COLORS[i], "width": 1.5}
+              for i, label in enumerate(labels)))
+
+
+class ArmPanel:
+    """`gui`: viser's GuiApi; `index`: the arm's robot index in a snapshot's states."""
+
+    def __init__(self, gui, name: str, index: int, t0: float | None = None) -> None:
+        """`t0`: the plots' time origin (None: the first snapshot's time)."""
+        self.index = index
+        self._rows: deque = deque()  # (t, q, q_d, tau_J, tau_J_d, F_ext, success rate)
+        self._t0 = t0
+        self._last_plot = 0.0
+        self._last_state: bytes | None = None
+        self._status: tuple | None = None  # (mode, errors, reflex) last shown
+        self._events: deque = deque(maxlen=EVENTS)
+        self._gui = gui
+        self._folder = gui.add_folder(f"arm {name}")
+        with self._folder:
+            self.mode = gui.add_text("robot mode", "no state sent yet (no client)",
+                                     disabled=True)
+            self.errors = gui.add_text("errors", "-", disabled=True)
+            self.reflex = gui.add_text("last reflex", "none", disabled=True)
+            self.success = gui.add_text("success rate", "-", disabled=True)
+            self.q = gui.add_text("q (rad)", "-", disabled=True)
+            self.wrench = gui.add_text("O_F_ext_hat_K", "-", disabled=True)
+            self.events = gui.add_text("events", "", multiline=True, disabled=True)
+            self.joint = gui.add_dropdown("joint", [str(j) for j in range(1, 8)],
+                                          initial_value="1")
+        # The plots are made with their first two points: a uPlot made empty keeps the empty
+        # scale it started with (viser 1.1), whatever data follows.
+        self.plots: tuple | None = None
+
+    def show(self, snapshot) -> None:
+        """Readouts from the snapshot's state of this arm; the plots every PLOT_PERIOD."""
+        states = snapshot.states
+        data = states[self.index] if self.index < len(states) else None
+        if data is None or data is self._last_state:
+            return
+        self._last_state = data
+        s = decode_state(data)
+        if self._t0 is None:
+            self._t0 = snapshot.time
+        t = snapshot.time - self._t0
+        if self._rows and t < self._rows[-1][0]:  # a timeline scrubbed back: start again
+            self._rows.clear()
+            self._last_plot = -PLOT_PERIOD
+        mode, errors = mode_name(int(s["robot_mode"])), error_names(s["errors"])
+        reflex = error_names(s["reflex_reason"])
+        self.mode.value, self.errors.value = mode, errors
+        if reflex != "none":
+            self.reflex.value = reflex
+        self._note((mode, errors, reflex), t)
+        self.success.value = f"{float(s['control_command_success_rate']):.3f}"
+        self.q.value = numbers(s["q"])
+        self.wrench.value = numbers(s["O_F_ext_hat_K"])
+        rows = self._rows
+        rows.append((t, s["q"].copy(), s["q_d"].copy(), s["tau_J"].copy(), s["tau_J_d"].copy(),
+                     s["O_F_ext_hat_K"][:3].copy(), float(s["control_command_success_rate"])))
+        while rows and rows[0][0] < t - WINDOW:
+            rows.popleft()
+        if abs(snapshot.time - self._last_plot) >= PLOT_PERIOD:
+            self._last_plot = snapshot.time
+            self._plot()
+
+    def _note(self, status: tuple, t: float) -> None:
+        """A line in `events` each time the mode, the errors or the reflex's reasons change (as
+        seen ~30 times a second: a change undone within 30 ms may go unseen)."""
+        if status == self._status:
+            return
+        before, self._status = self._status, status
+        mode, errors, reflex = status
+        line = f"{t:.3f} s: {mode}"
+        if before is None or errors != before[1]:
+            line += f"; errors: {errors}"
+        if reflex != "none" and (before is None or reflex != before[2]):
+            line += f"; reflex: {reflex}"
+        self._events.append(line)
+        self.events.value = "\n".join(reversed(self._events))  # newest first
+
+    def _plot(self) -> None:
+        rows, j = self._rows, int(self.joint.value) - 1
+        if len(rows) < 2:
+            return
+        t = np.array([r[0] for r in rows])
+        forces = np.array([r[5] for r in rows]).reshape(-1, 3)
+        data = ((t, np.array([r[1][j] for r in rows]), np.array([r[2][j] for r in rows])),
+                (t, np.array([r[3][j] for r in rows]), np.array([r[4][j] for r in rows])),
+                (t, forces[:, 0], forces[:, 1], forces[:, 2]),
+                (t, np.array([r[6] for r in rows])))
+        if self.plots is None:
+            gui = self._gui
+            with self._folder:
+                self.plots = tuple(
+                    gui.add_uplot(values, _series(*labels), title=title, scales=_SCALES,
+                                  aspect=2.0)
+                    for values, (title, labels) in zip(data, _PLOTS))
+            return
+        for plot, values in zip(self.plots, data):
+            plot.data = values

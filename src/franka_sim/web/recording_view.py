@@ -1,0 +1,127 @@
+"""`franka-sim view RECORDING`: a recording in the web view, with a timeline to scrub or play.
+
+The recorded world is built as `render` and `replay` build it (WorldParts from the
+recording's metadata). A moment of the timeline is a snapshot like the live view's: each arm's
+recorded state sent nearest that cycle, the world's recorded positions before it, so the 3D
+view and the arm panels are the live view's own (web/world_view.py, web/arm_panel.py).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import tempfile
+import threading
+
+import numpy as np
+
+from franka_sim.web.arm_panel import ArmPanel
+from franka_sim.web.live import TITLE, quiet_libraries, stop_quietly
+from franka_sim.web.snapshots import Snapshot
+from franka_sim.web.world_view import WorldView
+
+FRAME_PERIOD = 1 / 30  # s between two frames while playing
+SPEEDS = ("0.25", "0.5", "1", "2", "4")
+
+
+class RecordingTimeline:
+    """What the recording shows at each cycle (no GUI: tests read it directly)."""
+
+    def __init__(self, recording, physics) -> None:
+        world = physics.world
+        self.model = world.model
+        self._qpos0 = world.data.qpos.copy()
+        self._mocap = (world.data.mocap_pos.copy(), world.data.mocap_quat.copy())
+        self.arms = list(world.arms.values())
+        self.names = recording.robots[:len(self.arms)]
+        self.states = [recording.states(name) for name in self.names]
+        self.ids = [s["message_id"].astype(np.int64) for s in self.states]
+        poses = [(e.json()["cycle"], np.array(e.json()["qpos"])) for e in recording.of("bodies")]
+        self._poses = [(c, q) for c, q in poses if len(q) == self.model.nq]
+        self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
+        self.first = int(min(ids[0] for ids in self.ids if len(ids)))
+        self.last = int(max(ids[-1] for ids in self.ids if len(ids)))
+
+    @property
+    def duration(self) -> float:
+        """s of robot time from the first state to the last."""
+        return (self.last - self.first) / 1000.0
+
+    def at(self, seconds: float) -> Snapshot:
+        """The world at `seconds` of robot time after the first state."""
+        cycle = self.first + int(round(seconds * 1000.0))
+        k = self._pose_cycles.searchsorted(cycle, side="right") - 1
+        qpos = self._poses[k][1].copy() if k >= 0 else self._qpos0.copy()
+        sent = []
+        for arm, states, ids in zip(self.arms, self.states, self.ids):
+            if len(ids) == 0:
+                sent.append(None)
+                continue
+            i = min(int(ids.searchsorted(cycle)), len(ids) - 1)
+            qpos[arm.qs] = states["q"][i]
+            sent.append(states[i].tobytes())
+        return Snapshot(seconds, tuple(sent), qpos, *self._mocap)
+
+
+def serve_recording(recording, host: str, port: int, meshes=None) -> None:
+    """Serve the view of `recording` until Ctrl-C (OSError: the port cannot be had)."""
+    import viser
+
+    from franka_sim.assembly import WorldParts
+    from franka_sim.recording.metadata import replay_config
+
+    with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
+        config = replay_config(recording.metadata, workdir)
+        config.meshes = meshes  # (--meshes: how it is drawn)
+        physics = WorldParts(config).make_physics()
+    timeline = RecordingTimeline(recording, physics)
+    quiet_libraries()
+    with contextlib.redirect_stdout(io.StringIO()):
+        server = viser.ViserServer(host=host, port=port, label=f"{TITLE}: {recording.path.name}",
+                                   verbose=False)
+    server.request_share_url = lambda verbose=True: None  # (never a tunnel: live.py)
+    if server.get_port() != port:
+        stop_quietly(server)
+        raise OSError(f"port {port} on {host} is in use")
+    server.scene.set_up_direction("+z")
+    server.gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
+    world = WorldView(server.scene, timeline.model)
+    with server.gui.add_folder("timeline"):
+        slider = server.gui.add_slider("time (s)", min=0.0, max=max(timeline.duration, 0.001),
+                                       step=0.001, initial_value=0.0)
+        play = server.gui.add_button("play / pause")
+        speed = server.gui.add_dropdown("speed", SPEEDS, initial_value="1")
+    panels = [ArmPanel(server.gui, name, i, t0=0.0) for i, name in enumerate(timeline.names)]
+    playing = threading.Event()
+    lock = threading.Lock()
+
+    def show(seconds: float) -> None:
+        with lock, server.atomic():
+            snapshot = timeline.at(seconds)
+            world.show(snapshot)
+            for panel in panels:
+                panel.show(snapshot)
+
+    slider.on_update(lambda _event: show(slider.value))
+    play.on_click(lambda _event: playing.clear() if playing.is_set() else playing.set())
+
+    @server.on_client_connect
+    def _(client) -> None:
+        client.camera.position, client.camera.look_at = world.camera()
+
+    show(0.0)
+    print(f"franka-sim: {recording.path} on http://{host}:{server.get_port()} (Ctrl-C ends)",
+          flush=True)
+    stop = threading.Event()
+    try:
+        while not stop.wait(FRAME_PERIOD):
+            if playing.is_set():
+                t = slider.value + FRAME_PERIOD * float(speed.value)
+                if t >= timeline.duration:
+                    t = timeline.duration
+                    playing.clear()
+                slider.value = t  # (its on_update shows it)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        stop_quietly(server)

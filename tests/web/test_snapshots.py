@@ -1,0 +1,141 @@
+"""The web view's hand-off, without a browser or a server: the cycle thread's snapshot is a copy
+taken at most every PERIOD after a send, and only while someone watches (the tap is attached
+with the first watcher and detached with the last)."""
+
+from __future__ import annotations
+
+import threading
+import types
+
+import mujoco
+import numpy as np
+import pytest
+
+from franka_sim.server.cycle_driver import CycleDriver
+from franka_sim.web.snapshots import PERIOD, SnapshotTap
+
+pytest.importorskip("viser", reason="the web view needs franka-sim[web] (viser)")
+
+
+class Endpoint:
+    def __init__(self) -> None:
+        self.sent = []
+
+    def send_state(self, data) -> None:
+        self.sent.append(data)
+
+
+def data_of_a_free_box():
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='.1 .1 .1' type='box'/></body>"
+        "</worldbody></mujoco>")
+    return mujoco.MjData(model)
+
+
+def driver(endpoints) -> CycleDriver:
+    made = CycleDriver(lambda physics: None, thread=None, lock=threading.Lock(), lockstep=False,
+                       deliver=lambda replies: None, has_client=lambda: True, watcher=None)
+    made.endpoints = tuple(endpoints)
+    return made
+
+
+def test_a_snapshot_is_a_copy_of_what_was_sent_at_most_every_period():
+    data = data_of_a_free_box()
+    tap = SnapshotTap(data)
+    endpoints = [Endpoint(), Endpoint()]
+    cycle = driver(endpoints)
+    cycle._send((b"a" * 8, None))  # nobody watching: nothing kept
+    assert tap.latest is None and tap.taken == 0
+    cycle.snapshots = tap
+    first = cycle._send((b"one", None))
+    assert tap.taken == 1 and tap.latest.states == (b"one", None)
+    assert tap.latest.time == first and tap.due == first + PERIOD
+    data.qpos[0] = 5.0  # the world moves on: the snapshot does not
+    assert tap.latest.qpos[0] != 5.0
+    cycle._send((b"two", b"x"))  # within PERIOD of the last one: not taken
+    assert tap.taken == 1 and tap.latest.states == (b"one", None)
+    tap.due = 0.0  # (PERIOD has passed)
+    cycle._send((b"three", b"y"))
+    assert tap.taken == 2 and tap.latest.states == (b"three", b"y")
+    assert tap.latest.qpos[0] == 5.0
+    assert [e.sent for e in endpoints] == [[b"a" * 8, b"one", b"two", b"three"], [b"x", b"y"]]
+
+
+def test_the_tap_is_attached_only_while_someone_watches():
+    from franka_sim.web.live import LiveView
+
+    data = data_of_a_free_box()
+    attached, refreshed = [], []
+    view = LiveView("127.0.0.1", 0, data.model, data, [], attach=attached.append,
+                    refresh=refreshed.append)
+    view.world = types.SimpleNamespace(camera=lambda: ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
+    view._connected(Client())
+    view._connected(Client())
+    assert attached == [view.tap] and refreshed == [view.tap] and view.watchers == 2
+    view._disconnected(None)
+    assert attached == [view.tap]
+    view._disconnected(None)
+    assert attached == [view.tap, None] and view.watchers == 0
+
+
+class Client:
+    class camera:  # noqa: N801 - what viser's ClientHandle offers
+        position = look_at = None
+
+
+class Field:
+    def __init__(self, value=None) -> None:
+        self.value = value
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+
+class Gui:
+    """What ArmPanel asks of viser's GuiApi, each field a plain value holder."""
+
+    def add_folder(self, label):
+        return Field()
+
+    def add_text(self, label, initial_value, **kwargs):
+        return Field(initial_value)
+
+    def add_dropdown(self, label, options, initial_value=None, **kwargs):
+        return Field(initial_value)
+
+    def add_uplot(self, data, series, **kwargs):
+        return Field(data)
+
+
+def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
+    from franka_sim.protocol.codec import STATE_DTYPE
+    from franka_sim.protocol.enums import RobotMode
+    from franka_sim.protocol.errors import ERROR_NAMES
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.snapshots import Snapshot
+
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    reflex = ERROR_NAMES.index("joint_position_limits_violation")
+
+    def show(t, mode, error=None):
+        state = np.zeros(1, STATE_DTYPE)[0]
+        state["robot_mode"] = int(mode)
+        if error is not None:
+            state["errors"][error] = state["reflex_reason"][error] = 1
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+
+    show(0.0, RobotMode.kIdle)
+    show(0.5, RobotMode.kMove)
+    show(0.6, RobotMode.kMove)  # no change: no line
+    show(1.0, RobotMode.kReflex, reflex)
+    assert panel.mode.value == "Reflex"
+    assert panel.errors.value == panel.reflex.value == "joint_position_limits_violation"
+    assert panel.events.value.splitlines() == [
+        "1.000 s: Reflex; errors: joint_position_limits_violation; "
+        "reflex: joint_position_limits_violation",
+        "0.500 s: Move",
+        "0.000 s: Idle; errors: none"]
+    assert panel.plots is not None and len(panel.plots[0].value[0]) >= 2  # (made, with data)

@@ -1,0 +1,158 @@
+"""The web view in a real browser (Debian's headless chromium): the page loads without console
+errors, the 3D view shows the arm, a pylibfranka client's motions move it on screen, and the
+side panel's readouts say what the control API's /state says."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from franka_sim.config import READY_POSE
+from franka_sim.control import Control
+from franka_sim.testing import running_sim
+from support.browser import (console_errors, headless_chromium, readouts, screenshot,
+                             wait_for)
+
+pytest.importorskip("viser", reason="the web view needs franka-sim[web] (viser)")
+
+WEB_PORT = 8080
+DIGITS = 4  # the readouts' decimals (web/arm_panel.py)
+LINK_WHITE = 200  # a link's pixels are at least this bright in every channel
+CHANGED = 40  # a pixel moved when a channel changed by more than this
+
+# A pylibfranka client in a child Python (its blocking calls hold the GIL, which would stall
+# this process's browser calls): each line of 7 numbers read is a motion there, "moved" after.
+CLIENT = """
+import sys
+from support.clients import connect, move_to
+robot = connect(sys.argv[1])
+print("connected", flush=True)
+for line in sys.stdin:
+    move_to(robot, [float(v) for v in line.split()], seconds=1.5)
+    print("moved", flush=True)
+"""
+
+
+class Client:
+    def __init__(self, host: str) -> None:
+        tests = Path(__file__).resolve().parents[1]
+        self.proc = subprocess.Popen([sys.executable, "-c", CLIENT, host], text=True,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     env={"PYTHONPATH": str(tests), "PATH": "/usr/bin:/bin"})
+        assert self.proc.stdout.readline().strip() == "connected"
+
+    def move(self, q) -> None:
+        self.proc.stdin.write(" ".join(f"{v:.6f}" for v in q) + "\n")
+        self.proc.stdin.flush()
+        said = self.proc.stdout.readline().strip()
+        assert said == "moved", f"the client did not finish its motion: {said!r}"
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait(20)
+
+
+@pytest.fixture(scope="module")
+def served():
+    with running_sim("--web", str(WEB_PORT)) as server:
+        yield server
+
+
+@pytest.fixture(scope="module")
+def page(served):
+    with headless_chromium() as browser:
+        browser.get(f"http://{served.host}:{WEB_PORT}/")
+        wait_for(lambda: "robot mode" in readouts(browser), 60, "the side panel")
+        yield browser
+
+
+def view_of(image: np.ndarray) -> np.ndarray:
+    """The 3D view's part of a screenshot: left of the side panel, below the notices."""
+    height, width, _ = image.shape
+    return image[height // 5:, : int(width * 0.6)].astype(int)
+
+
+def link_pixels(image: np.ndarray) -> np.ndarray:
+    """Where the view shows the arm's white links (bright, hardly coloured)."""
+    bright = image.min(axis=2) >= LINK_WHITE
+    grey = image.max(axis=2) - image.min(axis=2) <= 12
+    return bright & grey & (image.min(axis=2) < 254)  # (not the white page behind)
+
+
+def shown_q(browser) -> list[float] | None:
+    text = readouts(browser).get("q (rad)", "")
+    try:
+        values = [float(v) for v in text.split()]
+    except ValueError:
+        return None
+    return values if len(values) == 7 else None
+
+
+def shows_state(browser, host: str):
+    """The readouts once they say what /state says (None until then)."""
+    state = Control(host).state()
+    shown = readouts(browser)
+    expected = " ".join(f"{v:.{DIGITS}f}" for v in state["q"])
+    if shown.get("q (rad)") == expected and shown.get("robot mode") == state["robot_mode"]:
+        return shown
+    return None
+
+
+def test_page_loads_without_console_errors_and_shows_the_arm(page, served):
+    assert console_errors(page) == []
+    view = view_of(screenshot(page))
+    assert len(np.unique(view.reshape(-1, 3), axis=0)) > 50, "the 3D view is blank"
+    assert link_pixels(view).sum() > 500, "no white link in the 3D view"
+    assert served.log_matching("a web watcher connected")
+
+
+def test_motions_move_the_arm_on_screen_and_the_readouts_match_state(page, served):
+    client = Client(served.host)
+    try:
+        turned = list(READY_POSE)
+        turned[0] += 0.8  # joint 1: the whole arm swings round
+        client.move(READY_POSE)
+        wait_for(lambda: shows_state(page, served.host), 30, "the readouts to match /state")
+        before = view_of(screenshot(page))
+        client.move(turned)
+        shown = wait_for(lambda: shows_state(page, served.host), 30,
+                         "the readouts to match /state after the motion")
+        after = view_of(screenshot(page))
+    finally:
+        client.close()
+    assert abs(shown_q(page)[0] - turned[0]) < 1e-3
+    assert shown["robot mode"] == "Idle" and shown["errors"] == "none"
+    changed = np.abs(before - after).max(axis=2) > CHANGED
+    assert changed.sum() > 500, "the arm did not move on screen"
+    # What changed is where the arm was or now is: within its links' extent, before or after.
+    arm = link_pixels(before) | link_pixels(after)
+    rows, cols = np.nonzero(arm)
+    box = np.zeros_like(arm)
+    margin = 40
+    box[max(rows.min() - margin, 0):rows.max() + margin,
+        max(cols.min() - margin, 0):cols.max() + margin] = True
+    assert changed[box].sum() >= 0.9 * changed.sum(), "pixels changed away from the arm"
+    assert console_errors(page) == []
+    assert plot_has_lines(page, "q vs q_d (rad)"), "the q plot draws no line"
+
+
+def plot_has_lines(browser, title: str) -> bool:
+    """The uPlot of that title shows its series' colours (web/arm_panel.py's strokes)."""
+    from PIL import Image
+    import io
+
+    from selenium.webdriver.common.by import By
+
+    for plot in browser.find_elements(By.CSS_SELECTOR, ".uplot"):
+        if title in plot.text:
+            browser.execute_script("arguments[0].scrollIntoView()", plot)
+            image = np.asarray(Image.open(io.BytesIO(plot.screenshot_as_png)).convert("RGB"))
+            image = image[: int(image.shape[0] * 0.75)].astype(int)  # (not the legend's keys)
+            blue = (np.abs(image - (0x1F, 0x77, 0xB4)).max(axis=2) < 40).sum()
+            orange = (np.abs(image - (0xFF, 0x7F, 0x0E)).max(axis=2) < 40).sum()
+            return blue + orange > 100
+    return False
