@@ -246,7 +246,10 @@ def scenario_setters(host: str) -> dict:
                    "I_load": np.asarray(s.I_load).ravel(order="F").tolist(),
                    "m_ee": s.m_ee, "m_total": s.m_total}
     # The robot refuses Set* while a motion runs; libfranka turns that into a CommandException.
-    robot.move(franky.JointMotion((np.array(READY) + [0.2, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    # The motion holds its target until the next one takes over (it cannot have ended by the
+    # time the setter is sent, however slowly this process runs beside it).
+    target = (np.array(READY) + [0.2, 0, 0, 0, 0, 0, 0]).tolist()
+    robot.move(franky.JointMotion(target, return_when_finished=False), asynchronous=True)
     _moving(robot)
     _wait_robot_ms(robot, 100)
     try:
@@ -254,6 +257,7 @@ def scenario_setters(host: str) -> dict:
         out["during_motion"] = None
     except franky.CommandException as exc:
         out["during_motion"] = str(exc)
+    robot.move(franky.JointMotion(target))  # takes over, and ends at the target
     robot.join_motion()
     robot.set_ee(np.eye(4).ravel(order="F").tolist())
     robot.set_k(np.eye(4).ravel(order="F").tolist())
