@@ -99,7 +99,8 @@ def serve(
     tool: ToolName = typer.Option(
         ToolName.hand, "--tool", envvar="FRANKA_SIM_TOOL",
         help="The tool on every arm's flange and the service it answers beside the FCI: hand "
-        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world) or none "
+        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world), vacuum (the "
+        "Cobot Pump, vacuum gripper protocol on TCP 1339, a suction cup in the world) or none "
         "(no tool service: its port refuses connections, and the Hand's body is rigid).",
     ),
     no_gripper: bool = typer.Option(

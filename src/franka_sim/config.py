@@ -52,6 +52,7 @@ class ToolName(str, Enum):
     """The tools an arm can carry (franka_sim/tools/ has one row for each but `none`)."""
 
     hand = "hand"
+    vacuum = "vacuum"
     none = "none"
 
 
