@@ -5,7 +5,8 @@ run in a virtual environment of its own (tests/clients/test_panda_python_vacuum.
 
 Moves the cup onto the part (`above`, then slowly `at`), vacuums it, lifts it (`above`,
 `speed` as the plan says), carries it over `place_above` and down to `place_at`, drops it off
-and rises again; a leg with no `place_at` only lifts. Prints one JSON line: the pump's answers
+and rises again; a plan with no `place_at` only lifts (and `swing`s the arm) (`thresholds`: the collision
+thresholds, Nm and N, for a part heavy enough to trip the default ones). Prints one JSON line: the pump's answers
 and the states it read along the way.
 """
 
@@ -31,6 +32,9 @@ def _state(vacuum) -> dict:
 
 def main(host: str, plan: dict) -> dict:
     panda = panda_py.Panda(host)
+    if plan.get("thresholds"):  # a heavy part: the robot should not take its weight for a collision
+        t = plan["thresholds"]
+        panda.get_robot().set_collision_behavior([t] * 7, [t] * 7, [t] * 6, [t] * 6)
     vacuum = libfranka.VacuumGripper(host)
     out = {"server_version": vacuum.server_version(), "initial": _state(vacuum)}
     panda.move_to_joint_position(np.array(plan["above"]))
@@ -39,6 +43,9 @@ def main(host: str, plan: dict) -> dict:
     out["after_vacuum"] = _state(vacuum)
     panda.move_to_joint_position(np.array(plan["above"]), speed_factor=plan["speed"])
     out["lifted"] = _state(vacuum)
+    if "swing" in plan:  # a turn of the arm at `swing_speed` with the part
+        panda.move_to_joint_position(np.array(plan["swing"]), speed_factor=plan["swing_speed"])
+        out["swung"] = _state(vacuum)
     if "place_at" in plan:
         panda.move_to_joint_position(np.array(plan["place_above"]), speed_factor=0.1)
         panda.move_to_joint_position(np.array(plan["place_at"]), speed_factor=0.05)

@@ -86,6 +86,8 @@ class VacuumGripper:
         self.cycle = cycle
         if cup is None:
             return
+        if self.cup.sealed and not cup.sealed and cup.lost != "vented":
+            log.info("vacuum gripper: the part %s came off: %s", self.cup.part, cup.lost)
         self.cup = cup
         self._judge(cup.vacuum)
         if self._holding and not self.in_control_range:
