@@ -22,8 +22,8 @@ and N bounds the shear (LIP_FRICTION · N) and the moment (N · CUP_RADIUS: the 
 moving to its rim) the seal takes. Beyond any of them the part comes off: the weld goes, the
 air rushes in, and the part falls free. The lip gives (LIP_TIME_CONSTANT), so the limits hold
 the wrench averaged over that time, not a single step's peak; and while the part still rests
-on something (the table, as a lift begins) only the pull counts, the support sharing the
-rest. Venting the cup to ambient lets go the same way.
+on something (the table, as a lift begins) that support shares the load, so the limits hold
+from the step it leaves it. Venting the cup to ambient lets go the same way.
 
 Simplified: the cup is rigid (no bellows), the seal is perfect or gone (no leak), the figures
 are ours (docs/tools.md).
@@ -208,13 +208,13 @@ class Cup:
         blend = self._dt / (LIP_TIME_CONSTANT + self._dt)
         self._wrench += blend * (np.concatenate([f, tau]) - self._wrench)
         f, tau = self._wrench[:3], self._wrench[3:]
+        if self._supported():  # it still rests on something: that takes what the cup does not
+            return ""
         pull = -float(f @ axis)  # away from the lip is +axis
         holding = self.vacuum * PA_PER_MBAR * CUP_AREA
         pressed = holding - pull
         if pressed < 0.0:
             return f"pulled off ({pull:.1f} N, the vacuum holds {holding:.1f} N)"
-        if self._supported():  # it still rests on something: that takes the rest
-            return ""
         shear = float(np.linalg.norm(f + pull * axis))
         if shear > LIP_FRICTION[0] * pressed:
             return f"slid off ({shear:.1f} N sideways on {pressed:.1f} N pressing)"
