@@ -31,6 +31,7 @@ from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.hand import NOMINAL_MAX_WIDTH, Hand
 from franka_sim.robot.tool import ToolDevice
+from franka_sim.robot.vacuum_gripper import VacuumGripper
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 
@@ -64,6 +65,7 @@ class ArmOps(FaultOps):
         self.desk_effects = None
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
+        self.pump = tool if isinstance(tool, VacuumGripper) else None
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
@@ -124,6 +126,7 @@ class ArmOps(FaultOps):
                     "errors": [ERROR_NAMES[i] for i in np.flatnonzero(core.status.errors)],
                     "success_rate": float(core.success_rate),
                     "gripper_width": None if self.hand is None else float(self.hand.width),
+                    "vacuum_gripper": None if self.pump is None else self.pump.snapshot(),
                     "cycle": core.message_id,
                 }
         return await self._job(read)
@@ -199,7 +202,7 @@ class ArmOps(FaultOps):
             raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
                            "an error recovery is under way (let it finish first)")
         if tool is not None and tool.busy:
-            raise Conflict("a gripper action is under way (let it finish first)")
+            raise Conflict("a tool's action is under way (let it finish first)")
 
     def _reset_now(self, arm, q: np.ndarray, gripper_width: float | None) -> dict:
         """The reset itself (cycle thread, lock held, `_refuse_busy` passed), on this arm's

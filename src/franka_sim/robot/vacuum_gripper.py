@@ -86,7 +86,8 @@ class VacuumGripper:
         self.cycle = cycle
         if cup is None:
             return
-        if self.cup.sealed and not cup.sealed and cup.lost != "vented":
+        dropping = self._action is not None and self._action.kind is VacuumGripperCommand.DropOff
+        if self.cup.sealed and not cup.sealed and not dropping:
             log.info("vacuum gripper: the part %s came off: %s", self.cup.part, cup.lost)
         self.cup = cup
         self._judge(cup.vacuum)
