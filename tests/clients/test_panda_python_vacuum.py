@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from franka_sim.control import Control
 from franka_sim.testing import running_sim
@@ -49,10 +50,15 @@ def _run(python, plan, *flags):
 
 
 @pytest.fixture(scope="module")
-def placed(python):
+def recording(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("vacuum") / "run.mcap"
+
+
+@pytest.fixture(scope="module")
+def placed(python, recording):
     return _run(python, {"above": ABOVE.tolist(), "at": AT.tolist(), "speed": 0.1,
                          "place_above": pp.solve_ik(PLACE + [0, 0, 0.15], PLACE_AT).tolist(),
-                         "place_at": PLACE_AT.tolist()})
+                         "place_at": PLACE_AT.tolist()}, "--record", str(recording))
 
 
 def test_it_connects_to_protocol_1_and_reads_an_idle_pump(placed):
@@ -81,6 +87,23 @@ def test_it_drops_the_cube_off_where_it_lands_on_the_table(placed):
     assert cube[2] == pytest.approx(0.025, abs=0.001)  # resting on the table
     assert state["vacuum_gripper"]["part_detached"] and state["vacuum_gripper"]["part"] is None
     assert lost == []  # it came off by the drop-off alone
+
+
+def test_its_recording_holds_the_pump_and_replays_identical(placed, recording):
+    with open(recording, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        counts = {summary.channels[c].topic: n
+                  for c, n in summary.statistics.channel_message_counts.items()}
+        requests = [json.loads(m.data) for _, c, m in reader.iter_messages(topics=["/fr3/tcp"])]
+    assert counts["/fr3/vacuum_gripper_state"] > 100 and "/fr3/gripper_state" not in counts
+    sent = [r["command"] for event in requests if event["service"] == "vacuum_gripper"
+            for r in event["requests"]]
+    assert sent == ["Connect", "Vacuum", "DropOff", "Stop"]
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(recording)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and done.stdout.startswith("identical"), \
+        done.stdout + done.stderr
 
 
 @pytest.mark.parametrize("speed, kept", [(0.1, True), (1.0, False)])
