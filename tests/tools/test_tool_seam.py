@@ -64,3 +64,23 @@ def test_no_gripper_and_another_tool_contradict_each_other():
 
     assert _tool("hand", True) == "none" and _tool("none", True) == "none"
     assert _tool("hand", False) == "hand"
+
+
+def test_each_arm_may_carry_its_own_tool():
+    """`--arm left+vacuum=A --arm right=B`: left's pump answers on A:1339 (its Hand's port
+    refuses), right carries --tool's Hand on B:1338 (its pump's port refuses); each tool's
+    physical part is on its own arm."""
+    from franka_sim.control import Control
+    from franka_sim.testing import fresh_loopback_address
+
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    with running_sim("--arm", f"left+vacuum={left}", "--arm", f"right={right}",
+                     "--scene", "dual_arm_table", "--clock", "lockstep", host=left):
+        for host, serving, refusing in ((left, 1339, 1338), (right, 1338, 1339)):
+            socket.create_connection((host, serving), timeout=5).close()
+            with pytest.raises(ConnectionRefusedError):
+                socket.create_connection((host, refusing), timeout=5).close()
+        assert Control(left).state()["vacuum_gripper"]["vacuum"] == 0.0
+        assert Control(left).state()["gripper_width"] is None
+        assert Control(right).state()["vacuum_gripper"] is None
+        assert Control(right).state()["gripper_width"] > 0.07
