@@ -202,7 +202,7 @@ class ArmOps(FaultOps):
             raise Conflict(f"the robot is in {mode_name(core.robot_mode)}: a motion or "
                            "an error recovery is under way (let it finish first)")
         if tool is not None and tool.busy:
-            raise Conflict("a tool's action is under way (let it finish first)")
+            raise Conflict("a gripper action is under way (let it finish first)")
 
     def _reset_now(self, arm, q: np.ndarray, gripper_width: float | None) -> dict:
         """The reset itself (cycle thread, lock held, `_refuse_busy` passed), on this arm's
