@@ -23,7 +23,8 @@ moving to its rim) the seal takes. Beyond any of them the part comes off: the we
 air rushes in, and the part falls free. The lip gives (LIP_TIME_CONSTANT), so the limits hold
 the wrench averaged over that time, not a single step's peak; and while the part still rests
 on something (the table, as a lift begins) that support shares the load, so the limits hold
-from the step it leaves it. Venting the cup to ambient lets go the same way.
+from the step it leaves it. Venting the cup to ambient lets go the same way. A part that came
+off must leave the lip before the cup seals on it again (it is falling away).
 
 Simplified: the cup is rigid (no bellows), the seal is perfect or gone (no leak), the figures
 are ours (docs/tools.md).
@@ -50,9 +51,9 @@ LIP_FRICTION = (1.0, 0.005, 0.0001)  # rubber on a part
 MAX_VACUUM = 750.0  # mbar below ambient: the most the pump draws
 EVACUATION_RATE = 2500.0  # mbar/s into a sealed cup (0.3 s to the most)
 VENT_RATE = 5000.0  # mbar/s out of it on a drop-off
-SEAL_GAP = 0.0015  # m: a part this far off the lip has let the air in
-SEAL_TILT = math.radians(10.0)
-LIP_TIME_CONSTANT = 0.02  # s: the lip's give, over which a load's peaks spread  # a face more tilted than this to the axis does not seal
+SEAL_GAP = 0.0015  # m: a face this far off the lip does not close the cup
+SEAL_TILT = math.radians(10.0)  # a face more tilted than this to the axis does not seal
+LIP_TIME_CONSTANT = 0.02  # s: the lip's give, over which a load's peaks spread
 PA_PER_MBAR = 100.0
 _FLAT = {int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_CYLINDER)}
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
