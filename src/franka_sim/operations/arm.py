@@ -236,7 +236,7 @@ class ArmOps(FaultOps):
 
     async def home_gripper(self) -> dict:
         if not isinstance(self.tool, Hand):
-            raise NotFound("no Franka Hand on this arm (--tool none)")
+            raise NotFound("no Franka Hand on this arm (--tool hand puts one there)")
 
         def home(world, arm) -> dict:
             with self.lock:
