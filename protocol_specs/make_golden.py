@@ -1,7 +1,8 @@
 """Write the golden byte vectors in golden/ (run: python protocol_specs/make_golden.py [--check]).
 
 Deliberately independent of franka_sim: every value is placed with the standard ``struct``
-module at the offset written in robot_v10.md, robot_v9.md, robot_v5.md or gripper_v3.md, and enum names are translated with
+module at the offset written in robot_v10.md, robot_v9.md, robot_v5.md, gripper_v3.md or
+vacuum_gripper_v1.md, and enum names are translated with
 tables restated here. The tests then require the construct declarations to build exactly these
 bytes and to parse them back to these values, so a mistake would have to be made twice, in two
 different notations, to go unnoticed. The script also checks that each layout covers every byte
@@ -28,6 +29,7 @@ COMMAND = _numbered(
     "Connect Move StopMove SetCollisionBehavior SetJointImpedance SetCartesianImpedance "
     "SetGuidingMode SetEEToK SetNEToEE SetLoad AutomaticErrorRecovery GetRobotModel")
 GRIPPER_COMMAND = _numbered("Connect Homing Grasp Move Stop")
+VACUUM_COMMAND = _numbered("Connect Vacuum DropOff Stop")
 
 # Status tables, restated from the .md files (the same name means different numbers per table).
 CONNECT_STATUS = _numbered("kSuccess kIncompatibleLibraryVersion")
@@ -49,6 +51,9 @@ AER_STATUS = _numbered(
     "kManualErrorRecoveryRequiredRejected kReflexAborted kEmergencyAborted kAborted")
 GRIPPER_CONNECT_STATUS = CONNECT_STATUS
 GRIPPER_STATUS = _numbered("kSuccess kFail kUnsuccessful kAborted")
+VACUUM_STATUS = GRIPPER_STATUS
+VACUUM_PROFILE = _numbered("kP0 kP1 kP2 kP3")
+VACUUM_DEVICE_STATUS = _numbered("kGreen kYellow kOrange kRed")
 STATUS_OF = {"Connect": CONNECT_STATUS, "Move": MOVE_STATUS, "StopMove": STOP_MOVE_STATUS,
              "AutomaticErrorRecovery": AER_STATUS, "GetRobotModel": BASE_STATUS}
 MOVE_CONTROLLER_MODE = _numbered("kJointImpedance kCartesianImpedance kExternalController")
@@ -278,6 +283,7 @@ def messages():
     yield from robot_v9_messages()
     yield from robot_v5_messages()
     yield from gripper_messages()
+    yield from vacuum_gripper_messages()
 
 
 def robot_v9_messages():
@@ -381,6 +387,41 @@ def gripper_messages():
     for cid, (cmd, st) in enumerate([("Homing", "kSuccess"), ("Grasp", "kUnsuccessful"),
                                      ("Move", "kSuccess"), ("Stop", "kSuccess")], start=1):
         yield (f"gripper_{cmd.lower()}_response", "GripperCommandResponse", 12, status,
+               {"header": header(cmd, cid, 12), "status": st}, enums)
+
+
+def vacuum_gripper_messages():
+    """vacuum_gripper_v1.md: the Hand's header, its own commands and a 16-byte state."""
+    enums = {"header.command": VACUUM_COMMAND, "status": VACUUM_STATUS,
+             "profile": VACUUM_PROFILE, "device_status": VACUUM_DEVICE_STATUS}
+    status = GRIPPER_HEADER + [(10, "status", "H")]
+    yield ("vacuum_gripper_state", "VacuumGripperState", 16,
+           [(0, "message_id", "I"), (4, "in_control_range", "?"), (5, "part_detached", "?"),
+            (6, "part_present", "?"), (7, "device_status", "B"), (8, "actual_power", "i"),
+            (12, "vacuum", "i")],
+           {"message_id": 654321, "in_control_range": True, "part_detached": False,
+            "part_present": True, "device_status": "kYellow", "actual_power": 37,
+            "vacuum": 612}, enums)
+    yield ("vacuum_gripper_connect_request", "VacuumGripperConnectRequest", 14,
+           GRIPPER_HEADER + [(10, "version", "H"), (12, "udp_port", "H")],
+           {"header": header("Connect", 0, 14), "version": 1, "udp_port": 40002}, enums)
+    yield ("vacuum_gripper_connect_response", "VacuumGripperConnectResponse", 14,
+           status + [(12, "version", "H")],
+           {"header": header("Connect", 0, 14), "status": "kIncompatibleLibraryVersion",
+            "version": 1}, {**enums, "status": CONNECT_STATUS})
+    yield ("vacuum_gripper_vacuum_request", "VacuumGripperVacuumRequest", 20,
+           GRIPPER_HEADER + [(10, "vacuum", "B"), (11, "profile", "B"), (12, "timeout", "q")],
+           {"header": header("Vacuum", 1, 20), "vacuum": 75, "profile": "kP2",
+            "timeout": 1000}, enums)
+    yield ("vacuum_gripper_drop_off_request", "VacuumGripperDropOffRequest", 18,
+           GRIPPER_HEADER + [(10, "timeout", "q")],
+           {"header": header("DropOff", 2, 18), "timeout": 2500}, enums)
+    yield ("vacuum_gripper_stop_request", "VacuumGripperStopRequest", 10, GRIPPER_HEADER,
+           {"header": header("Stop", 3, 10)}, enums)
+    for cid, (cmd, st) in enumerate([("Vacuum", "kUnsuccessful"), ("DropOff", "kSuccess"),
+                                     ("Stop", "kAborted")], start=1):
+        stem = {"DropOff": "drop_off"}.get(cmd, cmd.lower())
+        yield (f"vacuum_gripper_{stem}_response", "VacuumGripperCommandResponse", 12, status,
                {"header": header(cmd, cid, 12), "status": st}, enums)
 
 

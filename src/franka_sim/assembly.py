@@ -49,7 +49,7 @@ class ArmParts:
         )
         # Its tool: without one (--tool none) nothing listens on the tool's port and the Hand's
         # body is rigid.
-        self.tool_kind = tool_kind(config.tool)
+        self.tool_kind = tool_kind(config.tool_of(spec))
         self.tool = None if self.tool_kind is None else self.tool_kind.make_device()
         self.model_library = ModelLibrary(description)  # for libfranka before 0.18
 
@@ -135,13 +135,14 @@ class WorldParts:
                 raise SceneError(f"arm {spec.name}: {spec.host} serves the mobile base "
                                  "(one address per robot)")
         mounts = scene_mounts(self.scene)
-        kind, rides = tool_kind(self.config.tool), self.config.mobile_base is not None
+        rides = self.config.mobile_base is not None
+        kinds = [tool_kind(self.config.tool_of(spec)) for spec in specs]
         looks = self._looks(specs)
         return [ArmPlacement(description, spec.name if len(specs) > 1 else "",
                              base=spec.base if spec.base is not None else mounts.get(spec.name),
                              tool=None if kind is None else kind.mount, rides=rides,
                              look=looks.get(self.config.robot_of(spec)))
-                for spec, description in zip(specs, descriptions)]
+                for spec, description, kind in zip(specs, descriptions, kinds)]
 
     def _looks(self, specs) -> dict:
         """--meshes: each arm kind's visual meshes, read once (MeshError: unusable)."""

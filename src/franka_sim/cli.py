@@ -84,11 +84,11 @@ def serve(
         "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
     ),
     arm: list[str] = typer.Option(
-        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]]",
-        help="An arm of the world, served on its own ADDRESS (FCI, Hand and control API), its "
-        "base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
-        "site, else the origin), of kind ROBOT (default: --robot's). Repeat for several arms "
-        "in one world. Default: one arm named fr3 on --host.",
+        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME[:ROBOT][+TOOL]=ADDRESS[@x,y,z[,yaw_deg]]",
+        help="An arm of the world, served on its own ADDRESS (FCI, its tool and control API), "
+        "its base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
+        "site, else the origin), of kind ROBOT (default: --robot's), carrying TOOL (default: "
+        "--tool's). Repeat for several arms in one world. Default: one arm named fr3 on --host.",
     ),
     mobile_base: str | None = typer.Option(
         None, "--mobile-base", envvar="FRANKA_SIM_MOBILE_BASE", metavar="ADDRESS",
@@ -98,8 +98,9 @@ def serve(
     ),
     tool: ToolName = typer.Option(
         ToolName.hand, "--tool", envvar="FRANKA_SIM_TOOL",
-        help="The tool on every arm's flange and the service it answers beside the FCI: hand "
-        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world) or none "
+        help="The tool on every arm's flange (an --arm may name its own) and the service it answers beside the FCI: hand "
+        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world), vacuum (the "
+        "Cobot Pump, vacuum gripper protocol on TCP 1339, a suction cup in the world) or none "
         "(no tool service: its port refuses connections, and the Hand's body is rigid).",
     ),
     no_gripper: bool = typer.Option(
@@ -240,18 +241,23 @@ def _tool(tool: str, no_gripper: bool) -> str:
 
 
 def parse_arm(text: str) -> ArmSpec:
-    """NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]] as an ArmSpec (ValueError saying what is
+    """NAME[:ROBOT][+TOOL]=ADDRESS[@x,y,z[,yaw_deg]] as an ArmSpec (ValueError saying what is
     wrong)."""
     import ipaddress
     import math
 
+    from franka_sim.tools import tool_names
+
     name, sep, rest = text.partition("=")
-    name, colon, robot = name.strip().partition(":")
+    name, plus, tool = name.strip().partition("+")
+    name, colon, robot = name.partition(":")
     if not sep or not name or not rest:
-        raise ValueError(f"{text!r}: expected NAME[:ROBOT]=ADDRESS[@x,y,z[,yaw_deg]]")
+        raise ValueError(f"{text!r}: expected NAME[:ROBOT][+TOOL]=ADDRESS[@x,y,z[,yaw_deg]]")
     if colon and robot not in ROBOTS:
         raise ValueError(f"arm {name}: {robot!r} is not a robot ({', '.join(ROBOTS)})")
-    robot = robot or None
+    if plus and tool not in tool_names():
+        raise ValueError(f"arm {name}: {tool!r} is not a tool ({', '.join(tool_names())})")
+    robot, tool = robot or None, tool or None
     if "/" in name or not name.isprintable() or " " in name:
         raise ValueError(f"arm {name!r}: a name has no '/' and no spaces")
     host, at, pose = rest.partition("@")
@@ -260,7 +266,7 @@ def parse_arm(text: str) -> ArmSpec:
     except ValueError:
         raise ValueError(f"arm {name}: {host!r} is not an IP address") from None
     if not at:
-        return ArmSpec(name, host, robot=robot)
+        return ArmSpec(name, host, robot=robot, tool=tool)
     try:
         figures = [float(v) for v in pose.split(",")]
     except ValueError:
@@ -268,7 +274,7 @@ def parse_arm(text: str) -> ArmSpec:
     if len(figures) not in (3, 4) or not all(math.isfinite(v) for v in figures):
         raise ValueError(f"arm {name}: {pose!r} is not x,y,z[,yaw_deg] (3 or 4 finite numbers)")
     x, y, z, yaw = (figures + [0.0])[:4]
-    return ArmSpec(name, host, (x, y, z, math.radians(yaw)), robot)
+    return ArmSpec(name, host, (x, y, z, math.radians(yaw)), robot, tool)
 
 
 @app.command()

@@ -31,6 +31,7 @@ class ArmSpec:
     host: str
     base: tuple[float, float, float, float] | None = None
     robot: str | None = None  # its kind (ROBOTS); None: Config.robot's
+    tool: str | None = None  # the tool on its flange (franka_sim/tools/); None: Config.tool
 
 
 # The arms franka-sim simulates: the Franka Research 3 and the Franka Emika Panda (FER), each
@@ -52,6 +53,7 @@ class ToolName(str, Enum):
     """The tools an arm can carry (franka_sim/tools/ has one row for each but `none`)."""
 
     hand = "hand"
+    vacuum = "vacuum"
     none = "none"
 
 
@@ -103,3 +105,7 @@ class Config:
     def robot_of(self, spec: ArmSpec) -> str:
         """The kind of the arm `spec` describes."""
         return spec.robot or self.robot
+
+    def tool_of(self, spec: ArmSpec) -> str:
+        """The tool on the flange of the arm `spec` describes."""
+        return spec.tool or self.tool

@@ -43,9 +43,11 @@ def checked(config: Config) -> Config:
                               f"{', '.join(ROBOTS)})")
     from franka_sim.tools import tool_names
 
-    if config.tool not in tool_names():
-        raise ConfigError("--tool", f"{config.tool!r} is not a tool (one of "
-                          f"{', '.join(tool_names())})")
+    for flag, name, tool in (("--tool", "", config.tool),
+                             *(("--arm", f"arm {a.name}: ", a.tool) for a in config.arms)):
+        if tool is not None and tool not in tool_names():
+            raise ConfigError(flag, f"{name}{tool!r} is not a tool (one of "
+                              f"{', '.join(tool_names())})")
     if config.tool_port is not None and config.tool_port in (config.robot_port,
                                                              config.control_port):
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "

@@ -86,7 +86,7 @@ def _config(settings: dict) -> Config:
     settings["q0"] = tuple(settings["q0"])
     settings["arms"] = tuple(
         ArmSpec(arm["name"], arm["host"], None if arm["base"] is None else tuple(arm["base"]),
-                arm.get("robot"))
+                arm.get("robot"), arm.get("tool"))
         for arm in settings.get("arms", ()))
     return Config(**settings)
 

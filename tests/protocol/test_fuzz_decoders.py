@@ -8,9 +8,10 @@ from hypothesis import strategies as st
 from support.fuzzing import FUZZ, DrawChooser
 
 from franka_sim.protocol.codec import COMMAND_DTYPE
-from franka_sim.robot.session import GRIPPER, ROBOT
+from franka_sim.robot.session import GRIPPER, ROBOT, VACUUM_GRIPPER
 from franka_sim.testing.fuzz_inputs import (
     GRIPPER_WIRE,
+    VACUUM_GRIPPER_WIRE,
     ROBOT_WIRE,
     chunks,
     message,
@@ -18,7 +19,8 @@ from franka_sim.testing.fuzz_inputs import (
 )
 from franka_sim.testing.fuzz_targets import check_datagram, check_frame_reader
 
-SERVICES = {"robot": (ROBOT, ROBOT_WIRE), "gripper": (GRIPPER, GRIPPER_WIRE)}
+SERVICES = {"robot": (ROBOT, ROBOT_WIRE), "gripper": (GRIPPER, GRIPPER_WIRE),
+            "vacuum_gripper": (VACUUM_GRIPPER, VACUUM_GRIPPER_WIRE)}
 
 
 @FUZZ

@@ -10,9 +10,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 from support.fuzzing import FUZZ, DrawChooser
 
-from franka_sim.protocol.enums import Command, GripperCommand
-from franka_sim.testing.fuzz_inputs import GRIPPER_WIRE, ROBOT_WIRE, RandomChooser, request
-from franka_sim.testing.fuzz_targets import GripperTarget, RobotTarget, fuzz_session
+from franka_sim.protocol.enums import Command, GripperCommand, VacuumGripperCommand
+from franka_sim.testing.fuzz_inputs import (GRIPPER_WIRE, ROBOT_WIRE, VACUUM_GRIPPER_WIRE,
+                                            RandomChooser, request)
+from franka_sim.testing.fuzz_targets import (GripperTarget, RobotTarget, VacuumGripperTarget,
+                                             fuzz_session)
 
 
 @FUZZ
@@ -31,6 +33,12 @@ def test_robot_session_logging_limits(data):
 @given(st.data())
 def test_gripper_session(data):
     fuzz_session(DrawChooser(data), GripperTarget())
+
+
+@FUZZ
+@given(st.data())
+def test_vacuum_gripper_session(data):
+    fuzz_session(DrawChooser(data), VacuumGripperTarget())
 
 
 class _Fixed:
@@ -54,6 +62,7 @@ def _valid(wire, command) -> bytes:
     (RobotTarget, ROBOT_WIRE, Command.Move),
     (RobotTarget, ROBOT_WIRE, Command.GetRobotModel),
     (GripperTarget, GRIPPER_WIRE, GripperCommand.Homing),
+    (VacuumGripperTarget, VACUUM_GRIPPER_WIRE, VacuumGripperCommand.Vacuum),
 ])
 def test_request_before_connect_closes(target, wire, first):
     t = target()
@@ -64,7 +73,8 @@ def test_request_before_connect_closes(target, wire, first):
     t.still_serves()
 
 
-@pytest.mark.parametrize("target, wire", [(RobotTarget, ROBOT_WIRE), (GripperTarget, GRIPPER_WIRE)])
+@pytest.mark.parametrize("target, wire", [(RobotTarget, ROBOT_WIRE), (GripperTarget, GRIPPER_WIRE),
+                                          (VacuumGripperTarget, VACUUM_GRIPPER_WIRE)])
 def test_second_connect_closes(target, wire):
     t = target()
     t.open()
@@ -78,6 +88,7 @@ def test_second_connect_closes(target, wire):
 @pytest.mark.parametrize("target, wire, then", [
     (RobotTarget, ROBOT_WIRE, Command.StopMove),
     (GripperTarget, GRIPPER_WIRE, GripperCommand.Stop),
+    (VacuumGripperTarget, VACUUM_GRIPPER_WIRE, VacuumGripperCommand.Stop),
 ])
 def test_nothing_is_answered_after_a_bad_header(target, wire, then):
     t = target()

@@ -55,8 +55,9 @@ def test_an_unknown_scene_name():
 
 
 @pytest.mark.parametrize("spec, problem", [
-    ("left", "expected NAME[:ROBOT]=ADDRESS"),
+    ("left", "expected NAME[:ROBOT][+TOOL]=ADDRESS"),
     ("left:ur5=127.0.0.5", "'ur5' is not a robot (fr3, fer)"),
+    ("left+screwdriver=127.0.0.5", "'screwdriver' is not a tool (hand, vacuum, none)"),
     ("left=localhost", "is not an IP address"),
     ("left=127.0.0.5@1,2", "3 or 4 finite numbers"),
     ("left=127.0.0.5@1,x,2", "in numbers"),

@@ -1,5 +1,6 @@
 #!/bin/sh
-# Build an older libfranka's C++ examples for tests/clients/test_libfranka_cpp_older.py.
+# Build an older libfranka's C++ examples for tests/clients/test_libfranka_cpp_older.py (and
+# vacuum_object for test_libfranka_cpp_vacuum.py).
 #
 # Usage: build_older_libfranka.sh SOURCE_DIR BUILD_DIR
 #
@@ -37,4 +38,4 @@ fi
 cmake -S "$src" -B "$build" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTS=OFF -DBUILD_EXAMPLES=ON \
     -DFETCHCONTENT_FULLY_DISCONNECTED=ON
 make -C "$build" -j"${JOBS:-2}" communication_test echo_robot_state generate_joint_position_motion \
-    generate_cartesian_pose_motion cartesian_impedance_control grasp_object
+    generate_cartesian_pose_motion cartesian_impedance_control grasp_object vacuum_object

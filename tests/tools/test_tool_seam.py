@@ -64,3 +64,57 @@ def test_no_gripper_and_another_tool_contradict_each_other():
 
     assert _tool("hand", True) == "none" and _tool("none", True) == "none"
     assert _tool("hand", False) == "hand"
+
+
+def test_each_arm_may_carry_its_own_tool():
+    """`--arm left+vacuum=A --arm right=B`: left's pump answers on A:1339 (its Hand's port
+    refuses), right carries --tool's Hand on B:1338 (its pump's port refuses); each tool's
+    physical part is on its own arm."""
+    from franka_sim.control import Control
+    from franka_sim.testing import fresh_loopback_address
+
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    with running_sim("--arm", f"left+vacuum={left}", "--arm", f"right={right}",
+                     "--scene", "dual_arm_table", "--clock", "lockstep", host=left):
+        for host, serving, refusing in ((left, 1339, 1338), (right, 1338, 1339)):
+            socket.create_connection((host, serving), timeout=5).close()
+            with pytest.raises(ConnectionRefusedError):
+                socket.create_connection((host, refusing), timeout=5).close()
+        assert Control(left).state()["vacuum_gripper"]["vacuum"] == 0.0
+        assert Control(left).state()["gripper_width"] is None
+        assert Control(right).state()["vacuum_gripper"] is None
+        assert Control(right).state()["gripper_width"] > 0.07
+
+
+def test_the_desks_gripper_homing_on_an_arm_with_the_pump_is_logged_and_skipped(tmp_path):
+    """A Panda's Desk (system 4) asked to home the gripper while the arm carries the vacuum
+    gripper: one log line, and the pump and the Desk serve on."""
+    import json
+    import ssl
+    import urllib.request
+
+    from franka_sim.desk.users import browser_password
+
+    def call(host, path, body=None, headers=None, cookie=None):
+        request = urllib.request.Request(
+            f"https://{host}:8443{path}", method="POST",
+            data=json.dumps(body).encode() if body is not None else None,
+            headers={"Content-Type": "application/json",
+                     **({"Cookie": f"authorization={cookie}"} if cookie else {}),
+                     **(headers or {})})
+        with urllib.request.urlopen(request, context=ssl._create_unverified_context(),
+                                    timeout=30) as answer:
+            text = answer.read().decode()
+        return json.loads(text) if text.startswith("{") else text
+
+    with running_sim("--clock", "lockstep", "--robot", "fer", "--tool", "vacuum",
+                     "--desk-port", "8443", "--desk-boot", "locked", "--desk-user",
+                     "admin:secret", env={"XDG_DATA_HOME": str(tmp_path)}) as sim:
+        session = call(sim.host, "/admin/api/login",
+                       {"login": "admin", "password": browser_password("admin", "secret")})
+        token = call(sim.host, "/admin/api/control-token/request", {"requestedBy": "admin"},
+                     cookie=session)
+        call(sim.host, "/desk/api/gripper/homing", headers={"X-Control-Token": token["token"]},
+             cookie=session)
+        assert sim.wait_for_log("the Desk's gripper homing: 404: no Franka Hand on this arm")
+        socket.create_connection((sim.host, 1339), timeout=5).close()

@@ -31,6 +31,7 @@ from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.hand import NOMINAL_MAX_WIDTH, Hand
 from franka_sim.robot.tool import ToolDevice
+from franka_sim.robot.vacuum_gripper import VacuumGripper
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 
@@ -64,6 +65,7 @@ class ArmOps(FaultOps):
         self.desk_effects = None
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
+        self.pump = tool if isinstance(tool, VacuumGripper) else None
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
@@ -124,6 +126,7 @@ class ArmOps(FaultOps):
                     "errors": [ERROR_NAMES[i] for i in np.flatnonzero(core.status.errors)],
                     "success_rate": float(core.success_rate),
                     "gripper_width": None if self.hand is None else float(self.hand.width),
+                    "vacuum_gripper": None if self.pump is None else self.pump.snapshot(),
                     "cycle": core.message_id,
                 }
         return await self._job(read)
@@ -233,7 +236,7 @@ class ArmOps(FaultOps):
 
     async def home_gripper(self) -> dict:
         if not isinstance(self.tool, Hand):
-            raise NotFound("no Franka Hand on this arm (--tool none)")
+            raise NotFound("no Franka Hand on this arm (--tool hand puts one there)")
 
         def home(world, arm) -> dict:
             with self.lock:

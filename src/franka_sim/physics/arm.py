@@ -32,7 +32,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY
+from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, write_inertial
 from franka_sim.physics.backend import NO_GAINS, JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
 from franka_sim.physics.external_torque import ExternalTorque
@@ -243,11 +243,4 @@ class Arm:
         if self.tool is not None:  # the composite of the tool's parts becomes the given body
             self.tool.set_composite(mass, com, 0.5 * (inertia + inertia.T))
             return
-        principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
-        if np.linalg.det(axes) < 0:
-            axes[:, 0] = -axes[:, 0]
-        m, b = self._model, self._hand
-        m.body_mass[b] = mass
-        m.body_ipos[b] = np.asarray(com, float)
-        m.body_inertia[b] = np.clip(principal, 0.0, None)
-        mujoco.mju_mat2Quat(m.body_iquat[b], np.ascontiguousarray(axes).ravel())
+        write_inertial(self._model, self._hand, mass, com, inertia)

@@ -143,6 +143,17 @@ def set_inertial(body: mujoco.MjsBody, mass: float, com, inertia) -> None:
                         inertia[0, 1], inertia[0, 2], inertia[1, 2]]
 
 
+def write_inertial(model: mujoco.MjModel, body: int, mass: float, com, inertia) -> None:
+    """A body's inertial rewritten in a built model: mass, CoM, inertia about it (symmetric)."""
+    principal, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
+    if np.linalg.det(axes) < 0:
+        axes[:, 0] = -axes[:, 0]
+    model.body_mass[body] = mass
+    model.body_ipos[body] = np.asarray(com, float)
+    model.body_inertia[body] = np.clip(principal, 0.0, None)
+    mujoco.mju_mat2Quat(model.body_iquat[body], np.ascontiguousarray(axes).ravel())
+
+
 def add_arm(spec: mujoco.MjSpec, desc: ArmDescription, *, prefix: str = "",
             base: tuple[float, float, float, float] | None = None, armature=ROTOR_INERTIA_FR3,
             tool: ToolMount | None = None, extra_bits: tuple[int, int] = (0, 0),

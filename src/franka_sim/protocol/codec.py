@@ -16,6 +16,7 @@ from construct import Array, Construct, Enum, Flag, FormatField, Struct
 
 from .exceptions import DatagramSizeError
 from .gripper_messages import GripperState
+from .vacuum_gripper_messages import VacuumGripperState
 from .robot_command import RobotCommand
 from .robot_state import RobotState
 
@@ -52,6 +53,7 @@ def dtype_from_struct(struct: Struct) -> np.dtype:
 STATE_DTYPE = dtype_from_struct(RobotState)
 COMMAND_DTYPE = dtype_from_struct(RobotCommand)
 GRIPPER_STATE_DTYPE = dtype_from_struct(GripperState)
+VACUUM_GRIPPER_STATE_DTYPE = dtype_from_struct(VacuumGripperState)
 
 
 class RecordBuffer:

@@ -179,3 +179,48 @@ class GripperStatus(IntEnum):
     kFail = 1
     kUnsuccessful = 2
     kAborted = 3
+
+
+VACUUM_GRIPPER_VERSION = 1  # every libfranka tag from 0.8.0 on (docs/tools.md)
+VACUUM_GRIPPER_COMMAND_PORT = 1339
+
+
+class VacuumGripperCommand(IntEnum):
+    """Vacuum gripper (Cobot Pump) TCP command ids (uint16 on the wire, as the Hand's)."""
+
+    Connect = 0
+    Vacuum = 1
+    DropOff = 2
+    Stop = 3
+
+
+class VacuumGripperConnectStatus(IntEnum):
+    kSuccess = 0
+    kIncompatibleLibraryVersion = 1
+
+
+class VacuumGripperStatus(IntEnum):
+    """Status of Vacuum/DropOff/Stop (uint16): the Hand's four, with the same meanings."""
+
+    kSuccess = 0
+    kFail = 1
+    kUnsuccessful = 2
+    kAborted = 3
+
+
+class VacuumGripperProfile(IntEnum):
+    """The pump's production setup profile (uint8), P0 to P3."""
+
+    kP0 = 0
+    kP1 = 1
+    kP2 = 2
+    kP3 = 3
+
+
+class VacuumGripperDeviceStatus(IntEnum):
+    """The device's own health (uint8), a traffic light."""
+
+    kGreen = 0
+    kYellow = 1
+    kOrange = 2
+    kRed = 3

@@ -19,7 +19,8 @@ import struct
 
 import numpy as np
 
-from franka_sim.protocol.codec import COMMAND_DTYPE, GRIPPER_STATE_DTYPE, STATE_DTYPE
+from franka_sim.protocol.codec import (COMMAND_DTYPE, GRIPPER_STATE_DTYPE, STATE_DTYPE,
+                                       VACUUM_GRIPPER_STATE_DTYPE)
 
 METADATA_NAME = "franka-sim"
 
@@ -73,8 +74,10 @@ def _json(topic: str, name: str, schema: bytes) -> Channel:
     return Channel(topic, name, "jsonschema", schema, "json")
 
 
-ROBOT_KEYS = ("robot_state", "command", "gripper_state", "command_rejected", "lost_cycle", "tcp",
-              "reply", "control")
+ROBOT_KEYS = ("robot_state", "command", "gripper_state", "vacuum_gripper_state",
+              "command_rejected", "lost_cycle", "tcp", "reply", "control")
+# Each tool service's state datagrams, by the service's name: their channel's key.
+TOOL_STATE_KEYS = {"gripper": "gripper_state", "vacuum_gripper": "vacuum_gripper_state"}
 WORLD_KEYS = ("bodies", "repeated", "skipped", "log")
 
 
@@ -87,6 +90,8 @@ def robot_channels(robot: str) -> dict[str, Channel]:
                          COMMAND_PREFIX_DEFINITION + ros1_definition(COMMAND_DTYPE)),
         "gripper_state": _ros1(f"{p}/gripper_state", "franka/GripperState",
                                ros1_definition(GRIPPER_STATE_DTYPE)),
+        "vacuum_gripper_state": _ros1(f"{p}/vacuum_gripper_state", "franka/VacuumGripperState",
+                                      ros1_definition(VACUUM_GRIPPER_STATE_DTYPE)),
         "command_rejected": _json(f"{p}/command_rejected", "franka_sim/RejectedDatagram", _object(
             reason=_STR, source=_STR, size=_INT, data=_STR)),
         "lost_cycle": _json(f"{p}/lost_cycle", "franka_sim/LostCycle", _object(

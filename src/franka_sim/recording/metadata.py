@@ -36,7 +36,9 @@ def describe(config: Config, urdf_text: str, scene: Path, robots) -> dict:
                     "base": None if getattr(robot, "spec", None) is None
                     or robot.spec.base is None else list(robot.spec.base),
                     "robot": None if getattr(robot, "spec", None) is None
-                    else robot.spec.robot}
+                    else robot.spec.robot,
+                    "tool": None if getattr(robot, "spec", None) is None
+                    else robot.spec.tool}
                    for robot in robots],
         "clock": config.clock.value,
         "q0": list(config.q0),
@@ -72,7 +74,7 @@ def replay_config(meta: dict, workdir: str) -> Config:
     # Addresses only tell robots apart here: replay opens no socket.
     config.arms = tuple(ArmSpec(robot["name"], f"replay-{i}",
                                 None if robot["base"] is None else tuple(robot["base"]),
-                                robot.get("robot"))
+                                robot.get("robot"), robot.get("tool"))
                         for i, robot in enumerate(robots) if robot["kind"] == "arm")
     if any(robot["kind"] == "base" for robot in robots):
         config.mobile_base = "replay-base"

@@ -11,16 +11,20 @@ from construct import Container, ListContainer
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol import vacuum_gripper_messages as vm
 from franka_sim.protocol.framing import FrameReader, ProtocolError, decode_request
 from franka_sim.protocol.robot_versions import DIALECTS
 
 # The endpoints' names for their service, and the recording's.
-SERVICES = {"FCI": "robot", "gripper": "hand"}
+SERVICES = {"FCI": "robot", "gripper": "hand", "vacuum_gripper": "vacuum_gripper"}
 _TABLES = {
     "robot": (rm.CommandHeader, rm.REQUEST_SIZES, rm.REQUEST_STRUCTS, rm.RESPONSE_STRUCTS,
               rm.Command),
     "hand": (gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
              gm.GRIPPER_RESPONSE_STRUCTS, gm.GripperCommand),
+    "vacuum_gripper": (vm.VacuumGripperHeader, vm.VACUUM_GRIPPER_REQUEST_SIZES,
+                       vm.VACUUM_GRIPPER_REQUEST_STRUCTS, vm.VACUUM_GRIPPER_RESPONSE_STRUCTS,
+                       vm.VacuumGripperCommand),
 }
 
 

@@ -21,6 +21,7 @@ from construct import Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol import vacuum_gripper_messages as vm
 from franka_sim.protocol.robot_versions import DIALECTS
 from franka_sim.protocol.enums import (
     GRIPPER_VERSION,
@@ -29,6 +30,9 @@ from franka_sim.protocol.enums import (
     ConnectStatus,
     GripperCommand,
     GripperConnectStatus,
+    VACUUM_GRIPPER_VERSION,
+    VacuumGripperCommand,
+    VacuumGripperConnectStatus,
 )
 from franka_sim.protocol.framing import FrameReader, ProtocolError, decode_request
 
@@ -53,7 +57,7 @@ class Handshake:
 class Service:
     """The wire tables of one TCP service: what tells the robot's conversation from the Hand's."""
 
-    name: str  # "robot", "gripper": names the service in errors and log lines
+    name: str  # "robot", "gripper", "vacuum_gripper": names the service in errors and log lines
     version: int
     command: type  # the Command enum (its member Connect opens the conversation)
     connect_status: type
@@ -73,6 +77,10 @@ ROBOT = Service("robot", ROBOT_VERSION, Command, ConnectStatus, rm.CommandHeader
 GRIPPER = Service("gripper", GRIPPER_VERSION, GripperCommand, GripperConnectStatus,
                   gm.GripperHeader, gm.GRIPPER_REQUEST_SIZES, gm.GRIPPER_REQUEST_STRUCTS,
                   gm.build_gripper_response, 1024)  # the largest gripper request is 50 bytes
+VACUUM_GRIPPER = Service("vacuum_gripper", VACUUM_GRIPPER_VERSION, VacuumGripperCommand,
+                         VacuumGripperConnectStatus, vm.VacuumGripperHeader,
+                         vm.VACUUM_GRIPPER_REQUEST_SIZES, vm.VACUUM_GRIPPER_REQUEST_STRUCTS,
+                         vm.build_vacuum_gripper_response, 1024)  # its largest: 20 bytes
 
 
 class Session:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import logging
 
+from franka_sim.control.errors import NotFound
+
 log = logging.getLogger(__name__)
 
 
@@ -44,4 +46,7 @@ class DeskEffects:
             await robot.control.desk_arm()
         while self.homings < desk.gripper_homings:
             self.homings += 1
-            await robot.control.home_gripper()
+            try:
+                await robot.control.home_gripper()
+            except NotFound as refusal:  # the arm carries another tool (the vacuum gripper)
+                log.warning("%s: the Desk's gripper homing: %s", robot.label, refusal)

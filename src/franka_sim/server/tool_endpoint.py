@@ -49,7 +49,7 @@ class ToolEndpoint(SingleClientEndpoint):
         if self.state_target is not None and self.udp is not None:
             self.udp.sendto(data, self.state_target)
             if self.taps is not None:
-                self.taps.tool_state(data)
+                self.taps.tool_state(self.what, data)
 
     async def stop(self) -> None:
         await super().stop()

@@ -20,9 +20,11 @@ from construct import Array, Enum, Flag, FormatField, Struct
 
 from franka_sim.protocol import gripper_messages as gm
 from franka_sim.protocol import robot_messages as rm
+from franka_sim.protocol import vacuum_gripper_messages as vm
 from franka_sim.protocol.codec import COMMAND_DTYPE, encode_command
 from franka_sim.protocol.message import build_message as message_bytes
-from franka_sim.protocol.enums import GRIPPER_VERSION, ROBOT_VERSION, Command, GripperCommand
+from franka_sim.protocol.enums import (GRIPPER_VERSION, ROBOT_VERSION, VACUUM_GRIPPER_VERSION,
+                                       Command, GripperCommand, VacuumGripperCommand)
 from franka_sim.protocol.robot_command import RobotCommand
 
 T = TypeVar("T")
@@ -64,11 +66,16 @@ class Wire:
     structs: dict
     connect: int
     version: int
+    responses: dict  # the response structs by command
 
 
-ROBOT_WIRE = Wire("robot", rm.CommandHeader, 8, "<I", rm.REQUEST_STRUCTS, Command.Connect, ROBOT_VERSION)
+ROBOT_WIRE = Wire("robot", rm.CommandHeader, 8, "<I", rm.REQUEST_STRUCTS, Command.Connect,
+                  ROBOT_VERSION, rm.RESPONSE_STRUCTS)
 GRIPPER_WIRE = Wire("gripper", gm.GripperHeader, 6, "<H", gm.GRIPPER_REQUEST_STRUCTS,
-                    GripperCommand.Connect, GRIPPER_VERSION)
+                    GripperCommand.Connect, GRIPPER_VERSION, gm.GRIPPER_RESPONSE_STRUCTS)
+VACUUM_GRIPPER_WIRE = Wire("vacuum_gripper", vm.VacuumGripperHeader, 6, "<H",
+                           vm.VACUUM_GRIPPER_REQUEST_STRUCTS, VacuumGripperCommand.Connect,
+                           VACUUM_GRIPPER_VERSION, vm.VACUUM_GRIPPER_RESPONSE_STRUCTS)
 
 # Doubles that break naive code: signed zero, the extremes, the non-finite.
 _SPECIAL_FLOATS = (0.0, -0.0, 1.0, -1.0, 0.5, 1e-300, 5e-324, 1e300, -1e300,
@@ -166,6 +173,12 @@ _TYPICAL_FIELDS = {
         (GripperCommand.Grasp, dict(width=0.02, epsilon_inner=0.005, epsilon_outer=0.005,
                                     speed=0.1, force=20.0)),
         (GripperCommand.Stop, {}),
+    ],
+    "vacuum_gripper": [
+        (VacuumGripperCommand.Connect, dict(version=VACUUM_GRIPPER_VERSION, udp_port=40002)),
+        (VacuumGripperCommand.Vacuum, dict(vacuum=100, profile=0, timeout=1000)),
+        (VacuumGripperCommand.DropOff, dict(timeout=1000)),
+        (VacuumGripperCommand.Stop, {}),
     ],
 }
 

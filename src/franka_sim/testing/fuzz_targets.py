@@ -4,7 +4,7 @@ Each check raises on a broken invariant (AssertionError) or lets an unexpected e
 either is a crash. The rejections the protocol allows are not: a decoder's `ProtocolError`, a
 session's `SessionError` (the server logs it and closes that connection). The session targets
 wire the real pieces as the server does (server/sim.py), minus the sockets and threads: a
-session over a ArmCore stepped by MuJoCo, or over the Hand.
+session over a ArmCore stepped by MuJoCo, or over the Hand or the vacuum gripper.
 """
 
 from __future__ import annotations
@@ -19,8 +19,6 @@ from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
-from franka_sim.protocol import gripper_messages as gm
-from franka_sim.protocol import robot_messages as rm
 from franka_sim.protocol.codec import (
     STATE_DTYPE,
     decode_command,
@@ -29,17 +27,22 @@ from franka_sim.protocol.codec import (
     command_fields_out,
     non_finite_command_fields,
 )
-from franka_sim.protocol.enums import ConnectStatus, GripperConnectStatus, RobotMode
+from franka_sim.protocol.enums import (ConnectStatus, GripperConnectStatus, RobotMode,
+                                       VacuumGripperConnectStatus)
 from franka_sim.protocol.exceptions import DatagramSizeError, ProtocolError
 from franka_sim.protocol.framing import FrameReader, decode_request
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
 from franka_sim.physics.fingers import FINGERS
 from franka_sim.robot.hand import Hand
-from franka_sim.robot.session import GRIPPER, ROBOT, Service, Session, SessionError
+from franka_sim.robot.session import GRIPPER, ROBOT, VACUUM_GRIPPER, Service, Session, SessionError
+from franka_sim.robot.vacuum_gripper import VacuumGripper
+from franka_sim.physics.suction import CUP, MAX_VACUUM
+from franka_sim.protocol.vacuum_gripper_messages import decode_vacuum_gripper_state
 from franka_sim.testing.fuzz_inputs import (
     GRIPPER_WIRE,
     ROBOT_WIRE,
+    VACUUM_GRIPPER_WIRE,
     Chooser,
     Wire,
     conversation,
@@ -52,6 +55,8 @@ _FLOAT_FIELDS = tuple(name for name, (dtype, _) in STATE_DTYPE.fields.items()
                       if dtype.base.kind == "f")
 _URDF = default_urdf_text()
 _DESCRIPTION = load_arm_description(_URDF)
+# The vacuum gripper's lip 1 mm into the default cube's top (examples/pick_and_place.py's IK).
+_CUP_ON_CUBE = (0.0, 0.322358, 0.0, -2.544335, 0.0, 2.866692, 0.785398)
 
 
 def check_frame_reader(service: Service, stream: list[bytes]) -> None:
@@ -97,10 +102,9 @@ def check_datagram(data: bytes) -> None:
 
 def check_reply(wire: Wire, reply: bytes) -> Container:
     """A reply is one whole response of a known command whose status its enum defines."""
-    structs = rm.RESPONSE_STRUCTS if wire is ROBOT_WIRE else gm.GRIPPER_RESPONSE_STRUCTS
     header = wire.header.parse(reply)
     assert header.size == len(reply), (header.size, len(reply))
-    parsed = structs[int(header.command)].parse(reply)
+    parsed = wire.responses[int(header.command)].parse(reply)
     assert not isinstance(parsed.status, EnumInteger), f"status {parsed.status}"
     return parsed
 
@@ -176,10 +180,9 @@ class _Target:
                 check_reply(ROBOT_WIRE, reply)
             for tool_replies, tool_state in replies.tools:
                 for reply in tool_replies:
-                    check_reply(GRIPPER_WIRE, reply)
+                    check_reply(self.wire, reply)
                 if tool_state is not None:
-                    width = float(decode_gripper_state(tool_state)["width"])
-                    assert math.isfinite(width), width
+                    self._check_tool_state(tool_state)
 
     def still_serves(self) -> None:
         """After anything, the next client is welcome: its Connect succeeds."""
@@ -234,6 +237,33 @@ class GripperTarget(_Target):
 
     def _gone(self) -> None:
         self.hand.client_gone()
+
+    def _check_tool_state(self, data: bytes) -> None:
+        width = float(decode_gripper_state(data)["width"])
+        assert math.isfinite(width), width
+
+
+class VacuumGripperTarget(GripperTarget):
+    """Port 1339: a Session over the vacuum gripper, its cup on the cube, stepped by MuJoCo."""
+
+    wire, service = VACUUM_GRIPPER_WIRE, VACUUM_GRIPPER
+    _success = VacuumGripperConnectStatus.kSuccess.name
+
+    def _backend(self) -> MujocoBackend:
+        return MujocoBackend(_DESCRIPTION, np.array(_CUP_ON_CUBE),
+                             scene_xml=default_scene_path(), tool=CUP)
+
+    def _hand(self) -> VacuumGripper:
+        self.hand = VacuumGripper()
+        return self.hand
+
+    def _session(self) -> Session:
+        return Session(VACUUM_GRIPPER, self.hand.request)
+
+    def _check_tool_state(self, data: bytes) -> None:
+        state = decode_vacuum_gripper_state(data)
+        assert 0 <= state.vacuum <= MAX_VACUUM and state.actual_power in (0, 100), state
+        assert not isinstance(state.device_status, EnumInteger), state.device_status
 
 
 def _connect(wire: Wire) -> bytes:

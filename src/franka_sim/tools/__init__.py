@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 NO_TOOL = "none"
 # Every tool: its name, and the module holding its row (a `ToolKind` named in capitals). Only
 # names here, so that checking a --tool costs no import of the layers a row brings.
-TOOL_MODULES = {"hand": "franka_sim.tools.hand"}
+TOOL_MODULES = {"hand": "franka_sim.tools.hand", "vacuum": "franka_sim.tools.vacuum"}
 
 
 @dataclass(frozen=True)

@@ -148,11 +148,12 @@ class RobotTaps(RobotEvents):
             recorder.put((ev.REPLY, self.index, service, data, self.world.position()[0],
                           time.time_ns()))
 
-    def tool_state(self, data: bytes) -> None:
-        """A tool's state datagram left (the Hand's GripperState)."""
+    def tool_state(self, service: str, data: bytes) -> None:
+        """A tool's state datagram left (`service`: its service's name; the Hand's
+        GripperState, the vacuum gripper's VacuumGripperState)."""
         recorder = self.world.recorder
         if recorder is not None:
-            recorder.put((ev.TOOL_STATE, self.index, data, time.time_ns()))
+            recorder.put((ev.TOOL_STATE, self.index, service, data, time.time_ns()))
 
 
 class _LogTap(logging.Handler):

@@ -19,8 +19,8 @@ from pathlib import Path
 from mcap.writer import CompressionType, Writer
 
 from franka_sim.recording import FORMAT_VERSION
-from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, robot_channels,
-                                           world_channels)
+from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, TOOL_STATE_KEYS,
+                                           robot_channels, world_channels)
 from franka_sim.recording.wire_json import SERVICES, RequestDecoder, decode_reply
 from franka_sim.robot.events import EXTRAPOLATED
 from franka_sim.server.recorder import events as ev
@@ -134,8 +134,8 @@ class RecordingWriter:
             _, first, last, wall = event
             self._json("skipped", wall, {"first": first, "last": last}, first)
         elif kind == ev.TOOL_STATE:
-            _, robot, data, wall = event
-            self._add((robot, "gripper_state"), wall, data, 0)
+            _, robot, service, data, wall = event
+            self._add((robot, TOOL_STATE_KEYS[service]), wall, data, 0)
         elif kind == ev.POSES:
             _, n, qpos, wall = event
             bodies = [{"name": name, "position": qpos[a:a + 3].tolist(),
