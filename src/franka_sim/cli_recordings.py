@@ -93,6 +93,10 @@ def render(
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
+    import os
+
+    if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
+        os.environ["MUJOCO_GL"] = "egl"  # before anything below imports mujoco
     from franka_sim.physics.scene import SceneError
     from franka_sim.playback.render import RenderError
     from franka_sim.playback.render import render as make_video

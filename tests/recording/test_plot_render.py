@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -15,8 +16,10 @@ from franka_sim.playback.render import HEIGHT, WIDTH as VIDEO_WIDTH, frame_cycle
 
 
 def franka_sim(*args: str) -> subprocess.CompletedProcess:
+    """The command as a user runs it: MUJOCO_GL unset (render picks its offscreen GL)."""
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
     return subprocess.run([sys.executable, "-m", "franka_sim", *args], capture_output=True,
-                          text=True, timeout=300)
+                          text=True, timeout=300, env=env)
 
 
 def test_plot_writes_a_png_of_the_expected_size_with_no_blank_panel(lockstep_run, tmp_path):
