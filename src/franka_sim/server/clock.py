@@ -61,7 +61,12 @@ MAX_SETTLE_CYCLES = 20_000
 # Lockstep, idle: a gap in which the clock repeated states (the client lingered past the
 # window) counts as a whole number of these cycles (1 s), whatever its wall time decided.
 IDLE_QUANTUM = 1000
-HELD_AT_PERIOD = 2  # held states a motion's start sends a period apart before it waits
+HELD_AT_PERIOD = 2  # held states a motion's start sends START_SPACING apart before it waits
+# Lockstep: how far apart a motion's first state and its first held states go (wall time). The
+# client's handshake must read each alone, before the next arrives, or it reads one state fewer
+# and the run's message_ids shift by one: a period (1 ms) is too little for a client slowed by
+# a busy machine. Costs 60 ms of wall time per motion start, nothing in robot time.
+START_SPACING = 0.02
 
 
 class ClockWatcher:
@@ -183,13 +188,15 @@ class Clock:
             self.prepared = cycle.release()
         if lockstep and cycle.first_motion_state:
             # Nothing answers a motion's first state (libfranka's handshake reads it): the next
-            # goes one period after it, not a lockstep window. A period, not less, so that the
+            # goes START_SPACING after it, not a lockstep window: long enough that the
             # handshake has read the first state alone before the second arrives.
-            self.deadline = sent_at + self.pacer.period
+            self.deadline = sent_at + START_SPACING
+        elif lockstep and cycle.holds_start and self._held < HELD_AT_PERIOD:
+            self.deadline = sent_at + START_SPACING  # (the held states it reads, as above)
         elif lockstep and cycle.holds_start and self._held >= HELD_AT_PERIOD:
             # The world held for the client's first command: libfranka's loop answers the
             # state after the first, a pylibfranka program that reads once before its loop
-            # the one after that, and those go a period apart. Then the first command
+            # the one after that, and those go START_SPACING apart. Then the first command
             # releases the next cycle when it comes, and another held state goes only after
             # a window: a client slow over its first command reads no more of them.
             self.deadline = self.pacer.next_deadline(sent_at, lockstep=True)
