@@ -1,6 +1,6 @@
 """`franka-sim serve --viewer`: MuJoCo's passive viewer on the running world.
 
-The viewer renders from its own MjData on its own thread: ~60 times a second it copies the
+The viewer renders from its own MjData on its own thread: ~30 times a second it copies the
 world's qpos (a torn copy only shows for one frame; the cycle thread never waits for it, takes
 no lock for it and is never called back), recomputes the kinematics of its copy and hands it to
 the viewer. So rendering cannot delay a cycle; it only takes its share of the CPU.
@@ -16,7 +16,9 @@ import time
 
 log = logging.getLogger(__name__)
 
-FRAME_PERIOD = 1 / 60  # s
+# s: a smooth view at half the CPU of 60 (with software GL a frame of the arm's look costs a
+# good part of a core, which a lockstep client on a two-core machine then waits for)
+FRAME_PERIOD = 1 / 30
 OPEN_WITHIN = 30.0  # s a window may take to appear (software GL on a loaded machine)
 
 
