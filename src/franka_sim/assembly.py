@@ -172,7 +172,7 @@ class WorldParts:
         """The world (in the thread that will own it) and each robot's body in it, by index
         (physics/engine.py)."""
         return make_physics(self.placements, self._q0s(), self.scene,
-                            mobile_base=self.base is not None)
+                            mobile_base=self.base is not None, engine=self.config.physics)
 
     def make_cycle(self, physics: Physics, tool_state_wanted) -> WorldCycle:
         """The world's cycle: every robot's part around the world's one step.

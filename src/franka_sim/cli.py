@@ -11,7 +11,8 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
-from franka_sim.config import ROBOTS, ArmSpec, ClockMode, Config, RobotKind, ToolName
+from franka_sim.config import (ROBOTS, ArmSpec, ClockMode, Config, PhysicsEngine, RobotKind,
+                               ToolName)
 
 
 app = typer.Typer(
@@ -58,6 +59,11 @@ def serve(
         help="realtime: one cycle per wall-clock ms. lockstep: while a motion runs, the next "
         "cycle starts as soon as the client answered the last one (waiting up to 100 ms for it), "
         "so runs are as fast as the client and independent of the host's timing.",
+    ),
+    physics: PhysicsEngine = typer.Option(
+        PhysicsEngine.mujoco, envvar="FRANKA_SIM_PHYSICS",
+        help="The physics engine: mujoco (default) or genesis (one arm, the Hand or no tool; "
+        "needs franka-sim\\[genesis]; docs/engines.md). Clients see the same robot either way.",
     ),
     enforce_comm_constraints: bool = typer.Option(
         False, "--enforce-comm-constraints/--no-enforce-comm-constraints",
@@ -211,11 +217,20 @@ def serve(
         if missing := web_missing():
             typer.echo(f"franka-sim: --web: {missing}", err=True)
             raise typer.Exit(1)
+    if viewer and physics is not PhysicsEngine.mujoco:
+        raise typer.BadParameter("MuJoCo's viewer shows the MuJoCo world only",
+                                 param_hint="--viewer")
+    from franka_sim.physics.engine import engine_missing
+
+    if missing := engine_missing(physics.value):
+        typer.echo(f"franka-sim: {missing}", err=True)  # one line: what to install
+        raise typer.Exit(1)
     from franka_sim.config_rules import ConfigError, checked
 
     try:
         config = checked(Config(
             host=host, urdf=urdf, robot=robot.value, strict_versions=strict_versions, clock=clock,
+            physics=physics.value,
             enforce_comm_constraints=enforce_comm_constraints,
             enforce_motion_limits=enforce_motion_limits,
             joint_discontinuity_scale=joint_discontinuity_scale,

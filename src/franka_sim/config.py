@@ -49,6 +49,13 @@ class ClockMode(str, Enum):
     lockstep = "lockstep"
 
 
+class PhysicsEngine(str, Enum):
+    """The physics engines (physics/engine.py ENGINES; docs/engines.md)."""
+
+    mujoco = "mujoco"
+    genesis = "genesis"
+
+
 class ToolName(str, Enum):
     """The tools an arm can carry (franka_sim/tools/ has one row for each but `none`)."""
 
@@ -65,6 +72,7 @@ class Config:
     robot: str = "fr3"  # every arm's kind (ROBOTS) but those whose ArmSpec names their own
     strict_versions: bool = False  # a client must speak the protocols its robot's kind does
     clock: ClockMode = ClockMode.realtime
+    physics: str = "mujoco"  # the engine (PhysicsEngine; docs/engines.md)
     enforce_comm_constraints: bool = False  # abort after 20 lost cycles, as the robot does
     enforce_motion_limits: bool = False  # abort on a limit violation, as the robot does
     joint_discontinuity_scale: float = 1.0  # scales the joint envelope the IK output is held to

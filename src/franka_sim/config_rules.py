@@ -52,6 +52,7 @@ def checked(config: Config) -> Config:
                                                              config.control_port):
         raise ConfigError("tool_port", f"{config.tool_port} is the FCI's or the control "
                           "API's port")
+    _physics(config)
     _desk(config)
     _web(config)
     _meshes(config)
@@ -71,6 +72,30 @@ def checked(config: Config) -> Config:
         except SceneError as exc:
             raise ConfigError("--scene", str(exc)) from None
     return dataclasses.replace(config, **changes) if changes else config
+
+
+def _physics(config: Config) -> None:
+    """A known engine, installed, and a world it simulates (Genesis: one arm on the world,
+    the Hand or no tool; served without the MuJoCo viewers, web view and recordings)."""
+    from franka_sim.physics.engine import ENGINES, engine_missing
+
+    engine = getattr(config.physics, "value", config.physics)
+    if engine not in ENGINES:
+        raise ConfigError("--physics", f"{engine!r} is not an engine (one of "
+                          f"{', '.join(ENGINES)})")
+    if engine == "mujoco":
+        return
+    if missing := engine_missing(engine):
+        raise ConfigError("--physics", missing)
+    if len(config.arm_specs()) > 1 or config.mobile_base is not None:
+        raise ConfigError("--physics", f"{engine} simulates one arm (no --arm, no --mobile-base)")
+    if any(config.tool_of(spec) not in ("hand", "none") for spec in config.arm_specs()):
+        raise ConfigError("--physics", f"{engine} carries the Franka Hand or no tool")
+    for flag, used in (("--web", config.web_port), ("--record", config.record),
+                       ("--meshes", config.meshes)):
+        if used:
+            raise ConfigError("--physics", f"{engine} is served without {flag} "
+                              "(they draw and record the MuJoCo world)")
 
 
 def _desk(config: Config) -> None:

@@ -1,6 +1,6 @@
 """One arm inside the world: its joints, its drive, its readings, its tool, its queries.
 
-Drive model. Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
+Drive model (physics/drive.py, shared with every engine). Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
 at the start of the step, as the real drives do with one 1 kHz sample. While a generator runs,
 the command also carries its reference acceleration ddq_d, and the drives add the torque that
 gives the arm that acceleration, M(q)·ddq_d + c(q, dq) (rotors included): the impedance then
@@ -33,8 +33,9 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, write_inertial
-from franka_sim.physics.backend import NO_GAINS, JointCommand, Measured
+from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
+from franka_sim.physics.drive import MOTOR_TORQUE_RATE, DriveLaw
 from franka_sim.physics.external_torque import ExternalTorque
 from franka_sim.physics.friction import JointFriction
 from franka_sim.physics.queries import Queries
@@ -42,9 +43,7 @@ from franka_sim.physics.readings import Readings
 from franka_sim.physics.scene import ArmPlacement
 
 SETTLE = 1e-6  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
-# Nm/s: the fastest a motor follows a change of the controller's torque (the FR3's torque-rate
-# figure, tests/data/fr3_limits.md); a step in tau_ff reaches the joint as a ramp at this rate.
-MOTOR_TORQUE_RATE = 1000.0
+__all__ = ["Arm", "MOTOR_TORQUE_RATE", "SETTLE"]
 
 
 class Arm:
@@ -68,13 +67,7 @@ class Arm:
         # Views into MjData (its buffers never move) and preallocated work arrays.
         self._q, self._dq = data.qpos[self.qs], data.qvel[self.vs]
         self._applied = data.qfrc_applied[self.vs]
-        # The motors' torque limits (the URDF's effort): a drive torque beyond them saturates.
-        self._tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
-        self._tau_min = -self._tau_max
         self._gcomp = gravity[self.vs]
-        # The controller's torque as the motors give it: tau_ff followed at MOTOR_TORQUE_RATE.
-        self._ff = np.zeros(7)
-        self._ff_step = MOTOR_TORQUE_RATE * float(model.opt.timestep)  # Nm per step
         self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
@@ -85,6 +78,11 @@ class Arm:
             base = (data.xmat[root].reshape(3, 3), data.xpos[root])
             queried = (scratch.xmat[root].reshape(3, 3), scratch.xpos[root])
         self.friction = JointFriction()
+        # The drives (physics/drive.py); the motors' torque limits are the URDF's effort.
+        tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
+        self._law = DriveLaw(self._q, self._dq, self._applied, self._gcomp, tau_max,
+                             float(model.opt.timestep), self.friction, self._feed_forward)
+        self._ff = self._law.ff  # the torque the motors follow (compared by same_inputs)
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base,
                                  self.friction.torque)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
@@ -136,45 +134,11 @@ class Arm:
 
     def drive(self) -> None:
         """The drive torque for this step into qfrc_applied (g(q) prepared at this q)."""
-        cmd, tmp, applied = self.cmd, self._tmp, self._applied
-        if cmd.K is NO_GAINS:  # torque control: no impedance terms
-            applied[:] = self._follow(cmd.tau_ff)
-        else:
-            np.subtract(cmd.q_d, self._q, out=tmp)
-            np.multiply(cmd.K, tmp, out=applied)
-            np.subtract(cmd.dq_d, self._dq, out=tmp)
-            tmp *= cmd.D
-            applied += tmp
-            applied += self._follow(cmd.tau_ff)
-        applied += self._gcomp
-        if cmd.ddq_d is not None:
-            self._feed_forward(cmd.ddq_d)
-            applied += self.friction.at(cmd.dq_d, tmp)  # the robot's own compensation
-        if cmd.load is not None:
-            applied += self.declared_load.gravity
-        self._saturate(applied)
-        applied -= self.friction.step(self._dq)  # on the link, past the motor
+        cmd = self.cmd
+        self._law.apply(cmd, self.declared_load.gravity if cmd.load is not None else None)
         if self.tool is not None:
             self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
-
-    def _follow(self, tau_ff: np.ndarray) -> np.ndarray:
-        """The controller's torque as the motors give it this step: within a step's rate of
-        the last. (tau_ff is finite: the robot drops a non-finite command, robot/fci.py.)"""
-        ff, tmp, step = self._ff, self._tmp, self._ff_step
-        np.subtract(tau_ff, ff, out=tmp)
-        np.minimum(tmp, step, out=tmp)
-        np.maximum(tmp, -step, out=tmp)
-        ff += tmp
-        return ff
-
-    def _saturate(self, applied: np.ndarray) -> None:
-        """The motors saturate at their torque limits, whatever the command asked (an absurd
-        one, applied when limits are only logged, must not blow up the physics). The torque
-        is finite: so is every command the robot takes and what it derives from one
-        (robot/fci.py COMMAND_RANGE)."""
-        np.minimum(applied, self._tau_max, out=applied)
-        np.maximum(applied, self._tau_min, out=applied)
 
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
         """Add M(q)·ddq_d + c(q, dq): the inverse dynamics of the reference's acceleration, on

@@ -5,8 +5,9 @@ An engine builds a `World` from the arms' placements, their start poses and the 
 physics/backend.py's `Backend`: drive, measure, queries, its tool). The cycle thread owns the
 `Physics` of a world: the world and every robot's body in it, by robot index (an arm's
 `ArmBody`, the mobile base's body). MuJoCo is the engine today (physics/world.py, physics/arm.py,
-physics/mujoco_backend.py); a second one implements these protocols and `make_physics`, and
-nothing above physics/ changes.
+physics/mujoco_backend.py) by default, Genesis the second (physics/genesis/, the `genesis`
+extra); each implements these protocols and its own `make_physics`, this one chooses by the
+engine's name (ENGINES), and nothing above physics/ changes. docs/engines.md says how to add one.
 
 Contracts the robot relies on, which an engine must keep (the MuJoCo engine's tests check them):
 - one `step()` advances every arm by exactly `timestep` (0.001 s) with the command each arm was
@@ -96,10 +97,28 @@ class Physics:
         return self.robots[index]
 
 
+ENGINES = ("mujoco", "genesis")  # the first is the default
+
+
+def engine_missing(engine: str) -> str | None:
+    """One line saying what to install for `engine`; None if it can run here."""
+    if engine == "genesis":
+        from franka_sim.physics.genesis.runtime import genesis_missing
+
+        return genesis_missing()
+    return None
+
+
 def make_physics(placements, q0s: Mapping[str, np.ndarray], scene, *,
-                 mobile_base: bool = False) -> Physics:
-    """The MuJoCo engine: the world of `placements` (physics/scene.py) in `scene`, each arm's
-    body in it by index, then the mobile base's body if the arms ride one."""
+                 mobile_base: bool = False, engine: str = "mujoco") -> Physics:
+    """The world of `placements` (physics/scene.py) in `scene` on `engine` (ENGINES), each
+    arm's body in it by index, then the mobile base's body if the arms ride one."""
+    if engine == "genesis":
+        from franka_sim.physics.genesis import make_physics as make_genesis
+
+        return make_genesis(placements, q0s, scene, mobile_base=mobile_base)
+    if engine != "mujoco":
+        raise ValueError(f"unknown physics engine {engine!r} (one of {', '.join(ENGINES)})")
     from franka_sim.physics.mobile_base import BaseBody
     from franka_sim.physics.mujoco_backend import ArmBackend
     from franka_sim.physics.world import World as MujocoWorld
@@ -111,4 +130,5 @@ def make_physics(placements, q0s: Mapping[str, np.ndarray], scene, *,
     return Physics(world, tuple(robots))
 
 
-__all__ = ["ArmBody", "Bodies", "Physics", "World", "make_physics"]
+__all__ = ["ENGINES", "ArmBody", "Bodies", "Physics", "World", "engine_missing",
+           "make_physics"]

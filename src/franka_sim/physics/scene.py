@@ -61,7 +61,22 @@ class ArmPlacement:
 
 def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
                       scene_xml: str | os.PathLike | None = None) -> mujoco.MjModel:
-    """Compile the arms, each where its placement says, optionally inside a scene.
+    """Compile the arms, each where its placement says, optionally inside a scene (see
+    build_world_spec)."""
+    return build_world_spec(arms, scene_xml=scene_xml).compile()
+
+
+def world_mjcf(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
+               scene_xml: str | os.PathLike | None = None) -> str:
+    """The world build_world_model compiles, as one MJCF document (for another engine)."""
+    spec = build_world_spec(arms, scene_xml=scene_xml)
+    spec.compile()
+    return spec.to_xml()
+
+
+def build_world_spec(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
+                     scene_xml: str | os.PathLike | None = None) -> mujoco.MjSpec:
+    """The arms, each where its placement says, optionally inside a scene, not yet compiled.
 
     `scene_xml` is an MJCF document (its text, or a path to its file, which lets it refer to
     meshes and includes next to it) whose worldbody contents (floor, table, objects) are
@@ -100,7 +115,7 @@ def build_world_model(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
         else:
             scene = mujoco.MjSpec.from_file(os.fspath(scene_xml))
         spec.attach(scene, frame=spec.worldbody.add_frame(), prefix=SCENE_PREFIX)
-    return spec.compile()
+    return spec
 
 
 def build_model(desc: ArmDescription, *, armature=ROTOR_INERTIA_FR3,

@@ -1,0 +1,85 @@
+"""The joint drives' law, whatever engine integrates it: the torque a JointCommand asks of the
+motors for one step, from the arm's state at the start of the step.
+
+tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q) [+ M(q)·ddq_d + c(q, dq) + the friction the
+robot compensates at dq_d, while a generator runs] [+ the declared load's g(q)], saturated at the
+motors' torque limits, minus the joints' residual friction at dq (physics/friction.py); tau_ff
+reaches the joint as the motors follow it, at MOTOR_TORQUE_RATE. physics/arm.py (MuJoCo) and
+physics/genesis/arm.py apply it the same way; each engine supplies g(q) and the feed-forward
+M(q)·ddq_d + c(q, dq) from its own dynamics.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from franka_sim.physics.backend import NO_GAINS, JointCommand
+from franka_sim.physics.friction import JointFriction
+
+# Nm/s: the fastest a motor follows a change of the controller's torque (the FR3's torque-rate
+# figure, tests/data/fr3_limits.md); a step in tau_ff reaches the joint as a ramp at this rate.
+MOTOR_TORQUE_RATE = 1000.0
+
+
+class DriveLaw:
+    """One arm's drives. `q`, `dq`, `applied` and `gcomp` are the engine's (7,) arrays (views
+    the engine keeps current: the state at the start of the step, where the torque goes, g(q));
+    `feed_forward(ddq_d)` adds M(q)·ddq_d + c(q, dq) into `applied`."""
+
+    def __init__(self, q: np.ndarray, dq: np.ndarray, applied: np.ndarray, gcomp: np.ndarray,
+                 tau_max: np.ndarray, timestep: float, friction: JointFriction,
+                 feed_forward: Callable[[np.ndarray], None]) -> None:
+        self._q, self._dq, self._applied, self._gcomp = q, dq, applied, gcomp
+        self._tau_max, self._tau_min = tau_max, -tau_max
+        self.friction = friction
+        self._feed_forward = feed_forward
+        # The controller's torque as the motors give it: tau_ff followed at MOTOR_TORQUE_RATE.
+        self.ff = np.zeros(7)
+        self._ff_step = MOTOR_TORQUE_RATE * float(timestep)  # Nm per step
+        self._tmp = np.zeros(7)
+
+    def apply(self, cmd: JointCommand, load_gravity: np.ndarray | None = None) -> None:
+        """The drive torque for this step into `applied` (g(q) prepared at this q);
+        `load_gravity`: the declared load's g(q) when the command declares one."""
+        tmp, applied = self._tmp, self._applied
+        if cmd.K is NO_GAINS:  # torque control: no impedance terms
+            applied[:] = self._follow(cmd.tau_ff)
+        else:
+            np.subtract(cmd.q_d, self._q, out=tmp)
+            np.multiply(cmd.K, tmp, out=applied)
+            np.subtract(cmd.dq_d, self._dq, out=tmp)
+            tmp *= cmd.D
+            applied += tmp
+            applied += self._follow(cmd.tau_ff)
+        applied += self._gcomp
+        if cmd.ddq_d is not None:
+            self._feed_forward(cmd.ddq_d)
+            applied += self.friction.at(cmd.dq_d, tmp)  # the robot's own compensation
+        if cmd.load is not None and load_gravity is not None:
+            applied += load_gravity
+        self._saturate(applied)
+        applied -= self.friction.step(self._dq)  # on the link, past the motor
+
+    def _follow(self, tau_ff: np.ndarray) -> np.ndarray:
+        """The controller's torque as the motors give it this step: within a step's rate of
+        the last. (tau_ff is finite: the robot drops a non-finite command, robot/fci.py.)"""
+        ff, tmp, step = self.ff, self._tmp, self._ff_step
+        np.subtract(tau_ff, ff, out=tmp)
+        np.minimum(tmp, step, out=tmp)
+        np.maximum(tmp, -step, out=tmp)
+        ff += tmp
+        return ff
+
+    def _saturate(self, applied: np.ndarray) -> None:
+        """The motors saturate at their torque limits, whatever the command asked (an absurd
+        one, applied when limits are only logged, must not blow up the physics). The torque
+        is finite: so is every command the robot takes and what it derives from one
+        (robot/fci.py COMMAND_RANGE)."""
+        np.minimum(applied, self._tau_max, out=applied)
+        np.maximum(applied, self._tau_min, out=applied)
+
+    def rest(self) -> None:
+        """No torque followed any more (a reset, the idle drive at rest)."""
+        self.ff.fill(0.0)

@@ -1,0 +1,75 @@
+"""The ArmBody (physics/backend.py's Backend protocol) of the arm of a Genesis world."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.genesis.world import GenesisWorld
+
+
+class GenesisArmBody:
+    """The arm `name` of `world`; not thread-safe (the cycle thread serialises access)."""
+
+    def __init__(self, world: GenesisWorld, name: str) -> None:
+        self.world = world
+        self.arm = arm = world.arms[name]
+        self.desc = arm.desc
+        self.timestep = world.timestep
+        self._dynamics = arm.dynamics
+        self._armature = np.asarray(arm.placement.armature, float)
+        self._base = arm.placement.base_frame()
+        self.command = arm.command  # (cmd, tool): what the arm does in the world's next step
+
+    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
+        self.arm.command(cmd, tool)
+        self.world.step()
+        return self.arm.last
+
+    def finish_step(self) -> None:
+        self.world.finish_step()
+
+    def measure(self) -> Measured:
+        return self.arm.last
+
+    def reset(self, q0, tool_setting: object | None = None) -> None:
+        """At rest at q0, its tool at its start or at `tool_setting`; the world as at its
+        start."""
+        settings = None if tool_setting is None else {self.arm.name: tool_setting}
+        self.world.reset({self.arm.name: q0}, settings)
+
+    def set_end_effector(self, mass: float, com, inertia) -> None:
+        self.world.set_end_effector(self.arm.name, mass, com, inertia)
+
+    # -- queries: Genesis's solver on the arm's own scene (physics/genesis/dynamics.py) ------------
+    def _tool_q(self) -> np.ndarray:
+        return self.arm.q[7:]
+
+    def gravity(self, q) -> np.ndarray:
+        return self._dynamics.gravity_all(np.asarray(q, float), self._tool_q())[:7].copy()
+
+    def coriolis(self, q, dq) -> np.ndarray:
+        q = np.asarray(q, float)
+        bias, _ = self._dynamics.bias_and_mass(q, np.asarray(dq, float), self._tool_q())
+        return bias - self.gravity(q)
+
+    def mass_matrix(self, q, *, include_armature: bool = False) -> np.ndarray:
+        _, M = self._dynamics.bias_and_mass(np.asarray(q, float), None, self._tool_q())
+        if not include_armature:
+            M[np.diag_indices(7)] -= self._armature
+        return M
+
+    def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        pose, J = self._dynamics.flange_pose_and_jacobian(np.asarray(q, float), self._tool_q())
+        if self._base is not None:
+            R, p = self._base
+            pose[:3, :3] = R.T @ pose[:3, :3]
+            pose[:3, 3] = R.T @ (pose[:3, 3] - p)
+            J = np.vstack([R.T @ J[:3], R.T @ J[3:]])
+        return pose, J
+
+    def jacobian_flange(self, q) -> np.ndarray:
+        return self.flange_pose_and_jacobian(q)[1]
+
+    def flange_pose(self, q) -> np.ndarray:
+        return self.flange_pose_and_jacobian(q)[0]
