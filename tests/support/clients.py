@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pylibfranka
+import pytest
 
 
 def connect(host: str) -> pylibfranka.Robot:
@@ -56,3 +59,51 @@ def cartesian_pose_motion(robot, targets, controller=pylibfranka.ControllerMode.
         command.motion_finished = k == len(targets) - 1
         control.writeOnce(command)
     return seen
+
+
+# -- a press on the table (the default scene) until the robot's reflex ------------------------------
+def _pick_and_place():
+    """examples/pick_and_place.py (its offline IK and poses)."""
+    examples = str(Path(__file__).resolve().parents[2] / "examples")
+    if examples not in sys.path:
+        sys.path.insert(0, examples)
+    import pick_and_place
+
+    return pick_and_place
+
+
+PAD_BOTTOM = 0.0175  # m under the TCP: where the fingers first touch the table
+SPOT = (0.35, 0.2)  # on the table, clear of the cube
+SPEED = 0.03  # m/s down
+RAMP = 0.05  # s to reach it
+
+
+def descend_until_reflex(robot) -> list[tuple[float, float, float]]:
+    """Down at SPEED until the robot aborts the motion: (time, O_F_ext_hat_K[2],
+    cartesian_contact[2]) of every state the motion showed."""
+    control = robot.start_cartesian_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    seen, t = [], 0.0
+    with pytest.raises(pylibfranka.ControlException, match="cartesian_reflex"):
+        while t < 2.0:
+            state, period = control.readOnce()
+            t += period.to_sec()
+            seen.append((t, state.O_F_ext_hat_K[2], state.cartesian_contact[2]))
+            v = -SPEED * 0.5 * (1 - math.cos(math.pi * min(t / RAMP, 1.0)))
+            control.writeOnce(pylibfranka.CartesianVelocities([0.0, 0.0, v, 0.0, 0.0, 0.0]))
+    del control
+    return seen
+
+
+def press_until_reflex(robot, threshold: float):
+    """From 5 mm over the touching height, down onto the table with the Cartesian collision
+    threshold at `threshold` (contact from 2 N); the states seen, and the force at the reflex."""
+    pp = _pick_and_place()
+    robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [2.0] * 6, [threshold] * 6)
+    move_to(robot, pp.solve_ik([*SPOT, PAD_BOTTOM + 0.005], pp.READY), seconds=1.0)
+    seen = descend_until_reflex(robot)
+    reflex = robot.read_once()
+    assert "cartesian_reflex" in str(reflex.last_motion_errors)
+    robot.automatic_error_recovery()
+    robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [100.0] * 6, [100.0] * 6)
+    move_to(robot, pp.READY, seconds=1.0)
+    return seen, reflex.O_F_ext_hat_K[2]

@@ -29,7 +29,8 @@ class ArmDynamics:
         self._scene = scene = gs.Scene(
             sim_options=gs.options.SimOptions(dt=CYCLE_PERIOD, substeps=1, gravity=GRAVITY),
             rigid_options=gs.options.RigidOptions(enable_collision=False, enable_joint_limit=False,
-                                                  enable_torsional_friction=True),
+                                                  enable_torsional_friction=True,
+                                                  enable_neutral_collision=True),
             show_viewer=False)
         self._entity = entity = scene.add_entity(gs.morphs.MJCF(file=str(path)))
         scene.build()

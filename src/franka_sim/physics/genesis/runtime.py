@@ -43,7 +43,7 @@ def genesis():
             import torch
 
             backend = gs.gpu if torch.cuda.is_available() else gs.cpu
-            gs.init(backend=backend, precision="64", logging_level="warning", seed=0)
+            gs.init(backend=backend, precision="64", logging_level="error", seed=0)
             _ready = True
         return gs
 

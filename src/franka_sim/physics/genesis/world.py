@@ -67,7 +67,10 @@ class GenesisWorld:
         path = write_mjcf(world_mjcf(arms, scene_xml=scene_xml), "world")
         self.scene = gs.Scene(
             sim_options=gs.options.SimOptions(dt=CYCLE_PERIOD, substeps=1, gravity=GRAVITY),
-            rigid_options=gs.options.RigidOptions(enable_torsional_friction=True),
+            # Every pair of geoms MuJoCo's bits let touch, even those overlapping at q = 0
+            # (Genesis would otherwise drop the arm's link5–hand pairs for good).
+            rigid_options=gs.options.RigidOptions(enable_torsional_friction=True,
+                                                  enable_neutral_collision=True),
             show_viewer=False)
         self.entity = entity = self.scene.add_entity(gs.morphs.MJCF(file=str(path)))
         self.scene.build()
