@@ -220,7 +220,7 @@ def serve(
     if viewer and physics is not PhysicsEngine.mujoco:
         raise typer.BadParameter("MuJoCo's viewer shows the MuJoCo world only",
                                  param_hint="--viewer")
-    from franka_sim.physics.engine import engine_missing
+    from franka_sim.physics.engine_choice import engine_missing
 
     if missing := engine_missing(physics.value):
         typer.echo(f"franka-sim: {missing}", err=True)  # one line: what to install

@@ -77,7 +77,7 @@ def checked(config: Config) -> Config:
 def _physics(config: Config) -> None:
     """A known engine, installed, and a world it simulates (Genesis: one arm on the world,
     the Hand or no tool; served without the MuJoCo viewers, web view and recordings)."""
-    from franka_sim.physics.engine import ENGINES, engine_missing
+    from franka_sim.physics.engine_choice import ENGINES, engine_missing
 
     engine = getattr(config.physics, "value", config.physics)
     if engine not in ENGINES:

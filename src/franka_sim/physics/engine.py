@@ -33,6 +33,7 @@ import numpy as np
 
 from franka_sim.physics.backend import Backend as ArmBody
 from franka_sim.physics.bodies import BodyState
+from franka_sim.physics.engine_choice import ENGINES, engine_missing
 
 
 class Bodies(Protocol):
@@ -95,18 +96,6 @@ class Physics:
 
     def arm(self, index: int) -> ArmBody:
         return self.robots[index]
-
-
-ENGINES = ("mujoco", "genesis")  # the first is the default
-
-
-def engine_missing(engine: str) -> str | None:
-    """One line saying what to install for `engine`; None if it can run here."""
-    if engine == "genesis":
-        from franka_sim.physics.genesis.runtime import genesis_missing
-
-        return genesis_missing()
-    return None
 
 
 def make_physics(placements, q0s: Mapping[str, np.ndarray], scene, *,
