@@ -31,6 +31,9 @@ NOT_FACTORS = {
     "rt_priority": "scheduling of the server process only; it needs CAP_SYS_NICE, and "
                    "SCHED_FIFO servers side by side can starve a machine of two cores",
     "log_level": "what is logged, not what is simulated",
+    "physics": "the engine: tests/engines runs the same client programs on each; Genesis "
+               "serves one arm with the Hand and refuses the other worlds and flags "
+               "(docs/engines.md), and needs its extra",
     "no_gripper": "the same as --tool none, which the tool factor covers",
     "strict_versions": "decides which libfranka versions connect, at Connect only: the "
                        "matrix's clients are pylibfranka 0.21 (v10), which a strict Panda "
