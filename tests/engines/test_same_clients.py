@@ -36,6 +36,8 @@ TOLERANCES = {"q": 1e-4, "position": 1e-4, "width": 1e-3, "cube": 1e-2}
 # The client's Model against the engine's own M, g and c (relative): MuJoCo compiles the
 # description itself; Genesis reads it from the MJCF MuJoCo writes, whose numbers are rounded.
 MODEL_AGREEMENT = {"mujoco": 1e-6, "genesis": 1e-5}
+K_THETA = np.array([3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0])
+CUBE_MASS = 0.1  # kg (scenes/default.xml)
 GENESIS_START = 180.0  # s: Genesis compiles its kernels on a machine's first start
 
 RESULTS: dict[str, dict[str, np.ndarray]] = {}  # engine → program → where it ended
@@ -120,6 +122,34 @@ def test_torque_control_with_zero_torque_holds_the_arm(sim, robot):
     _ended(sim, "torque hold", q)
 
 
+def test_a_declared_load_that_is_not_carried_reads_as_external(sim, robot):
+    """SetLoad of 1 kg with nothing carried: the robot's gravity compensation, which includes
+    it, lifts the arm until the joint springs hold it, and the estimate reads the robot pushing
+    down with the missing weight."""
+    move_to(robot, pp.READY, seconds=1.0)
+    robot.set_joint_impedance(K_THETA.tolist())
+    before = _settled(robot)
+    robot.set_load(1.0, [0.0, 0.0, 0.1], [0.004, 0.0, 0.0, 0.0, 0.005, 0.0, 0.0, 0.0, 0.003])
+    state = _settled(robot)
+    tau_ext = np.array(state.tau_ext_hat_filtered)
+    lift = np.array(state.q) - np.array(before.q)
+    assert np.abs(tau_ext).max() > 1.0
+    np.testing.assert_allclose(K_THETA * lift, -tau_ext, atol=0.02)
+    np.testing.assert_allclose(state.O_F_ext_hat_K[:3], [0.0, 0.0, -9.81], atol=0.05)
+    robot.set_load(0.0, [0.0, 0.0, 0.0], [0.0] * 9)
+    state = _settled(robot)
+    np.testing.assert_allclose(state.q, before.q, atol=1e-5)
+    assert np.abs(state.tau_ext_hat_filtered).max() < 1e-3
+    _ended(sim, "declared load", lift)
+
+
+def _settled(robot, reads: int = 50):
+    """The state after the world came to rest (lockstep: the reads follow it)."""
+    for _ in range(reads):
+        state = robot.read_once()
+    return state
+
+
 def test_cartesian_pose_motion_comes_back(sim):
     start = pose(_at_ready(sim.host).O_T_EE)
     generate_cartesian_pose_motion.main(sim.host, 2.0)  # a quarter circle and back
@@ -145,6 +175,9 @@ def test_the_hand_homes_and_grasps_the_cube(sim, robot):
     assert pp.pick(robot, gripper, pp.CUBE) is True
     held = gripper.read_once()
     assert held.is_grasped and held.width == pytest.approx(pp.CUBE_SIZE, abs=1e-3)
+    # The cube's weight reaches the arm through the pads' contacts: the robot holds it up.
+    weight = _settled(robot).O_F_ext_hat_K[:3]
+    np.testing.assert_allclose(weight, [0.0, 0.0, CUBE_MASS * 9.81], atol=0.05)
     cube = np.array(control.pose("cube")["position"])
     assert cube[2] > pp.CUBE[2] + 0.1  # lifted with the arm
     _ended(sim, "grasp width", [held.width])
@@ -182,10 +215,11 @@ def _rel(a, b) -> float:
 
 @pytest.mark.genesis
 def test_the_engines_end_the_programs_in_the_same_poses():
-    if set(RESULTS) != {"mujoco", "genesis"} or len(RESULTS["genesis"]) < 6:
+    if set(RESULTS) != {"mujoco", "genesis"} or len(RESULTS["genesis"]) < 8:
         pytest.skip("needs every program's end on both engines (genesis installed, none failed)")
     mujoco, genesis = RESULTS["mujoco"], RESULTS["genesis"]
     kinds = {"joint position": "q", "joint velocity": "q", "torque hold": "q",
+             "declared load": "q",
              "cartesian pose": "position", "press": "q", "grasp width": "width",
              "grasped cube": "cube"}
     apart = {name: float(np.abs(mujoco[name] - genesis[name]).max()) for name in kinds}

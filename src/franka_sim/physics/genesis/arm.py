@@ -10,7 +10,8 @@ Readings, as physics/readings.py defines them: tau_J = the drive torque − B·d
 friction, theta = q + tau_J / JOINT_STIFFNESS, their backward differences, O_T_F and J_F of the
 hand body (its frame is the flange's) in the arm's base frame. tau_ext is Genesis's constraint
 force on the arm's dofs in the robot's sign (contacts; the arm's joint-limit stops are counted
-too while a joint is at its limit), plus the pushes on the arm's links. The accelerometers read
+too while a joint is at its limit), plus the pushes on the arm's links, minus a declared load's
+gravity (its inertia is not subtracted: the load's acceleration is left in). The accelerometers read
 the specific force of gravity alone in each sensor's frame (the arm's own accelerations are
 left out).
 """
@@ -83,6 +84,7 @@ class GenesisArm:
         self._tool_cmd = None
         self._last_cmd: JointCommand | None = None
         self._dq_prev = np.zeros(7)
+        self._load_gravity: np.ndarray | None = None  # a declared load's g(q) this step
         self._previous = None  # (tau_J, theta) of the last readings
         self.external = np.zeros(7)  # the environment's torque on the arm over the last step
         self.last: Measured | None = None
@@ -119,7 +121,10 @@ class GenesisArm:
         """The torque of every dof for this step into `applied` (the state is current)."""
         self.gravity[:] = self.dynamics.gravity_all(self._q, self.q[7:])
         cmd = self.cmd
-        self._law.apply(cmd)
+        load = cmd.load
+        self._load_gravity = None if load is None else self.dynamics.load_gravity(
+            self._q, self.q[7:], load.mass, load.F_x_C)
+        self._law.apply(cmd, self._load_gravity)
         if self.tool is not None:
             self.tool.drive(self._tool_cmd)
         self._dq_prev[:] = self._dq
@@ -140,8 +145,11 @@ class GenesisArm:
         external[:] = constraint
         if pushed is not None:
             external += pushed
+        tau_ext = -external
+        if self._load_gravity is not None:  # the declared load's model is the robot's
+            tau_ext -= self._load_gravity
         self._last_cmd = self.cmd
-        self.last = self._readings(ddq, -external, flange)
+        self.last = self._readings(ddq, tau_ext, flange)
 
     def record_rest(self, flange) -> None:
         self.external.fill(0.0)

@@ -41,6 +41,7 @@ class ArmDynamics:
         self.n = len(self._dofs)
         self._q, self._dq = np.zeros(self.n), np.zeros(self.n)
         self._flange = entity.get_link("hand")
+        self._gravity = np.asarray(GRAVITY, dtype=float)
 
     def _at(self, q, dq=None, tool_q=None) -> None:
         """The arm at (q, dq) (its tool's joints at `tool_q`, at rest), forward dynamics done."""
@@ -68,6 +69,17 @@ class ArmDynamics:
         self._at(q, dq, tool_q)
         M = self._entity.get_mass_mat().cpu().numpy()
         return self._bias()[:7], M[np.ix_(self._dofs[:7], self._dofs[:7])].copy()
+
+    def load_gravity(self, q, tool_q, mass: float, F_x_C) -> np.ndarray:
+        """(7,) torque that holds up `mass` at F_x_C in the flange frame, at q: Jᵀ·(−m·g) with
+        the point's Jacobian from Genesis's kinematics."""
+        self._q[:7] = q
+        if tool_q is not None:
+            self._q[7:] = tool_q
+        self._entity.set_dofs_position(self._q, self._dofs)
+        point = np.asarray(F_x_C, dtype=float)
+        J = self._entity.get_jacobian(self._flange, local_point=point).cpu().numpy()
+        return J[:3, self._dofs[:7]].T @ (-mass * self._gravity)
 
     def flange_pose_and_jacobian(self, q, tool_q=None) -> tuple[np.ndarray, np.ndarray]:
         """O_T_F (4,4) and the flange Jacobian (6,7), rows [linear; angular], at q."""
