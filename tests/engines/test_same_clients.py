@@ -207,6 +207,10 @@ def test_the_clients_model_is_the_engines_dynamics(sim, robot):
         M = np.reshape(model.mass(state), (7, 7), order="F")
         assert _rel(M, physics.mass_matrix(q)) < tolerance
         assert _rel(model.coriolis(state), physics.coriolis(q, dq)) < tolerance
+        # The desired state's kinematics (every cycle of a motion) are the engine's own.
+        O_T_F, J_F = physics.flange_pose_and_jacobian(q)
+        np.testing.assert_allclose(O_T_F, physics.flange_pose(q), atol=1e-6)
+        np.testing.assert_allclose(J_F, physics.jacobian_flange(q), atol=1e-6)
 
 
 def _rel(a, b) -> float:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from franka_sim.description import kinematics
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.genesis.world import GenesisWorld
 
@@ -60,6 +61,13 @@ class GenesisArmBody:
         return M
 
     def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """O_T_F and J_F at q (the desired state's, every cycle of a motion): the description's
+        kinematics, which Genesis's equal to rounding (tests/engines), at a fraction of a
+        Genesis query's cost; `flange_pose` and `jacobian_flange` ask Genesis."""
+        q = np.asarray(q, float)
+        return kinematics.flange_pose(self.desc, q), kinematics.tip_jacobian(self.desc, q)
+
+    def _genesis_flange(self, q) -> tuple[np.ndarray, np.ndarray]:
         pose, J = self._dynamics.flange_pose_and_jacobian(np.asarray(q, float), self._tool_q())
         if self._base is not None:
             R, p = self._base
@@ -69,7 +77,7 @@ class GenesisArmBody:
         return pose, J
 
     def jacobian_flange(self, q) -> np.ndarray:
-        return self.flange_pose_and_jacobian(q)[1]
+        return self._genesis_flange(q)[1]
 
     def flange_pose(self, q) -> np.ndarray:
-        return self.flange_pose_and_jacobian(q)[0]
+        return self._genesis_flange(q)[0]

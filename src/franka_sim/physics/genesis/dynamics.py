@@ -39,19 +39,28 @@ class ArmDynamics:
         # Every dof of the arm and its tool, in joint_names' order (the arm's 7 first).
         self._dofs = [int(entity.get_joint(name).dofs_idx_local[0]) for name in joint_names]
         self.n = len(self._dofs)
-        self._q, self._dq = np.zeros(self.n), np.zeros(self.n)
+        self._q, self._dq = np.full(self.n, np.nan), np.zeros(self.n)  # as last set
+        self._q_next = np.zeros(self.n)
         self._flange = entity.get_link("hand")
         self._gravity = np.asarray(GRAVITY, dtype=float)
 
+    def _place(self, q, tool_q) -> None:
+        """The arm's joints at q (its tool's at `tool_q`), the kinematics done; nothing is set
+        again for the positions set last (a step asks g, then M and the bias, at one q)."""
+        q_all = self._q_next
+        q_all[:7] = q
+        if tool_q is not None:
+            q_all[7:] = tool_q
+        if not np.array_equal(q_all, self._q):
+            self._q[:] = q_all
+            self._entity.set_dofs_position(self._q, self._dofs, zero_velocity=False)
+
     def _at(self, q, dq=None, tool_q=None) -> None:
         """The arm at (q, dq) (its tool's joints at `tool_q`, at rest), forward dynamics done."""
-        self._q[:7] = q
-        if tool_q is not None:
-            self._q[7:] = tool_q
+        self._place(q, tool_q)
         self._dq.fill(0.0)
         if dq is not None:
             self._dq[:7] = dq
-        self._entity.set_dofs_position(self._q, self._dofs, zero_velocity=False)
         self._entity.set_dofs_velocity(self._dq, self._dofs)
         self._solver._func_forward_dynamics()  # M and the bias at this state; no step
 
@@ -73,20 +82,14 @@ class ArmDynamics:
     def load_gravity(self, q, tool_q, mass: float, F_x_C) -> np.ndarray:
         """(7,) torque that holds up `mass` at F_x_C in the flange frame, at q: Jᵀ·(−m·g) with
         the point's Jacobian from Genesis's kinematics."""
-        self._q[:7] = q
-        if tool_q is not None:
-            self._q[7:] = tool_q
-        self._entity.set_dofs_position(self._q, self._dofs)
+        self._place(q, tool_q)
         point = np.asarray(F_x_C, dtype=float)
         J = self._entity.get_jacobian(self._flange, local_point=point).cpu().numpy()
         return J[:3, self._dofs[:7]].T @ (-mass * self._gravity)
 
     def flange_pose_and_jacobian(self, q, tool_q=None) -> tuple[np.ndarray, np.ndarray]:
         """O_T_F (4,4) and the flange Jacobian (6,7), rows [linear; angular], at q."""
-        self._q[:7] = q
-        if tool_q is not None:
-            self._q[7:] = tool_q
-        self._entity.set_dofs_position(self._q, self._dofs)
+        self._place(q, tool_q)
         return flange_of(self._entity, self._flange, self._dofs[:7])
 
 
