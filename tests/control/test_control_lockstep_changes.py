@@ -4,18 +4,25 @@ does: the frozen idle world is stepped until it is at rest again."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from engines.engine_params import ENGINES, START_TIMEOUT
 from franka_sim.control import Control
-from franka_sim.testing import running_sim
+from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 
-def test_a_placed_body_falls_and_a_pushed_arm_comes_back_without_a_client():
-    with running_sim("--clock", "lockstep") as sim:
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_placed_body_falls_and_a_pushed_arm_comes_back_without_a_client(engine):
+    sim = ServerProcess(fresh_loopback_address(), "--clock", "lockstep",
+                        "--physics", engine).wait_ready(START_TIMEOUT)
+    try:
         control = Control(sim.host)
         control.set_pose("cube", [0.45, 0.0, 0.3])
         assert control.pose("cube")["position"][2] < 0.03  # it fell onto the table at once
         before = control.state()
         control.push("link7", force=[0, 0, -30], duration=0.3)
         after = control.state()
+    finally:
+        sim.stop()
     assert after["cycle"] - before["cycle"] >= 300  # the push's cycles ran
     np.testing.assert_array_equal(after["q"], before["q"])  # and the hold took the arm back

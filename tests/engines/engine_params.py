@@ -8,6 +8,7 @@ import pytest
 from franka_sim.physics.genesis.runtime import genesis_missing
 
 GENESIS_MISSING = genesis_missing()
+START_TIMEOUT = 180.0  # s for a server to serve: Genesis compiles its kernels at a first start
 ENGINES = [
     pytest.param("mujoco", id="mujoco"),
     pytest.param("genesis", id="genesis", marks=[

@@ -19,7 +19,7 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from engine_params import ENGINES
+from engine_params import ENGINES, START_TIMEOUT
 from support.clients import connect, move_to, pose, press_until_reflex
 from franka_sim.control import Control
 from franka_sim.testing.server_process import ServerProcess, fresh_loopback_address
@@ -38,7 +38,6 @@ TOLERANCES = {"q": 1e-4, "position": 1e-4, "width": 1e-3, "cube": 1e-2}
 MODEL_AGREEMENT = {"mujoco": 1e-6, "genesis": 1e-5}
 K_THETA = np.array([3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0])
 CUBE_MASS = 0.1  # kg (scenes/default.xml)
-GENESIS_START = 180.0  # s: Genesis compiles its kernels on a machine's first start
 
 RESULTS: dict[str, dict[str, np.ndarray]] = {}  # engine → program → where it ended
 
@@ -47,7 +46,7 @@ RESULTS: dict[str, dict[str, np.ndarray]] = {}  # engine → program → where i
 def sim(request):
     engine = request.param
     server = ServerProcess(fresh_loopback_address(), "--clock", "lockstep",
-                           "--physics", engine).wait_ready(GENESIS_START)
+                           "--physics", engine).wait_ready(START_TIMEOUT)
     server.engine = engine
     RESULTS.setdefault(engine, {})
     try:

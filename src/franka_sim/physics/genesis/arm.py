@@ -151,6 +151,11 @@ class GenesisArm:
         self._last_cmd = self.cmd
         self.last = self._readings(ddq, tau_ext, flange)
 
+    def record_settled(self, flange) -> None:
+        """The readings again, once the standstill put the arm exactly on its hold, at rest."""
+        self._previous = None if self.last is None else (self.last.tau_J, self.last.theta)
+        self.last = self._readings(np.zeros(7), self.last.tau_ext, flange)
+
     def record_rest(self, flange) -> None:
         self.external.fill(0.0)
         self._previous = None

@@ -7,10 +7,11 @@ both engines simulate the same description. Each step the arm turns its command 
 torques (physics/drive.py's law, with g(q) and the feed-forward from Genesis's own solver), the
 world hands them to Genesis, steps, and reads the new state back.
 
-Rest. A step whose inputs are the last step's, after two steps in which no dof of the world moved
-faster than REST_SPEED, is not taken: the world is asleep (as MuJoCo's resting bodies sleep), and
-the arm hands back its last readings, which the robot takes as "at rest". Anything done to the
-world (a new command, a push, a placed body, a reset) wakes it.
+Rest. A step whose inputs are the last step's, after two steps in which no joint of the arm or
+its tool moved faster than SETTLE and no other faster than REST_SPEED, is not taken: the world
+is asleep (as MuJoCo's resting bodies sleep; an arm holding still is put exactly on its hold as
+it falls asleep), and the arm hands back its last readings, which the robot takes as "at rest".
+Anything done to the world (a new command, a push, a placed body, a reset) wakes it.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
+from franka_sim.physics.arm import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount
 from franka_sim.physics.genesis.arm import GenesisArm
@@ -28,7 +30,7 @@ from franka_sim.physics.genesis.runtime import genesis, write_mjcf
 from franka_sim.physics.scene import GRAVITY, ArmPlacement, build_world_model, world_mjcf
 from franka_sim.protocol.timing import CYCLE_PERIOD
 
-REST_SPEED = 1e-5  # rad/s and m/s: no dof faster, two steps running: the world is at rest
+REST_SPEED = 1e-5  # m/s and rad/s: a scene's body no faster, two steps running, is at rest
 
 
 class GenesisBodies(Bodies):
@@ -80,6 +82,7 @@ class GenesisWorld:
         if isinstance(placement.tool, FingersMount):
             names += [prefix + name for name in FINGER_JOINTS]
         self._dofs = [int(entity.get_joint(n).dofs_idx_local[0]) for n in names]
+        self._others = np.setdiff1d(np.arange(entity.n_dofs), self._dofs)  # the scene's
         self._qs = [int(entity.get_joint(n).qs_idx_local[0]) for n in names]
         dynamics = ArmDynamics(placement, names)
         self._arm = GenesisArm(placement, dynamics, self.timestep, len(names) - 7)
@@ -111,9 +114,26 @@ class GenesisWorld:
         arm.dq[:] = qvel[self._dofs]
         constraint = self._to_torch(self._solver.dyn_state.dofs.qf_constraint).cpu().numpy()
         arm.record(constraint.reshape(-1)[self._dofs[:7]], pushed, self._flange())
-        still = same and float(np.abs(qvel).max(initial=0.0)) < REST_SPEED
-        self._still = self._still + 1 if still else 0
-        self._asleep = self._still >= 2
+        self._still = self._still + 1 if same and self._is_still(qvel) else 0
+        if self._still >= 2:
+            self._fall_asleep()
+
+    def _is_still(self, qvel: np.ndarray) -> bool:
+        """No joint of the arm or its tool faster than SETTLE, no other faster than
+        REST_SPEED."""
+        others = self._others
+        return (float(np.abs(qvel[self._dofs]).max()) < SETTLE
+                and (not others.size or float(np.abs(qvel[others]).max()) < REST_SPEED))
+
+    def _fall_asleep(self) -> None:
+        """Asleep from now on; an arm holding still within SETTLE of its hold is put exactly
+        there first (physics/arm.py, Standstill), so the frozen state is the hold's."""
+        arm = self._arm
+        if arm.cmd.hold and arm.settle():
+            self.entity.set_dofs_position(arm.q, self._dofs, zero_velocity=False)
+            self.entity.set_dofs_velocity(arm.dq, self._dofs)
+            arm.record_settled(self._flange())
+        self._asleep = True
 
     def finish_step(self) -> None:
         """Nothing: a Genesis step is done when step() returns."""
