@@ -1,5 +1,6 @@
 """libfranka's own C++ examples of older tags (0.9.2: robot protocol 5, 0.12.1: 6, 0.13.6: 7,
-0.14.1: 8, 0.15.3: 9),
+0.14.1: 8, 0.15.3: 9) and of 0.21.2 (10, the simulator's own; built with libfranka-common
+d96c221 in place of the commit 2e090a6 it records, which is not public: docs/clients.md),
 built from their sources and run unmodified against the simulator in lockstep: each prints
 what it prints on a robot, and the recording of its run shows the robot did what it asked
 (tests/support/libfranka_cpp_checks.py).
