@@ -4,7 +4,9 @@ angles), it reads the pump's state, vacuums the cube, finds it still held 3 s la
 it off. The builds come from FRANKA_SIM_LIBFRANKA_BUILDS (tests/support/libfranka_cpp.py), made by
 tests/support/build_older_libfranka.sh (or `make -C BUILD vacuum_object` in an older build);
 the example opens no robot connection, so it needs no faked realtime kernel and no root.
-Passes with 0.9.2, 0.13.6 and 0.15.3 (vacuum gripper protocol 1 in all)."""
+Passes with 0.9.2, 0.13.6, 0.15.3 and 0.21.2 (vacuum gripper protocol 1 in all; 0.21.2 built
+with libfranka-common d96c221 in place of the commit 2e090a6 it records, which is not public:
+docs/clients.md)."""
 
 from __future__ import annotations
 

@@ -34,7 +34,7 @@ from support import libfranka_cpp as cpp
 from support.libfranka_cpp_checks import CHECKS, connect_versions, requests
 from support.record_older_libfranka import CUTS, DATA
 
-TAGS = ("0.9.2", "0.12.1", "0.13.6", "0.14.1", "0.15.3")
+TAGS = ("0.9.2", "0.12.1", "0.13.6", "0.14.1", "0.15.3", "0.21.2")
 REGENERATE = ("rewrite them: build the tags with tests/support/build_older_libfranka.sh, then "
               "FRANKA_SIM_LIBFRANKA_BUILDS=... python tests/support/record_older_libfranka.py")
 FILES = [(tag, name) for tag in TAGS for name in cpp.EXAMPLES]

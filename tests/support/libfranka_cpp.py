@@ -28,8 +28,11 @@ from franka_sim.control import Control
 BUILDS_VARIABLE = "FRANKA_SIM_LIBFRANKA_BUILDS"
 BUILD_SCRIPT = "tests/support/build_older_libfranka.sh"
 # The robot protocol version each libfranka line speaks (its common/ submodule's kVersion).
+# 0.20.5 on record a common commit no public mirror has; 0.21 is built with the newest public
+# one (robot version 10, the commit 0.18.0 to 0.20.4 record), see build_older_libfranka.sh.
 PROTOCOL = {(0, 9): 5, (0, 10): 6, (0, 11): 6, (0, 12): 6, (0, 13): 7, (0, 14): 8,
-            (0, 15): 9, (0, 16): 9, (0, 17): 9}
+            (0, 15): 9, (0, 16): 9, (0, 17): 9, (0, 18): 10, (0, 19): 10, (0, 20): 10,
+            (0, 21): 10}
 GRIPPER_PROTOCOL = 3  # the same in every tag since 0.9
 
 # Runs the example with /sys/kernel/realtime reading 1, in a mount namespace of its own.
