@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.config import READY_POSE
-from franka_sim.protocol.codec import GRIPPER_STATE_DTYPE
+from franka_sim.protocol.codec import GRIPPER_STATE_DTYPE, VACUUM_GRIPPER_STATE_DTYPE
 from franka_sim.recording.reader import Recording, command_of
 
 READY = np.array(READY_POSE)
@@ -152,6 +152,20 @@ def check_grasp_object(recording: Recording, complete: bool) -> None:
     assert states[-1]["is_grasped"] and abs(states[-1]["width"] - 0.05) < 2e-3
     for command in ("Homing", "Grasp", "Stop"):
         assert replies(recording, command)[-1] == "kSuccess", command
+
+
+def check_vacuum_object(recording: Recording, complete: bool) -> None:
+    """The pump vacuums the cube under the cup (answered once the part is present and the
+    vacuum in range), holds it, and drops it off (its last states, 10 a second, show the cup
+    venting: the client leaves on the answer); the arm never moves."""
+    states = np.frombuffer(b"".join(e.data for e in recording.of("vacuum_gripper_state")),
+                           VACUUM_GRIPPER_STATE_DTYPE)
+    held = states["part_present"] & states["in_control_range"]
+    assert not states[0]["part_present"] and held.sum() >= 30, "held for 3 s"
+    assert not states[-1]["part_present"] and states[-1]["vacuum"] < 0.1 * states["vacuum"].max()
+    assert replies(recording, "Vacuum") == ["kSuccess"]
+    assert replies(recording, "DropOff") == ["kSuccess"]
+    assert not recording.of("command"), "the example moves nothing"
 
 
 def _follows(recording: Recording, motion: np.ndarray, commanded: str, measured: str,
