@@ -11,6 +11,7 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
+from franka_sim import cli_recordings  # noqa: E402
 from franka_sim.config import (ROBOTS, ArmSpec, ClockMode, Config, PhysicsEngine, RobotKind,
                                ToolName)
 
@@ -327,8 +328,9 @@ def check(
         raise typer.Exit(1)
 
 
-# The commands that read a recording (replay, plot, render, view) live beside: registered here.
-from franka_sim import cli_recordings  # noqa: E402,F401
+# The commands that read a recording (replay, plot, render, view) live beside.
+for _command in cli_recordings.COMMANDS:
+    app.command()(_command)
 
 
 def main() -> None:

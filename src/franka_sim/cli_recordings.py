@@ -1,13 +1,11 @@
-"""`franka-sim replay | plot | render | view`: the commands that read a recording, on the CLI's
-app (cli.py imports this module, which registers them)."""
+"""`franka-sim replay | plot | render | view`: the commands that read a recording (cli.py
+registers `COMMANDS` on its app; this module imports nothing of the CLI's)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import typer
-
-from franka_sim.cli import app
 
 
 def _open(path: Path):
@@ -26,7 +24,6 @@ def _open(path: Path):
         raise typer.Exit(1) from None
 
 
-@app.command()
 def replay(
     recording: Path = typer.Argument(..., metavar="RECORDING", help="An MCAP file from "
                                      "`franka-sim serve --record`."),
@@ -48,7 +45,6 @@ def replay(
         raise typer.Exit(1)
 
 
-@app.command()
 def plot(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
@@ -78,7 +74,6 @@ def plot(
         raise typer.Exit(1) from None
 
 
-@app.command()
 def render(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
@@ -110,7 +105,6 @@ def render(
     typer.echo(f"{output}: {frames} frames")
 
 
-@app.command()
 def view(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     host: str = typer.Option("127.0.0.1", help="Address to serve the page on."),
@@ -144,3 +138,6 @@ def view(
     except OSError as exc:
         typer.echo(f"franka-sim: {exc.strerror or exc}", err=True)
         raise typer.Exit(1) from None
+
+
+COMMANDS = (replay, plot, render, view)  # cli.py registers them on its app, in this order

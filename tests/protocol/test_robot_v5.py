@@ -67,6 +67,24 @@ def test_a_shifted_id_reads_as_v10s_and_its_reply_goes_back_under_it(module, wir
     assert struct.unpack_from("<IIIB", reply) == (wire_id, 9, 13, 0)
 
 
+@pytest.mark.parametrize("torn", [0, 7])
+def test_requests_that_come_with_the_connect_are_cut_by_the_clients_version(torn):
+    """A v5 Connect and a v5 SetLoad in one read (v10's id 10 is a 12-byte recovery, v5's a
+    SetLoad of 12 + 136 bytes): the SetLoad is read as v5's, whole or torn after `torn` more
+    bytes, not cut by v10's sizes."""
+    robot = _Robot()
+    session = Session(ROBOT, robot.handle, None)
+    connect = _request(v5, v5.Command.Connect, 0, version=v5.VERSION, udp_port=4242)
+    load = _request(v5, v5.Command.SetLoad, 1, m_load=0.5, F_x_Cload=[0.0, 0.0, 0.05],
+                    I_load=[0.001, 0, 0, 0, 0.001, 0, 0, 0, 0.001])
+    cut = len(load) - torn
+    replies = session.feed(connect + load[:cut]) + session.feed(load[cut:])
+    assert len(replies) == 2 and not session.closed
+    assert robot.requests[-1][0] is v10.Command.SetLoad
+    assert robot.requests[-1][1].m_load == 0.5
+    assert struct.unpack_from("<IIIB", replies[1]) == (int(v5.Command.SetLoad), 1, 13, 0)
+
+
 def test_a_status_v5_has_no_name_for_is_the_nearest_it_has():
     """v10's safety statuses came after v5: rejected by a safety function reads as not
     possible, preempted by one as preempted."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import urllib.parse
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from franka_sim.desk.state import DeskRefusal, Request
 
@@ -72,6 +72,10 @@ class Answer:
 
 
 Handler = Callable[[Call], Answer]
+# A call that only acts, with the caller's control token, and answers an empty 200:
+# (method, path, effect(token), body), `body` "form" when the call carries a form the action
+# does not read (a malformed one is still refused), None when it is not read.
+Action = tuple[str, str, Callable[[str | None], object], str | None]
 
 
 class Routes:
@@ -86,6 +90,10 @@ class Routes:
             return handler
         return register
 
+    def actions(self, rows: Iterable[Action]) -> None:
+        for method, path, effect, body in rows:
+            self.table[(method, path)] = _acting(effect, body)
+
     def find(self, method: str, path: str) -> Handler | None:
         return self.table.get((method, path))
 
@@ -94,3 +102,12 @@ class Routes:
 
     def paths(self) -> list[str]:
         return sorted({f"{method} {path}" for method, path in self.table})
+
+
+def _acting(effect: Callable[[str | None], object], body: str | None) -> Handler:
+    def handler(call: Call) -> Answer:
+        if body == "form":
+            call.form()
+        effect(call.control_token)
+        return Answer()
+    return handler

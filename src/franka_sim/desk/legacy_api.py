@@ -44,22 +44,6 @@ def routes(desk: Desk, users: Users) -> Routes:
         desk.set_fci(call.control_token or body.get("token"), True)
         return Answer()
 
-    # System 4's brake actions: their multipart body ("force") changes nothing here.
-    @add("POST", "/desk/api/robot/open-brakes")
-    def open_brakes(call: Call) -> Answer:
-        desk.set_brakes(call.control_token, UNLOCKED)
-        return Answer()
-
-    @add("POST", "/desk/api/robot/close-brakes")
-    def close_brakes(call: Call) -> Answer:
-        desk.set_brakes(call.control_token, LOCKED)
-        return Answer()
-
-    @add("POST", "/desk/api/gripper/homing")
-    def home_gripper(call: Call) -> Answer:
-        desk.home_gripper(call.control_token)
-        return Answer()
-
     @add("GET", "/admin/api/system-status")
     def system_status(call: Call) -> Answer:
         token = desk.token
@@ -97,40 +81,29 @@ def routes(desk: Desk, users: Users) -> Routes:
         desk.set_fci(call.control_token or _form_token(call), False)
         return Answer()
 
-    @add("POST", "/desk/api/joints/unlock")
-    def unlock(call: Call) -> Answer:
-        call.form()
-        desk.set_brakes(call.control_token, UNLOCKED)
-        return Answer()
-
-    @add("POST", "/desk/api/joints/lock")
-    def lock(call: Call) -> Answer:
-        call.form()
-        desk.set_brakes(call.control_token, LOCKED)
-        return Answer()
-
-    @add("POST", "/desk/api/operating-mode/programming")
-    def programming(call: Call) -> Answer:
-        call.form()
-        desk.set_operating_mode(call.control_token, PROGRAMMING)
-        return Answer()
-
-    @add("POST", "/desk/api/operating-mode/execution")
-    def execution(call: Call) -> Answer:
-        call.form()
-        desk.set_operating_mode(call.control_token, EXECUTION)
-        return Answer()
-
     @add("POST", "/admin/api/safety/td2-tests/execute")
     def self_tests(call: Call) -> Answer:
         desk.run_self_tests(call.control_token)
         return Answer(body={"code": "SuccessResponse"})
 
-    @add("POST", "/admin/api/safety/recoverable-safety-errors/acknowledge")
-    def acknowledge(call: Call) -> Answer:
-        desk.check_token(call.control_token)
-        return Answer()  # no recoverable safety error is simulated: nothing left to acknowledge
-
+    api.actions([
+        # System 4's brake actions: their multipart body ("force") changes nothing here.
+        ("POST", "/desk/api/robot/open-brakes", lambda token: desk.set_brakes(token, UNLOCKED),
+         None),
+        ("POST", "/desk/api/robot/close-brakes", lambda token: desk.set_brakes(token, LOCKED),
+         None),
+        ("POST", "/desk/api/gripper/homing", desk.home_gripper, None),
+        ("POST", "/desk/api/joints/unlock", lambda token: desk.set_brakes(token, UNLOCKED),
+         "form"),
+        ("POST", "/desk/api/joints/lock", lambda token: desk.set_brakes(token, LOCKED), "form"),
+        ("POST", "/desk/api/operating-mode/programming",
+         lambda token: desk.set_operating_mode(token, PROGRAMMING), "form"),
+        ("POST", "/desk/api/operating-mode/execution",
+         lambda token: desk.set_operating_mode(token, EXECUTION), "form"),
+        # No recoverable safety error is simulated: nothing left to acknowledge.
+        ("POST", "/admin/api/safety/recoverable-safety-errors/acknowledge", desk.check_token,
+         None),
+    ])
     return api
 
 

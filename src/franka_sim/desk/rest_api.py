@@ -54,24 +54,9 @@ def routes(desk: Desk) -> Routes:
         request = desk.take(owner)
         return Answer(request=request, timeout=float(timeout), then=_granted)
 
-    @add("POST", "/api/system/control-token:release")
-    def release(call: Call) -> Answer:
-        desk.release(call.control_token)
-        return Answer()
-
     @add("GET", "/api/fci")
     def fci(call: Call) -> Answer:
         return Answer(body={"status": "Active" if desk.fci_active else "Inactive"})
-
-    @add("POST", "/api/fci:activate")
-    def fci_on(call: Call) -> Answer:
-        desk.set_fci(call.control_token, True)
-        return Answer()
-
-    @add("POST", "/api/fci:deactivate")
-    def fci_off(call: Call) -> Answer:
-        desk.set_fci(call.control_token, False)
-        return Answer()
 
     @add("GET", "/api/arm")
     def arm(call: Call) -> Answer:
@@ -81,16 +66,6 @@ def routes(desk: Desk) -> Routes:
     def joints(call: Call) -> Answer:
         return Answer(body=[{"brakeStatus": desk.brakes} for _ in range(JOINTS)])
 
-    @add("POST", "/api/arm/joints:unlock")
-    def unlock(call: Call) -> Answer:
-        desk.set_brakes(call.control_token, UNLOCKED)
-        return Answer()
-
-    @add("POST", "/api/arm/joints:lock")
-    def lock(call: Call) -> Answer:
-        desk.set_brakes(call.control_token, LOCKED)
-        return Answer()
-
     @add("GET", "/api/arm/warnings")
     def warnings(call: Call) -> Answer:
         return Answer(body=[])
@@ -99,24 +74,9 @@ def routes(desk: Desk) -> Routes:
     def ee_power(call: Call) -> Answer:
         return Answer(body={"status": "On" if desk.end_effector_powered else "Off"})
 
-    @add("POST", "/api/end-effector/power:on")
-    def ee_on(call: Call) -> Answer:
-        desk.set_end_effector_power(call.control_token, True)
-        return Answer()
-
-    @add("POST", "/api/end-effector/power:off")
-    def ee_off(call: Call) -> Answer:
-        desk.set_end_effector_power(call.control_token, False)
-        return Answer()
-
     @add("GET", "/api/safety/self-tests")
     def self_tests(call: Call) -> Answer:
         return Answer(body={"status": desk.self_tests})
-
-    @add("POST", "/api/safety/self-tests:execute")
-    def run_self_tests(call: Call) -> Answer:
-        desk.run_self_tests(call.control_token)
-        return Answer()
 
     @add("GET", "/api/safety/recovery")
     def recovery(call: Call) -> Answer:
@@ -129,6 +89,18 @@ def routes(desk: Desk) -> Routes:
         raise DeskRefusal(424, "PreconditionFailed", "there is no safety error to recover",
                           ("NoRecoveryPending",))
 
+    api.actions([
+        ("POST", "/api/system/control-token:release", desk.release, None),
+        ("POST", "/api/fci:activate", lambda token: desk.set_fci(token, True), None),
+        ("POST", "/api/fci:deactivate", lambda token: desk.set_fci(token, False), None),
+        ("POST", "/api/arm/joints:unlock", lambda token: desk.set_brakes(token, UNLOCKED), None),
+        ("POST", "/api/arm/joints:lock", lambda token: desk.set_brakes(token, LOCKED), None),
+        ("POST", "/api/end-effector/power:on",
+         lambda token: desk.set_end_effector_power(token, True), None),
+        ("POST", "/api/end-effector/power:off",
+         lambda token: desk.set_end_effector_power(token, False), None),
+        ("POST", "/api/safety/self-tests:execute", desk.run_self_tests, None),
+    ])
     return api
 
 

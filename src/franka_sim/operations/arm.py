@@ -1,5 +1,6 @@
 """What an arm's control API does: read the ground truth, reset, move and push bodies, record
-(and its network faults: operations/faults.py). Each method is a row of control/table.py.
+(its Desk: operations/arm_desk.py; its network faults: operations/faults.py). Each method is a row
+of control/table.py.
 
 Shared by the HTTP adapter (server/control_api.py), an embedded `FrankaSim` and replay. Each
 operation checks its arguments first and refuses (franka_sim.control.errors) before anything
@@ -19,6 +20,7 @@ import numpy as np
 from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.operations.arm_desk import DeskOps
 from franka_sim.operations.faults import FaultOps
 from franka_sim.operations.ports import Jobs, Pacer
 from franka_sim.control.table import Kind
@@ -42,7 +44,7 @@ def _pose(state) -> dict:
             "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
 
 
-class ArmOps(FaultOps):
+class ArmOps(DeskOps, FaultOps):
     """The control operations on one simulated arm, its Hand (None: none) and its world (whose
     bodies every arm's API sees alike). Arm `arm_index` is robot `arm_index` of the world."""
 
@@ -52,17 +54,13 @@ class ArmOps(FaultOps):
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None, taps=None, recordings=None,
-                 desk_boot: str = "ready") -> None:
+                 desk_boot: str = "ready", desk_effects=None) -> None:
         self.core, self.tool, self.driver = core, tool, driver
-        # The arm's Desk (desk/state.py), served over HTTPS or not, made when first asked for
-        # (a robot whose Desk nobody calls never imports it): it holds the arm while its
-        # brakes are locked or it is not in Execution (--desk-boot locked: from the start).
-        self.desk_boot = desk_boot
-        self._desk = None
+        # The arm's Desk (operations/desk.py) holds the arm while its brakes are locked or it
+        # is not in Execution (--desk-boot locked: from the start); `desk_effects` applies
+        # what it means for the robot's endpoints (None: nothing to open or close).
+        self.desk_boot, self.desk_effects = desk_boot, desk_effects
         core.status.held = desk_boot != "ready"
-        # What the Desk's state means for the robot's endpoints, applied (the server's
-        # DeskEffects.apply; replay and tests: nothing to open or close).
-        self.desk_effects = None
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
         self.pump = tool if isinstance(tool, VacuumGripper) else None
@@ -164,22 +162,6 @@ class ArmOps(FaultOps):
         await self._desk_applied()
         return result
 
-    @property
-    def desk_state(self):
-        if self._desk is None:
-            from franka_sim.desk.state import Desk
-
-            self._desk = Desk(boot=self.desk_boot, robot=self.description.name)
-        return self._desk
-
-    async def _desk_applied(self) -> None:
-        """After a reset: the Desk as it boots, and the robot's endpoints as it says."""
-        if self._desk is None:
-            return  # never asked for: as it booted
-        self._desk.power_on()
-        if self.desk_effects is not None:
-            await self.desk_effects()
-
     def _reset_arguments(self, q, gripper_width) -> tuple[np.ndarray, float | None]:
         q = self.q0 if q is None else numbers("q", q, 7)
         desc = self.description
@@ -221,19 +203,6 @@ class ArmOps(FaultOps):
         return {"q": q.tolist(), "cycle": core.message_id,
                 "gripper_width": None if self.hand is None else self.hand.width}
 
-    # -- the Desk ------------------------------------------------------------------------------
-    def desk(self) -> dict:
-        return self.desk_state.snapshot()
-
-    def press_pilot_button(self, button) -> dict:
-        from franka_sim.desk.state import DeskRefusal
-
-        try:
-            self.desk_state.press(button)
-        except DeskRefusal as refusal:
-            raise BadRequest(refusal.message) from None
-        return self.desk()
-
     async def home_gripper(self) -> dict:
         if not isinstance(self.tool, Hand):
             raise NotFound("no Franka Hand on this arm (--tool hand puts one there)")
@@ -245,27 +214,6 @@ class ArmOps(FaultOps):
             self.driver.keep_running()
             return {"homing": True}
         return await self._job(home, ("home_gripper", {}))
-
-    async def desk_arm(self, brakes=None, operating_mode=None) -> dict:
-        """The brakes and the operating mode as at the robot (neither given: as the Desk
-        says now, which is how the Desk's own calls end here); the arm held or freed in one
-        job, recorded with the Desk's whole arm state, which replay sets again."""
-        from franka_sim.desk.state import DeskRefusal
-
-        desk = self.desk_state
-        try:
-            desk.set_arm(brakes, operating_mode)
-        except DeskRefusal as refusal:
-            raise BadRequest(refusal.message) from None
-        held = not desk.arm_ready
-
-        def hold(world, arm) -> dict:
-            with self.lock:
-                self.core.hold(held)
-            self.driver.keep_running()
-            return self.desk()
-        return await self._job(hold, ("desk_arm", {
-            "brakes": desk.brakes, "operating_mode": desk.operating_mode}))
 
     # -- recording ---------------------------------------------------------------------------------
     async def start_recording(self, path) -> dict:

@@ -60,8 +60,9 @@ class FrameReader:
         """Bytes of an incomplete message held back (non-zero at EOF means a torn message)."""
         return len(self._buffer)
 
-    def feed(self, data: bytes) -> list[Frame]:
-        """Add received bytes; return every message they complete, in order."""
+    def feed(self, data: bytes, most: int | None = None) -> list[Frame]:
+        """Add received bytes; return every message they complete, in order (at most `most`:
+        the rest stays buffered, its headers unread)."""
         if self._error is not None:
             raise self._error
         buffer = self._buffer
@@ -69,7 +70,8 @@ class FrameReader:
         frames: list[Frame] = []
         start = 0
         try:
-            while len(buffer) - start >= self._header_size:
+            while len(buffer) - start >= self._header_size and (
+                    most is None or len(frames) < most):
                 header = self._header.parse(buffer[start : start + self._header_size])
                 command, size = int(header.command), header.size
                 self._check(command, size)
@@ -84,6 +86,12 @@ class FrameReader:
         finally:
             del buffer[:start]
         return frames
+
+    def take_buffered(self) -> bytes:
+        """The bytes of a message begun but not complete, handed over (none are left)."""
+        rest = bytes(self._buffer)
+        self._buffer.clear()
+        return rest
 
     def _check(self, command: int, size: int) -> None:
         if size < self._header_size:

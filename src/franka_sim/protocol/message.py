@@ -4,9 +4,26 @@ The header's ``size`` counts the whole message including the header, so it is on
 the payload is built; :func:`build_message` fills it in, which is why no caller ever passes it.
 """
 
+from enum import IntEnum
 from typing import Any
 
-from construct import Struct, Subconstruct
+from construct import Enum, Int32ul, Struct, Subconstruct
+
+
+def command_header(commands: type[IntEnum]) -> Struct:
+    """The robot protocol's header, its command ids numbered as `commands` (one per version)."""
+    return Struct(
+        "command" / Enum(Int32ul, commands),
+        "command_id" / Int32ul,
+        "size" / Int32ul,  # whole message, header included
+    )
+
+
+def renumbered(structs: dict, commands: type[IntEnum], header: Struct) -> dict:
+    """Another version's request layouts under `commands`' ids and `header`: those of the
+    commands it has (by name)."""
+    return {commands[c.name]: message(header, *s.subcons[1:])
+            for c, s in structs.items() if c.name in commands.__members__}
 
 
 def message(header: Struct, *payload: Subconstruct) -> Struct:

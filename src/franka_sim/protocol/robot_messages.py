@@ -20,13 +20,9 @@ from .enums import (
     MoveStatus,
     StopMoveStatus,
 )
-from .message import build_message, message
+from .message import build_message, command_header, message
 
-CommandHeader = Struct(
-    "command" / Enum(Int32ul, Command),
-    "command_id" / Int32ul,
-    "size" / Int32ul,  # whole message, header included
-)
+CommandHeader = command_header(Command)
 COMMAND_HEADER_SIZE = 12
 assert CommandHeader.sizeof() == COMMAND_HEADER_SIZE
 

@@ -25,7 +25,7 @@ from construct import Array, Enum, Flag, Float64l, Int8ul, Int32sl, Int32ul, Str
 
 from . import enums as v10
 from . import robot_v9
-from .message import build_message, message
+from .message import build_message, command_header, message, renumbered
 
 VERSION = 5
 log = logging.getLogger(__name__)
@@ -84,11 +84,7 @@ class AutomaticErrorRecoveryStatus(IntEnum):
     kAborted = 5
 
 
-CommandHeader = Struct(
-    "command" / Enum(Int32ul, Command),
-    "command_id" / Int32ul,
-    "size" / Int32ul,
-)
+CommandHeader = command_header(Command)
 GetCartesianLimitRequest = message(CommandHeader, "id" / Int32sl)
 GetCartesianLimitResponse = message(
     CommandHeader,
@@ -110,8 +106,7 @@ SetFiltersResponse = message(CommandHeader, "status" / Enum(Int8ul, GetterSetter
 
 def _requests(commands: type[IntEnum], header: Struct) -> dict:  # (v6 too)
     """Every request of `commands`: v7's layouts under these ids, and the two v7 dropped."""
-    structs = {commands[c.name]: message(header, *s.subcons[1:])
-               for c, s in robot_v9.REQUEST_STRUCTS.items() if c.name in commands.__members__}
+    structs = renumbered(robot_v9.REQUEST_STRUCTS, commands, header)
     for name, struct in (("GetCartesianLimit", GetCartesianLimitRequest),
                          ("SetFilters", SetFiltersRequest)):
         if name in commands.__members__:

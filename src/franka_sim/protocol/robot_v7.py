@@ -6,39 +6,17 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from construct import Enum, Int32ul, Struct
-
 from . import robot_v9
-from .message import message
+from .message import command_header, renumbered
 
 VERSION = 7
 
 
-class Command(IntEnum):
-    """Robot TCP command ids of v7 (uint32 on the wire)."""
-
-    Connect = 0
-    Move = 1
-    StopMove = 2
-    SetCollisionBehavior = 3
-    SetJointImpedance = 4
-    SetCartesianImpedance = 5
-    SetGuidingMode = 6
-    SetEEToK = 7
-    SetNEToEE = 8
-    SetLoad = 9
-    AutomaticErrorRecovery = 10
-    LoadModelLibrary = 11
-
-
-CommandHeader = Struct(
-    "command" / Enum(Int32ul, Command),
-    "command_id" / Int32ul,
-    "size" / Int32ul,
-)
-REQUEST_STRUCTS: dict[Command, Struct] = {
-    Command[c.name]: message(CommandHeader, *s.subcons[1:])
-    for c, s in robot_v9.REQUEST_STRUCTS.items() if c.name in Command.__members__}
+# Robot TCP command ids of v7 (uint32 on the wire): v9's without GetRobotModel.
+Command = IntEnum("Command", [(c.name, c.value) for c in robot_v9.Command
+                              if c is not robot_v9.Command.GetRobotModel], module=__name__)
+CommandHeader = command_header(Command)
+REQUEST_STRUCTS: dict = renumbered(robot_v9.REQUEST_STRUCTS, Command, CommandHeader)
 REQUEST_SIZES: dict[Command, int] = {c: s.sizeof() for c, s in REQUEST_STRUCTS.items()}
 
 

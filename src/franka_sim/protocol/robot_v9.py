@@ -28,28 +28,17 @@ from . import robot_messages as rm
 from . import robot_state as rs
 from .codec import STATE_DTYPE
 from .enums import Command as V10Command
-from .message import build_message, message
+from .message import build_message, command_header, message, renumbered
 
 VERSION = 9
 log = logging.getLogger(__name__)
 
 
-class Command(IntEnum):
-    """Robot TCP command ids of v9 (uint32 on the wire)."""
-
-    Connect = 0
-    Move = 1
-    StopMove = 2
-    SetCollisionBehavior = 3
-    SetJointImpedance = 4
-    SetCartesianImpedance = 5
-    SetGuidingMode = 6
-    SetEEToK = 7
-    SetNEToEE = 8
-    SetLoad = 9
-    AutomaticErrorRecovery = 10
-    LoadModelLibrary = 11
-    GetRobotModel = 12
+# Robot TCP command ids of v9 (uint32 on the wire): v10's up to AutomaticErrorRecovery, then
+# LoadModelLibrary 11 and GetRobotModel 12.
+Command = IntEnum("Command", [*((c.name, c.value) for c in V10Command
+                                if c is not V10Command.GetRobotModel),
+                              ("LoadModelLibrary", 11), ("GetRobotModel", 12)], module=__name__)
 
 
 class Architecture(IntEnum):
@@ -69,11 +58,7 @@ class LoadModelLibraryStatus(IntEnum):
     kError = 1
 
 
-CommandHeader = Struct(
-    "command" / Enum(Int32ul, Command),
-    "command_id" / Int32ul,
-    "size" / Int32ul,
-)
+CommandHeader = command_header(Command)
 
 
 def _payload(struct: Struct) -> list:
@@ -90,13 +75,11 @@ LoadModelLibraryResponse = message(
     CommandHeader, "status" / Enum(Int8ul, LoadModelLibraryStatus),
     "library" / GreedyBytes)  # no length prefix: the header size delimits it
 
-REQUEST_STRUCTS: dict[Command, Struct] = {
-    Command[c.name]: message(CommandHeader, *_payload(s)) for c, s in rm.REQUEST_STRUCTS.items()}
+REQUEST_STRUCTS: dict = renumbered(rm.REQUEST_STRUCTS, Command, CommandHeader)
 REQUEST_STRUCTS[Command.Move] = MoveRequest
 REQUEST_STRUCTS[Command.LoadModelLibrary] = LoadModelLibraryRequest
 REQUEST_SIZES: dict[Command, int] = {c: s.sizeof() for c, s in REQUEST_STRUCTS.items()}
 GetRobotModelRequest = REQUEST_STRUCTS[Command.GetRobotModel]  # (its id is 12 in v9)
-
 
 
 def _widened(field):

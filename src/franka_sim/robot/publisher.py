@@ -116,7 +116,7 @@ class StatePublisher:
         written = self._written
         if written is None or written[0] is not m or written[1] is not F_T_EE:
             self._written = (m, F_T_EE)
-            self._O_T_EE = O_T_EE = m.O_T_F @ F_T_EE
+            self._O_T_EE = O_T_EE = np.dot(m.O_T_F, F_T_EE)  # (`@`: the same bits, slower)
             self._O_T_EE_view[...] = O_T_EE
             for name, field in self._measured_fields:
                 field[:] = getattr(m, name)
@@ -218,7 +218,7 @@ class StatePublisher:
                                             m.q, m.dq)
         if desired_kinematics is not None:
             O_T_F_d, J_F_d = desired_kinematics
-            O_T_EE_d = O_T_F_d @ F_T_EE
+            O_T_EE_d = np.dot(O_T_F_d, F_T_EE)
             O_dP_EE_d = point_twist(O_T_F_d, J_F_d, F_T_EE, dq_d)
         else:
             O_T_EE_d, O_dP_EE_d = O_T_EE, ZERO6

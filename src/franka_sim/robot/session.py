@@ -112,18 +112,24 @@ class Session:
         """Feed received bytes; return the replies to send, in order."""
         if self.closed:
             return []
-        try:
-            frames = self._reader.feed(data)
-        except ProtocolError as exc:
-            self.closed = True
-            raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
         replies: list[bytes] = []
-        for frame in frames:
-            self.requests += 1
-            replies.extend(self._dispatch(frame))
-            if self.closed:
-                break
-        return replies
+        while True:
+            reader, connecting = self._reader, self.handshake is None
+            try:
+                # Until the Connect, one message at a time: the client's version decides
+                # whose sizes cut the rest.
+                frames = reader.feed(data, most=1 if connecting else None)
+            except ProtocolError as exc:
+                self.closed = True
+                raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
+            for frame in frames:
+                self.requests += 1
+                replies.extend(self._dispatch(frame))
+                if self.closed:
+                    return replies
+            if not (connecting and frames):
+                return replies
+            data = reader.take_buffered() if self._reader is not reader else b""
 
     def _dispatch(self, frame) -> list[bytes]:
         service, dialect = self.service, self.dialect

@@ -59,23 +59,23 @@ class RobotServer:
                 # client's next request lands on a later one (lockstep numbers each alike)
                 defer_replies=driver.after_next_state)
         connected = lambda: self.fci.active is not None  # noqa: E731
-        if parts.kind == "arm":
-            self.control = ArmOps(
-                core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
-                description=parts.description, q0=parts.q0, clock=config.clock.value,
-                client_connected=connected, arm=self.name, arm_index=index, faults=faults,
-                taps=taps, recordings=recordings, desk_boot=config.desk_boot)
-        else:
-            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
-                                   robot_index=index, faults=faults)
-        self._control_api = None  # its port, while it is open (server/control_port.py)
-        self._desk_port = None  # the Desk's (server/desk_port.py), while it is open
         self.desk_effects = None  # what its Desk leaves it in (server/desk_effects.py)
         if parts.kind == "arm" and (config.desk_port or config.desk_boot != "ready"):
             from franka_sim.server.desk_effects import DeskEffects
 
             self.desk_effects = DeskEffects(self)
-            self.control.desk_effects = self.desk_effects.apply
+        if parts.kind == "arm":
+            self.control = ArmOps(
+                core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
+                description=parts.description, q0=parts.q0, clock=config.clock.value,
+                client_connected=connected, arm=self.name, arm_index=index, faults=faults,
+                taps=taps, recordings=recordings, desk_boot=config.desk_boot,
+                desk_effects=self.desk_effects and self.desk_effects.apply)
+        else:
+            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
+                                   robot_index=index, faults=faults)
+        self._control_api = None  # its port, while it is open (server/control_port.py)
+        self._desk_port = None  # the Desk's (server/desk_port.py), while it is open
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
