@@ -3,7 +3,8 @@
 Per engine (`--physics mujoco`, and `genesis` where its extra is installed), on a server of its
 own: spawn → "serving on"; a pylibfranka joint-position motion of `--seconds` simulated seconds
 in lockstep (simulated s per wall s, the server's CPU per simulated s) and the same motion in
-realtime (the success rate the robot reports: cycles an engine slower than real time loses);
+realtime (robot s per wall s: an engine slower than real time slows the robot's clock; the
+success rate the robot reports);
 the server's RSS (and its anonymous part) after them. Then what the genesis extra adds to an
 install: its packages' size on disk, and the import and initialisation time of Genesis.
 
@@ -30,7 +31,8 @@ START_TIMEOUT = 300.0  # s: Genesis compiles its kernels at a machine's first st
 
 
 def motion(host: str, seconds: float) -> tuple[float, float]:
-    """(wall s, success rate) of a cosine joint motion of `seconds` simulated seconds."""
+    """(wall s, success rate) of a cosine joint motion of `seconds` simulated seconds (its
+    robot time: the states' own `time`)."""
     import pylibfranka
 
     robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
@@ -70,6 +72,7 @@ def engine_figures(engine: str, seconds: float) -> dict:
                 figures["lockstep sim s / wall s"] = seconds / wall
                 figures["server CPU s / sim s"] = cpu / seconds
             else:
+                figures["realtime robot s / wall s"] = seconds / wall
                 figures["realtime success rate"] = success
                 figures["RSS MiB (anonymous)"] = memory_mib(server.pid)
         finally:
