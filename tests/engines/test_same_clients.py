@@ -33,9 +33,9 @@ import pick_and_place as pp  # noqa: E402
 # position (m), the Hand's opening on the cube (m), the grasped cube's position (m). The arm's
 # programs end within ~1e-6 of each other; a grasp's contacts differ more (docs/engines.md).
 TOLERANCES = {"q": 1e-4, "position": 1e-4, "width": 1e-3, "cube": 1e-2}
-# The client's Model against the engine's own M, g and c (relative): MuJoCo compiles the
-# description itself; Genesis reads it from the MJCF MuJoCo writes, whose numbers are rounded.
-MODEL_AGREEMENT = {"mujoco": 1e-6, "genesis": 1e-5}
+# The client's Model against the engine's own M, g and c (relative), as tests/physics checks
+# MuJoCo's.
+MODEL_AGREEMENT = 1e-6
 K_THETA = np.array([3000.0, 3000.0, 3000.0, 2500.0, 2500.0, 2000.0, 2000.0])
 CUBE_MASS = 0.1  # kg (scenes/default.xml)
 
@@ -196,7 +196,7 @@ def test_the_clients_model_is_the_engines_dynamics(sim, robot):
     physics = make_physics([ArmPlacement(desc, tool=FINGERS)], {"": np.array(READY_POSE)},
                            default_scene_path(), engine=sim.engine).arm(0)
     model, state = robot.load_model(), robot.read_once()
-    tolerance = MODEL_AGREEMENT[sim.engine]
+    tolerance = MODEL_AGREEMENT
     rng = np.random.default_rng(11)
     for _ in range(5):
         q = desc.lower + (desc.upper - desc.lower) * rng.uniform(0.05, 0.95, 7)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.physics.genesis.runtime import genesis, write_mjcf
-from franka_sim.physics.scene import GRAVITY, ArmPlacement, world_mjcf
+from franka_sim.physics.scene import GRAVITY, ArmPlacement, build_world_model, world_mjcf
 from franka_sim.protocol.timing import CYCLE_PERIOD
 
 
@@ -26,6 +26,7 @@ class ArmDynamics:
 
         alone = ArmPlacement(placement.desc, tool=placement.tool, armature=placement.armature)
         path = write_mjcf(world_mjcf([alone]), f"arm-{placement.name or 'arm'}")
+        model = build_world_model([alone])
         self._scene = scene = gs.Scene(
             sim_options=gs.options.SimOptions(dt=CYCLE_PERIOD, substeps=1, gravity=GRAVITY),
             rigid_options=gs.options.RigidOptions(enable_collision=False, enable_joint_limit=False,
@@ -34,6 +35,7 @@ class ArmDynamics:
             show_viewer=False)
         self._entity = entity = scene.add_entity(gs.morphs.MJCF(file=str(path)))
         scene.build()
+        exact_inertials(entity, model)
         self._solver = scene.sim.rigid_solver
         self._to_torch = qd_to_torch
         # Every dof of the arm and its tool, in joint_names' order (the arm's 7 first).
@@ -91,6 +93,32 @@ class ArmDynamics:
         """O_T_F (4,4) and the flange Jacobian (6,7), rows [linear; angular], at q."""
         self._place(q, tool_q)
         return flange_of(self._entity, self._flange, self._dofs[:7])
+
+
+def exact_inertials(entity, model) -> None:
+    """The mass, centre of mass and inertia of every link of an arm (and its tool) as MuJoCo
+    compiled them (`model`, the same document): the MJCF text Genesis reads rounds them to six
+    digits. (A free body's Genesis keeps: its frame is its centre of mass.) The inertia is
+    written in the inertial frame Genesis took from the text, so that in the link's frame it is
+    MuJoCo's to rounding."""
+    import mujoco
+
+    rotation = np.zeros(9)
+    for link in entity.links:
+        try:
+            body = model.body(link.name).id
+        except KeyError:
+            continue
+        if link.is_fixed or link.n_dofs > 1 or model.body_mass[body] <= 0.0:
+            continue
+        mujoco.mju_quat2Mat(rotation, model.body_iquat[body])
+        R = rotation.reshape(3, 3)
+        inertia = R @ np.diag(model.body_inertia[body]) @ R.T  # in the link's frame
+        R_g = quat_matrix(*np.asarray(link.desc.inertial_quat, dtype=float).tolist())
+        index = [link.idx_local]
+        entity.set_links_mass([float(model.body_mass[body])], index)
+        entity.set_links_COM(model.body_ipos[body][None], index)
+        entity.set_links_inertia((R_g.T @ inertia @ R_g)[None], index)
 
 
 def quat_matrix(w: float, x: float, y: float, z: float) -> np.ndarray:

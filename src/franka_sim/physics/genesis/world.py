@@ -25,7 +25,8 @@ from franka_sim.physics.arm import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount
 from franka_sim.physics.genesis.arm import GenesisArm
-from franka_sim.physics.genesis.dynamics import ArmDynamics, flange_of, quat_matrix
+from franka_sim.physics.genesis.dynamics import (ArmDynamics, exact_inertials, flange_of,
+                                                 quat_matrix)
 from franka_sim.physics.genesis.runtime import genesis, write_mjcf
 from franka_sim.physics.scene import GRAVITY, ArmPlacement, build_world_model, world_mjcf
 from franka_sim.protocol.timing import CYCLE_PERIOD
@@ -76,6 +77,7 @@ class GenesisWorld:
             show_viewer=False)
         self.entity = entity = self.scene.add_entity(gs.morphs.MJCF(file=str(path)))
         self.scene.build()
+        exact_inertials(entity, self.model)
         self._solver = self.scene.sim.rigid_solver
         prefix = placement.prefix
         names = [prefix + j.name for j in placement.desc.joints]
