@@ -48,6 +48,7 @@ _SYSTEM_NAMES = {"kLinux": "linux", "kWindows": "windows"}
 # What `zig cc -target` builds for (the glibc Linux of the two 64-bit architectures).
 ZIG_TARGETS = {("kX64", "kLinux"): "x86_64-linux-gnu", ("kARM64", "kLinux"): "aarch64-linux-gnu"}
 _FLAGS = ["-O2", "-shared", "-fPIC"]
+_SAID_NO_DIRECTORY: set[Path] = set()  # each said once a process
 
 
 def this_machine() -> tuple[str | None, str | None]:
@@ -165,7 +166,8 @@ class ModelLibrary:
                 log.info("model library for %s (%s/%s) prebuilt in %s (%d bytes)",
                          self.description.name, *wanted, prebuilt, len(data))
                 return data
-            if not prebuilt.is_dir():
+            if not prebuilt.is_dir() and prebuilt not in _SAID_NO_DIRECTORY:
+                _SAID_NO_DIRECTORY.add(prebuilt)
                 log.warning("%s=%s is no directory: no prebuilt model libraries",
                             PREBUILT_VARIABLE, prebuilt)
         kept = cache_dir() / name
