@@ -4,13 +4,11 @@ angles), it reads the pump's state, vacuums the cube, finds it still held 3 s la
 it off. The builds come from FRANKA_SIM_LIBFRANKA_BUILDS (tests/support/libfranka_cpp.py), made by
 tests/support/build_older_libfranka.sh (or `make -C BUILD vacuum_object` in an older build);
 the example opens no robot connection, so it needs no faked realtime kernel and no root.
-Passes with 0.9.2, 0.13.6 and 0.15.3 (vacuum gripper protocol 1 in all)."""
+Passes with 0.9.2, 0.13.6, 0.15.3 and 0.21.2 (vacuum gripper protocol 1 in all; 0.21.2 built
+with libfranka-common d96c221 in place of the commit 2e090a6 it records, which is not public:
+docs/clients.md)."""
 
 from __future__ import annotations
-
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -18,15 +16,11 @@ from franka_sim.control import Control
 from franka_sim.testing import running_sim
 from support import libfranka_cpp as cpp
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402
-
 REASON = None if cpp.os.environ.get(cpp.BUILDS_VARIABLE) else (
     f"{cpp.BUILDS_VARIABLE} is unset: build libfranka tags with {cpp.BUILD_SCRIPT}, then "
     "`make -C BUILD vacuum_object`, and list the build directories in it")
 BUILDS = [] if REASON else cpp.builds()
 pytestmark = pytest.mark.skipif(REASON is not None, reason=REASON or "")
-AT = pp.solve_ik(pp.CUBE + [0, 0, 0.024], pp.READY)  # the lip 1 mm into the cube's top
 
 
 @pytest.fixture(scope="module", params=BUILDS or [None], ids=lambda b: b.version if b else "none")
@@ -36,11 +30,9 @@ def ran(request):
     if not example.exists():
         pytest.skip(f"libfranka {build.version}: no vacuum_object (make -C {build.path} "
                     "vacuum_object)")
-    with running_sim("--clock", "lockstep", "--tool", "vacuum") as sim:
+    with running_sim("--clock", "lockstep", *cpp.SERVE_ARGS["vacuum_object"]) as sim:
+        done = cpp.run(build, "vacuum_object", sim.host)  # after the pre-move (cpp.pump_pose)
         control = Control(sim.host)
-        control.reset(q=AT.tolist())
-        done = subprocess.run([str(example), sim.host], capture_output=True, text=True,
-                              timeout=120)
         after = control.state()["vacuum_gripper"], control.pose("cube")["position"]
     return done, *after
 
@@ -48,7 +40,7 @@ def ran(request):
 def test_it_vacuums_the_cube_and_drops_it_off(ran):
     done, pump, cube = ran
     out = done.stdout
-    assert done.returncode == 0, out + done.stderr
+    assert done.returncode == 0, out
     initial = next(line for line in out.splitlines() if line.startswith("Initial"))
     assert ('"in_control_range": 0, "part_detached": 0, "part_present": 0, '
             '"device_status": "Green", "actual_power": 0, "vacuum": 0') in initial

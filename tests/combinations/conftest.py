@@ -8,6 +8,7 @@ import pytest
 
 from combinations.factors import factors
 from combinations.matrix import runs
+from support.client_venv import client_python
 from support.xserver import opengl_display
 
 
@@ -25,3 +26,10 @@ def x_display():
     windows are known to reach the screen."""
     with opengl_display() as display:
         yield display
+
+
+@pytest.fixture(scope="session")
+def panda_python(tmp_path_factory):
+    """The python of an environment with panda-python 1.1.1, whose VacuumGripper drives the
+    runs' pumps (pylibfranka 0.21 has no binding of it)."""
+    return client_python("panda-python==1.1.1", tmp_path_factory.mktemp("panda-python"))

@@ -12,6 +12,7 @@ from pathlib import Path
 
 TESTS = Path(__file__).resolve().parents[1]
 ARM_PROGRAM = TESTS / "support" / "arm_program.py"
+PUMP_PROGRAM = TESTS / "support" / "pump_program.py"  # in panda-python's environment
 BASE_PROGRAM = TESTS / "mobile" / "base_program.py"
 
 ARM_SECONDS = 0.6  # a cosine blend of 0.15 rad: far inside the limits, even when enforced
@@ -34,8 +35,12 @@ def start_base(address: str) -> subprocess.Popen:
     return _start(BASE_PROGRAM, address, *BASE_TWIST, BASE_SECONDS)
 
 
-def _start(path: Path, *args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, str(path), *map(str, args)],
+def start_pump(address: str, python: Path) -> subprocess.Popen:
+    return _start(PUMP_PROGRAM, address, python=python)
+
+
+def _start(path: Path, *args, python=sys.executable) -> subprocess.Popen:
+    return subprocess.Popen([str(python), str(path), *map(str, args)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -74,6 +79,23 @@ def arm_problems(result: dict, *, hand: bool, push: bool, lockstep: bool,
     return problems
 
 
+def pump_problems(result: dict) -> list[str]:
+    """What is wrong with the pump program's outcome (empty: the pump spoke protocol 1, reported
+    a healthy idle device, gave up a vacuum with nothing to seal at its timeout and stopped)."""
+    problems = []
+    if result["server_version"] != 1:
+        problems.append(f"server version {result['server_version']}, not 1")
+    states = [result[k] for k in ("initial", "after_vacuum", "final")]
+    if any(s["device_status"] != "kGreen" or s["part_present"] for s in states):
+        problems.append(f"states {states}")
+    if not states[0]["time"] < states[1]["time"] <= states[2]["time"]:
+        problems.append(f"the pump's clock stood: {[s['time'] for s in states]}")
+    if result["vacuumed"] or not result["stopped"]:
+        problems.append(f"vacuum in the air answered {result['vacuumed']}, stop "
+                        f"{result['stopped']}")
+    return problems
+
+
 def base_problems(result: dict) -> list[str]:
     """What is wrong with the base program's outcome (empty: it drove as its twist integrates
     and came to rest)."""
@@ -91,4 +113,4 @@ def base_problems(result: dict) -> list[str]:
 
 def held_up(result: dict | None, *, realtime_and_enforced: bool) -> bool:
     """Whether the program's only failure is the abort a held-up host causes (see HELD_UP)."""
-    return bool(realtime_and_enforced and result and HELD_UP in result["error"])
+    return bool(realtime_and_enforced and result and HELD_UP in result.get("error", ""))

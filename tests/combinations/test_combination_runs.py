@@ -1,6 +1,7 @@
 """Features of `franka-sim serve` in combination: each run of the pairwise set (matrix.py) serves
 its world with its flags, drives every robot of it at once with a pylibfranka program of its
-own, and then checks that the clocks still run, `/health` is ready, a recording replays
+own (and, with the vacuum gripper, each arm's pump with panda-python's VacuumGripper), and
+then checks that the clocks still run, `/health` is ready, a recording replays
 identical and the server exits 0 on SIGTERM.
 
 Every problem a run shows is collected, so that one failure report names all of them.
@@ -35,7 +36,7 @@ def test_a_run_of_the_matrix(run, tmp_path, request):
     server = ServerProcess(where.addresses[names[0]], *args, env=env).wait_ready()
     problems: list[str] = []
     try:
-        held = _drive(run, world, where, problems)
+        held = _drive(run, world, where, problems, request)
         _check_still_running(where, held, problems)
     finally:
         died = server.proc.poll()
@@ -53,7 +54,7 @@ def test_a_run_of_the_matrix(run, tmp_path, request):
         pytest.skip(f"the host held {', '.join(held)} up for 20 cycles (realtime)")
 
 
-def _drive(run: dict, world, where: Site, problems: list[str]) -> list[str]:
+def _drive(run: dict, world, where: Site, problems: list[str], request) -> list[str]:
     """Start every robot's program at once and judge each outcome; returns the robots whose
     client the host held up (programs.HELD_UP)."""
     hand = run["tool"] == "hand"
@@ -64,6 +65,10 @@ def _drive(run: dict, world, where: Site, problems: list[str]) -> list[str]:
                                            push=body if run["push"] else "")
     if world.base:
         started["base"] = programs.start_base(where.addresses["base"])
+    if run["tool"] == "vacuum":  # each arm's pump, driven beside its arm's motion
+        python = request.getfixturevalue("panda_python")
+        for name, _ in world.arms:
+            started[f"{name}'s pump"] = programs.start_pump(where.addresses[name], python)
     held = []
     for name, program in started.items():
         result, failure = programs.outcome(program)
@@ -74,6 +79,8 @@ def _drive(run: dict, world, where: Site, problems: list[str]) -> list[str]:
             problems.append(f"{name}'s program: {failure}")
         elif name == "base":
             problems += [f"base: {p}" for p in programs.base_problems(result)]
+        elif name.endswith("pump"):
+            problems += [f"{name}: {p}" for p in programs.pump_problems(result)]
         else:
             problems += [f"{name}: {p}" for p in programs.arm_problems(
                 result, hand=hand, push=run["push"], lockstep=run["clock"] == "lockstep",

@@ -1,4 +1,5 @@
-"""Older libfranka's own C++ examples, where no libfranka build can be had (CI): their
+"""Older libfranka's own C++ examples (vacuum_object too), where no libfranka build can be had
+(CI): their
 committed recordings (tests/data/older_libfranka/<tag>/<example>.mcap, made by
 tests/support/record_older_libfranka.py from runs of tests/clients/test_libfranka_cpp_older.py's
 examples) replayed.
@@ -34,10 +35,12 @@ from support import libfranka_cpp as cpp
 from support.libfranka_cpp_checks import CHECKS, connect_versions, requests
 from support.record_older_libfranka import CUTS, DATA
 
-TAGS = ("0.9.2", "0.12.1", "0.13.6", "0.14.1", "0.15.3")
+TAGS = ("0.9.2", "0.12.1", "0.13.6", "0.14.1", "0.15.3", "0.21.2")
 REGENERATE = ("rewrite them: build the tags with tests/support/build_older_libfranka.sh, then "
               "FRANKA_SIM_LIBFRANKA_BUILDS=... python tests/support/record_older_libfranka.py")
-FILES = [(tag, name) for tag in TAGS for name in cpp.EXAMPLES]
+PUMP_TAGS = ("0.9.2", "0.13.6", "0.15.3", "0.21.2")  # the builds with vacuum_object
+FILES = [(tag, name) for tag in TAGS for name in cpp.EXAMPLES] + [
+    (tag, "vacuum_object") for tag in PUMP_TAGS]
 
 
 def test_every_tag_and_example_is_recorded():
@@ -59,6 +62,7 @@ def test_it_replays_identical(tag, name):
 def test_the_client_spoke_its_tags_protocol_and_the_robot_moved(tag, name):
     recording = open_recording(DATA / tag / f"{name}.mcap")
     expected = ({"hand": cpp.GRIPPER_PROTOCOL} if name == "grasp_object"
+                else {"vacuum_gripper": cpp.VACUUM_GRIPPER_PROTOCOL} if name == "vacuum_object"
                 else {"robot": cpp.PROTOCOL[tuple(map(int, tag.split(".")[:2]))]})
     assert connect_versions(recording) == expected
     assert all("command" in request for request in requests(recording))  # each one read

@@ -5,10 +5,18 @@
 # Usage: build_older_libfranka.sh SOURCE_DIR BUILD_DIR
 #
 # SOURCE_DIR is a libfranka checkout the user supplies at a tag (0.9.2, 0.12.1, 0.13.6, 0.14.1,
-# 0.15.3) with its `common` submodule checked out at the commit that tag records, for example:
+# 0.15.3, 0.21.2) with its `common` submodule checked out at the commit that tag records, for
+# example:
 #   git clone --branch 0.13.6 --recurse-submodules https://github.com/frankarobotics/libfranka
-# This script fetches nothing. It needs cmake, a C++ compiler, Poco and Eigen 3
-# (Debian: apt-get install cmake build-essential libpoco-dev libeigen3-dev).
+# 0.20.5 to 0.21.2 record common 2e090a6, which the public libfranka-common does not hold (the
+# submodule update fails). Check out the newest commit it does hold instead, d96c221 (robot
+# protocol version 10; the commit 0.18.0 to 0.20.4 record):
+#   git clone --branch 0.21.2 https://github.com/frankarobotics/libfranka
+#   git clone https://github.com/frankarobotics/libfranka-common libfranka/common
+#   git -C libfranka/common checkout d96c221
+# The script prints which common commit it builds with beside the one the tag records.
+# This script fetches nothing. It needs cmake (3.16 or later from 0.20.5 on), a C++ compiler,
+# Poco and Eigen 3 (Debian: apt-get install cmake build-essential libpoco-dev libeigen3-dev).
 # From 0.14 on libfranka also needs Pinocchio (its CMake config and what that config asks for:
 # urdfdom and its headers, Boost, coal). Where the system has none, the PyPI wheels carry them:
 #   python3 -m venv VENV && VENV/bin/pip install pin cmeel-urdfdom-headers
@@ -29,6 +37,13 @@ src=$(cd "$1" && pwd)
 if [ ! -f "$src/common/include/research_interface/robot/service_types.h" ]; then
     echo "$src: no common/ submodule checked out (git submodule update --init)" >&2
     exit 1
+fi
+if recorded=$(git -C "$src" ls-tree HEAD common 2>/dev/null) && [ -n "$recorded" ]; then
+    used="not a git checkout"
+    if [ -e "$src/common/.git" ]; then
+        used=$(git -C "$src/common" rev-parse HEAD)
+    fi
+    echo "common: $used (the checkout records $(echo "$recorded" | cut -f1 | cut -d' ' -f3))"
 fi
 mkdir -p "$2"
 build=$(cd "$2" && pwd)

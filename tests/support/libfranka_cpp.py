@@ -28,9 +28,13 @@ from franka_sim.control import Control
 BUILDS_VARIABLE = "FRANKA_SIM_LIBFRANKA_BUILDS"
 BUILD_SCRIPT = "tests/support/build_older_libfranka.sh"
 # The robot protocol version each libfranka line speaks (its common/ submodule's kVersion).
+# 0.20.5 on record a common commit no public mirror has; 0.21 is built with the newest public
+# one (robot version 10, the commit 0.18.0 to 0.20.4 record), see build_older_libfranka.sh.
 PROTOCOL = {(0, 9): 5, (0, 10): 6, (0, 11): 6, (0, 12): 6, (0, 13): 7, (0, 14): 8,
-            (0, 15): 9, (0, 16): 9, (0, 17): 9}
+            (0, 15): 9, (0, 16): 9, (0, 17): 9, (0, 18): 10, (0, 19): 10, (0, 20): 10,
+            (0, 21): 10}
 GRIPPER_PROTOCOL = 3  # the same in every tag since 0.9
+VACUUM_GRIPPER_PROTOCOL = 1  # likewise
 
 # Runs the example with /sys/kernel/realtime reading 1, in a mount namespace of its own.
 _REALTIME = ["unshare", "--mount", "sh", "-c",
@@ -85,6 +89,7 @@ class Example:
     name: str
     args: tuple[str, ...] = ()
     moves: bool = True
+    realtime: bool = True  # it opens a robot connection (which wants /sys/kernel/realtime)
 
 
 EXAMPLES = {e.name: e for e in (
@@ -97,11 +102,32 @@ EXAMPLES = {e.name: e for e in (
 )}
 
 
-def grasp_pose() -> np.ndarray:
-    """Joint angles with the open Hand around the default scene's cube."""
+# The pump's example, run with the vacuum gripper on the flange (`--tool vacuum`): after the
+# pre-move `pump_pose` it vacuums the cube, finds it held 3 s later and drops it off. It opens
+# no robot connection.
+VACUUM_OBJECT = Example("vacuum_object", moves=False, realtime=False)
+SERVE_ARGS = {"vacuum_object": ("--tool", "vacuum")}  # what an example's simulator serves
+
+
+def _pick_and_place():
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     import pick_and_place as pp
+    return pp
+
+
+def grasp_pose() -> np.ndarray:
+    """Joint angles with the open Hand around the default scene's cube."""
+    pp = _pick_and_place()
     return pp.poses_over(pp.CUBE, pp.READY)[1]
+
+
+def pump_pose() -> np.ndarray:
+    """Joint angles with the suction cup's lip 1 mm into the default scene's cube's top."""
+    pp = _pick_and_place()
+    return pp.solve_ik(pp.CUBE + [0, 0, 0.024], pp.READY)
+
+
+_PRE_MOVES = {"grasp_object": grasp_pose, "vacuum_object": pump_pose}
 
 
 @dataclass
@@ -116,10 +142,11 @@ def run(build: Build, name: str, host: str, cycles: int | None = None,
     """Run one example against the simulator at `host` (Enter typed for its prompt). With
     `cycles`, it is stopped (SIGTERM) once the robot has run that many cycles since it was
     first seen moving."""
-    example, control = EXAMPLES[name], Control(host)
-    if name == "grasp_object":
-        control.reset(q=grasp_pose().tolist())
-    proc = subprocess.Popen([*_REALTIME, str(build.example(name)), host, *example.args],
+    example, control = EXAMPLES.get(name, VACUUM_OBJECT), Control(host)
+    if name in _PRE_MOVES:
+        control.reset(q=_PRE_MOVES[name]().tolist())
+    proc = subprocess.Popen([*(_REALTIME if example.realtime else ()), str(build.example(name)),
+                             host, *example.args],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     proc.stdin.write("\n")  # the Enter its prompt waits for

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.config import READY_POSE
-from franka_sim.protocol.codec import GRIPPER_STATE_DTYPE
+from franka_sim.protocol.codec import GRIPPER_STATE_DTYPE, VACUUM_GRIPPER_STATE_DTYPE
 from franka_sim.recording.reader import Recording, command_of
 
 READY = np.array(READY_POSE)
@@ -58,11 +58,17 @@ def motions(recording: Recording) -> list[np.ndarray]:
 
 
 def check_communication_test(recording: Recording, complete: bool) -> None:
-    """Zero torques for 10 s: the arm stays where it was, every command arrives on time."""
+    """Zero torques for 10 s: the arm stays where it was, every command arrives on time. Its
+    last command finishes the motion: by motion_generation_finished up to robot version 9, by
+    torque_command_finished from 10 on (libfranka 0.18 on: torque control runs no generator)."""
     torque = motions(recording)[-1]
     assert not np.any(torque["tau_J_d"]), "the example only sends zero torques"
     assert len(torque) > 10_000 if complete else len(torque) > 100, len(torque)
-    assert torque[-1]["motion_generation_finished"] == complete
+    if connect_versions(recording)["robot"] >= 10:
+        assert torque[-1]["torque_command_finished"] == complete
+        assert not np.any(torque["motion_generation_finished"])
+    else:
+        assert torque[-1]["motion_generation_finished"] == complete
     q = recording.states()["q"]
     assert np.abs(q - READY).max() < 1e-3
     fates = [command_of(e)[2] for e in recording.of("command")]
@@ -109,15 +115,23 @@ def check_generate_cartesian_pose_motion(recording: Recording, complete: bool) -
 
 def check_cartesian_impedance_control(recording: Recording, complete: bool) -> None:
     """Torque control computed from the Model the robot gave (coriolis, zero jacobian; from
-    0.14 on the dynamics from the URDF it asked for): the robot runs the client's torques and
-    the arm holds its pose."""
-    assert logged(recording, "model library sent"), "the example loads its Model"
-    assert "LoadModelLibrary" in [r.get("command") for r in requests(recording)]
-    assert replies(recording, "LoadModelLibrary") == ["kSuccess"]
-    if connect_versions(recording)["robot"] >= 8:  # libfranka 0.14 on: dynamics from the URDF
+    0.14 on the dynamics from the URDF it asked for; from 0.18, robot version 10, the whole
+    Model from the URDF, the model library gone): the robot runs the client's torques and the
+    arm holds its pose."""
+    version = connect_versions(recording)["robot"]
+    asked = [r.get("command") for r in requests(recording)]
+    if version >= 10:  # no model library in the protocol any more
+        assert "LoadModelLibrary" not in asked and not logged(recording, "model library sent")
+    else:
+        assert logged(recording, "model library sent"), "the example loads its Model"
+        assert "LoadModelLibrary" in asked
+        assert replies(recording, "LoadModelLibrary") == ["kSuccess"]
+    if version >= 10:  # the URDF asked for at connecting (joint velocity limits) and for the Model
+        assert replies(recording, "GetRobotModel") == ["kSuccess"] * 2
+    elif version >= 8:  # libfranka 0.14 on: dynamics from the URDF
         assert replies(recording, "GetRobotModel") == ["kSuccess"]
     else:  # the whole Model from the library
-        assert "GetRobotModel" not in [r.get("command") for r in requests(recording)]
+        assert "GetRobotModel" not in asked
     torque = motions(recording)[-1]
     assert len(torque) > 300 and not torque[-1]["motion_generation_finished"]
     states = recording.states()
@@ -138,6 +152,20 @@ def check_grasp_object(recording: Recording, complete: bool) -> None:
     assert states[-1]["is_grasped"] and abs(states[-1]["width"] - 0.05) < 2e-3
     for command in ("Homing", "Grasp", "Stop"):
         assert replies(recording, command)[-1] == "kSuccess", command
+
+
+def check_vacuum_object(recording: Recording, complete: bool) -> None:
+    """The pump vacuums the cube under the cup (answered once the part is present and the
+    vacuum in range), holds it, and drops it off (its last states, 10 a second, show the cup
+    venting: the client leaves on the answer); the arm never moves."""
+    states = np.frombuffer(b"".join(e.data for e in recording.of("vacuum_gripper_state")),
+                           VACUUM_GRIPPER_STATE_DTYPE)
+    held = states["part_present"] & states["in_control_range"]
+    assert not states[0]["part_present"] and held.sum() >= 30, "held for 3 s"
+    assert not states[-1]["part_present"] and states[-1]["vacuum"] < 0.1 * states["vacuum"].max()
+    assert replies(recording, "Vacuum") == ["kSuccess"]
+    assert replies(recording, "DropOff") == ["kSuccess"]
+    assert not recording.of("command"), "the example moves nothing"
 
 
 def _follows(recording: Recording, motion: np.ndarray, commanded: str, measured: str,

@@ -5,7 +5,8 @@ tests/recording/test_libfranka_cpp_recordings.py replays where no libfranka buil
     FRANKA_SIM_LIBFRANKA_BUILDS=BUILD[:BUILD...] python tests/support/record_older_libfranka.py
 
 Each BUILD is a build directory of tests/support/build_older_libfranka.sh (libfranka's sources
-are the user's to supply); run as root (libfranka_cpp.py says why). Each example runs once on
+are the user's to supply); run as root (libfranka_cpp.py says why). A build with
+`vacuum_object` has it recorded too, served `--tool vacuum`. Each example runs once on
 a fresh simulator in lockstep with `--record`. The long ones are stopped after CUTS cycles so
 the files stay small (~0.5 kB per cycle of motion); the rest run to their end. Run it again
 when the recording format or the simulator's behaviour changes (replay then no longer says
@@ -38,7 +39,8 @@ def record(build: cpp.Build, name: str) -> Path:
     path = DATA / build.version / f"{name}.mcap"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.unlink(missing_ok=True)
-    with running_sim("--clock", "lockstep", "--scene", SCENE, "--record", str(path)) as sim:
+    with running_sim("--clock", "lockstep", "--scene", SCENE, "--record", str(path),
+                     *cpp.SERVE_ARGS.get(name, ())) as sim:
         run = cpp.run(build, name, sim.host, cycles=CUTS.get(name))
     if run.returncode != 0 and not run.stopped:
         raise SystemExit(f"{name} of libfranka {build.version} failed:\n{run.stdout}")
@@ -51,7 +53,8 @@ def main() -> None:
         raise SystemExit(reason)
     os.chdir(REPOSITORY)
     for build in cpp.builds():
-        for name in cpp.EXAMPLES:
+        pump = ["vacuum_object"] if build.example("vacuum_object").exists() else []
+        for name in [*cpp.EXAMPLES, *pump]:
             path = record(build, name)
             print(f"{path.relative_to(DATA)}: {path.stat().st_size // 1024} KiB")
 
