@@ -88,10 +88,20 @@ def test_another_machine_without_one_is_k_error_in_one_log_line(description, pla
     monkeypatch.setattr("franka_sim.model_library.build.zig_compiler", lambda: None)
     with caplog.at_level(logging.INFO, logger="franka_sim.model_library"):
         assert ModelLibrary(description).for_client(_request(OTHER)) is None
-    (line,) = [r.getMessage() for r in caplog.records]
+    (line,) = [r.getMessage() for r in caplog.records]  # one line a request
     assert line.startswith(f"model library for {OTHER[0]}/{OTHER[1]} asked for: none "
                            f"prebuilt (in {prebuilt})"), line
     assert line.endswith("answered kError"), line
+
+
+def test_a_library_prebuilt_after_a_miss_is_served(description, places, monkeypatch):
+    """A miss is not remembered: a library put in place while the server runs is found."""
+    prebuilt, _ = places
+    monkeypatch.setattr("franka_sim.model_library.build.zig_compiler", lambda: None)
+    library = ModelLibrary(description)
+    assert library.for_client(_request(OTHER)) is None
+    _put(prebuilt, description, OTHER, b"\x7fELF other")
+    assert library.for_client(_request(OTHER)) == b"\x7fELF other"
 
 
 def test_a_prebuilt_variable_naming_no_directory_is_said(description, tmp_path, monkeypatch,

@@ -136,7 +136,7 @@ class ModelLibrary:
     def __init__(self, description: ArmDescription) -> None:
         self.description = description
         self._source: str | None = None
-        self._made: dict[tuple[str, str], bytes | None] = {}
+        self._made: dict[tuple[str, str], bytes] = {}
 
     @property
     def source(self) -> str:
@@ -148,8 +148,11 @@ class ModelLibrary:
         """The library for a LoadModelLibrary request (its `architecture` and `system`), or
         None (logged) when none can be had for it."""
         wanted = (str(request.architecture), str(request.system))
-        if wanted not in self._made:
-            self._made[wanted] = self._find(wanted)
+        if wanted not in self._made:  # a miss is looked for again (and said again) next time
+            found = self._find(wanted)
+            if found is None:
+                return None
+            self._made[wanted] = found
         return self._made[wanted]
 
     def _find(self, wanted: tuple[str, str]) -> bytes | None:
