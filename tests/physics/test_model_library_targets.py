@@ -6,13 +6,16 @@ and where the ziglang package is installed, a real aarch64 library cross-compile
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import struct
 import sys
 
+import numpy as np
 import pytest
 from construct import Container
 
+from franka_sim.description.kinematics import flange_pose
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.model_library import ModelLibrary
 from franka_sim.model_library import __main__ as prebuild_cli
@@ -165,6 +168,13 @@ def test_zig_builds_the_prebuilt_directory_that_serves_an_aarch64_client(descrip
     assert _elf_machine(library.for_client(_request(ARM64))) == "aarch64"
     assert _elf_machine(library.for_client(_request(X64))) == "x86_64"
     assert not cache_dir().exists()  # nothing built: both prebuilt
+    if this_machine() in (X64, ARM64):  # this machine's loads: the description's flange pose
+        path = tmp_path / "here.so"
+        path.write_bytes(library.for_client(_request(this_machine())))
+        doubles = ctypes.POINTER(ctypes.c_double)
+        q, pose = np.linspace(-1.0, 1.0, 7), np.zeros(16)
+        ctypes.CDLL(str(path)).O_T_J8(q.ctypes.data_as(doubles), pose.ctypes.data_as(doubles))
+        assert np.allclose(pose.reshape(4, 4).T, flange_pose(description, q), atol=1e-14)
 
 
 @needs_zig
