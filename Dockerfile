@@ -35,6 +35,23 @@ RUN set -eu; \
     /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
     /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
     find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
+# The model library older libfranka clients (0.9-0.13) load, prebuilt for each packaged robot
+# (fr3, fer) and Linux x86_64 and aarch64: the runtime has no C compiler to build one. zig's
+# clang (the package's `zig` extra: ~410 MB) cross-compiles them here, in a virtual environment
+# of its own that the runtime stage does not copy; the libraries (~85 KB each) are in
+# /opt/franka-sim/share/model-libraries, which FRANKA_SIM_MODEL_LIBRARIES names below.
+RUN set -eu; \
+    from=""; \
+    if ls "$WHEELHOUSE"/*.whl >/dev/null 2>&1; then \
+        from="--no-index --find-links $WHEELHOUSE"; \
+    fi; \
+    zig=$(python3 -c 'import tomllib; project = tomllib.load(open("pyproject.toml", "rb")); \
+        print(*project["project"]["optional-dependencies"]["zig"])'); \
+    python3 -m venv /tmp/zig; \
+    /tmp/zig/bin/pip install --quiet $from "$zig"; \
+    /opt/franka-sim/bin/python -m franka_sim.model_library /opt/franka-sim/share/model-libraries \
+        --cc "/tmp/zig/bin/python -m ziglang cc"; \
+    rm -rf /tmp/zig "${HOME:-/root}/.cache/zig"
 
 # --- runtime: the environment alone, run by an unprivileged user -------------------------------
 FROM ${BASE_IMAGE}
@@ -46,7 +63,8 @@ WORKDIR /home/franka-sim
 ENV PATH=/opt/franka-sim/bin:$PATH \
     PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1 \
-    FRANKA_SIM_HOST=0.0.0.0
+    FRANKA_SIM_HOST=0.0.0.0 \
+    FRANKA_SIM_MODEL_LIBRARIES=/opt/franka-sim/share/model-libraries
 
 # The robot (libfranka protocol v10), the Franka Hand and the control API: publish these. The
 # 1 kHz robot state stream is UDP from the server to the port the client announced during the

@@ -11,6 +11,9 @@ why") with exit status 1, and whatever the run started is stopped and removed fi
   run     the container, --network host, serving on --host, its web view on 8080
   health  its HEALTHCHECK (`franka-sim check`) turns healthy
   drive   pylibfranka from this host: connect, a short joint motion, the Hand's homing
+  library an older client's (protocol 5) LoadModelLibrary for Linux x86_64 and aarch64: each
+          answered with that architecture's ELF library; inside the image, each packaged
+          robot's prebuilt libraries and no compiler (older_client.py)
   web     the web view's page from the image (the `web` extra, nothing fetched)
   stop    `docker stop` (SIGTERM to PID 1) ends it at once and cleanly (exit status 0)
 With --bridge, run, health and drive are instead (published.py):
@@ -43,6 +46,7 @@ from debian_base import base_image, default_cache  # noqa: E402
 from docker_cli import Docker, StepFailed, last_line  # noqa: E402
 from docker_daemon import PrivateDaemon  # noqa: E402
 from drive import drive  # noqa: E402
+from older_client import model_libraries  # noqa: E402
 
 import published  # noqa: E402
 
@@ -56,8 +60,10 @@ def wheels(context: Path) -> Path:
     """The runtime requirements and the build backend as wheels, pinned to the versions this
     environment runs (so the image runs what the tests ran), in `context`/wheelhouse."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    extras = project["project"]["optional-dependencies"]
     wanted = (project["project"]["dependencies"] + project["build-system"]["requires"]
-              + project["project"]["optional-dependencies"]["web"])  # the image has the view
+              + extras["web"]  # the image has the view
+              + extras["zig"])  # its build stage compiles the model libraries with it
     pins = "".join(f"{d.metadata['Name']}=={d.version}\n" for d in metadata.distributions()
                    if d.metadata["Name"] and d.metadata["Name"].lower() != "franka-sim")
     constraints = context.parent / "constraints.txt"
@@ -244,6 +250,8 @@ def _steps(args, cleanup: ExitStack) -> dict:
     took("health")
     drive(args.host)
     took("drive")
+    report.update(model_libraries(args.host, docker, args.image))
+    took("library")
     web_page(args.host)
     took("web")
     report["stop_s"] = round(stop(docker, name), 2)
