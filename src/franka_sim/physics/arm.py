@@ -1,6 +1,7 @@
 """One arm inside the world: its joints, its drive, its readings, its tool, its queries.
 
-Drive model (physics/drive.py, shared with every engine). Each step applies tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
+Drive model (physics/drive.py, shared with every engine). Each step applies
+tau = tau_ff + K·(q_d − q) + D·(dq_d − dq) + g(q), all evaluated
 at the start of the step, as the real drives do with one 1 kHz sample. While a generator runs,
 the command also carries its reference acceleration ddq_d, and the drives add the torque that
 gives the arm that acceleration, M(q)·ddq_d + c(q, dq) (rotors included): the impedance then
@@ -82,7 +83,7 @@ class Arm:
         tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
         self._law = DriveLaw(self._q, self._dq, self._applied, self._gcomp, tau_max,
                              float(model.opt.timestep), self.friction, self._feed_forward)
-        self._ff = self._law.ff  # the torque the motors follow (compared by same_inputs)
+        self._ff = self._law.ff  # the torque the motors follow
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base,
                                  self.friction.torque)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
@@ -108,15 +109,8 @@ class Arm:
 
     # -- the world's step, in its order ---------------------------------------------------------
     def same_inputs(self) -> bool:
-        """The command is the last step's (the same arrays: the core replaces, never mutates)."""
-        last, cmd, tool = self._last_cmd, self.cmd, self._tool_cmd
-        if last is None or not (tool is None or (
-                self.tool is not None and tool == self.tool.command)):
-            return False
-        return (cmd is last or (
-            cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
-            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
-            and cmd.ddq_d is last.ddq_d)) and np.array_equal(self._ff, cmd.tau_ff)
+        """The command is the last step's (physics/drive.py DriveLaw.same_inputs)."""
+        return self._law.same_inputs(self._last_cmd, self.cmd, self._tool_cmd, self.tool)
 
     def settle(self) -> bool:
         """Within SETTLE of the hold: exactly there, at rest (see Standstill above).

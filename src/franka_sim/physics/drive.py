@@ -80,6 +80,19 @@ class DriveLaw:
         np.minimum(applied, self._tau_max, out=applied)
         np.maximum(applied, self._tau_min, out=applied)
 
+    def same_inputs(self, last: JointCommand | None, cmd: JointCommand, tool_cmd,
+                    tool) -> bool:
+        """`cmd` (and the tool's command `tool_cmd`, None: kept) asks for what the last step's
+        `last` did: the same arrays, compared by identity (the core replaces a command's
+        arrays, never mutates them: physics/engine.py), and no torque still being followed."""
+        if last is None or not (tool_cmd is None or (
+                tool is not None and tool_cmd == tool.command)):
+            return False
+        return (cmd is last or (
+            cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
+            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
+            and cmd.ddq_d is last.ddq_d)) and np.array_equal(self.ff, cmd.tau_ff)
+
     def rest(self) -> None:
         """No torque followed any more (a reset, the idle drive at rest)."""
         self.ff.fill(0.0)

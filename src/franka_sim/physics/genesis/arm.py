@@ -93,15 +93,8 @@ class GenesisArm:
         self.cmd, self._tool_cmd = cmd, tool
 
     def same_inputs(self) -> bool:
-        """The command is the last step's (the same arrays: the core replaces, never mutates)."""
-        last, cmd, tool = self._last_cmd, self.cmd, self._tool_cmd
-        if last is None or not (tool is None or (
-                self.tool is not None and tool == self.tool.command)):
-            return False
-        return (cmd is last or (
-            cmd.tau_ff is last.tau_ff and cmd.q_d is last.q_d and cmd.dq_d is last.dq_d
-            and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
-            and cmd.ddq_d is last.ddq_d)) and np.array_equal(self._law.ff, cmd.tau_ff)
+        """The command is the last step's (physics/drive.py DriveLaw.same_inputs)."""
+        return self._law.same_inputs(self._last_cmd, self.cmd, self._tool_cmd, self.tool)
 
     # -- the world's step, in its order ---------------------------------------------------------
     def settle(self) -> bool:
