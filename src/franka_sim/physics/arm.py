@@ -69,7 +69,6 @@ class Arm:
         self._q, self._dq = data.qpos[self.qs], data.qvel[self.vs]
         self._applied = data.qfrc_applied[self.vs]
         self._gcomp = gravity[self.vs]
-        self._tmp = np.zeros(7)
         self._dq_prev = np.zeros(7)
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
         self._bias = data.qfrc_bias[self.vs]
@@ -115,16 +114,7 @@ class Arm:
     def settle(self) -> bool:
         """Within SETTLE of the hold: exactly there, at rest (see Standstill above).
         True if a position changed."""
-        tmp, q, dq, q_d = self._tmp, self._q, self._dq, self.cmd.q_d
-        moved = False
-        if (np.abs(dq, out=tmp).max() < SETTLE
-                and np.abs(np.subtract(q, q_d, out=tmp), out=tmp).max() < SETTLE):
-            moved = not np.array_equal(q, q_d)
-            q[:] = q_d
-            dq[:] = 0.0
-        if self.tool is None:
-            return moved
-        return self.tool.settle(self._tool_cmd, SETTLE) or moved
+        return self._law.settle(self.cmd, self._tool_cmd, self.tool, SETTLE)
 
     def drive(self) -> None:
         """The drive torque for this step into qfrc_applied (g(q) prepared at this q)."""

@@ -93,6 +93,21 @@ class DriveLaw:
             and cmd.K is last.K and cmd.D is last.D and cmd.load is last.load
             and cmd.ddq_d is last.ddq_d)) and np.array_equal(self.ff, cmd.tau_ff)
 
+    def settle(self, cmd: JointCommand, tool_cmd, tool, band: float) -> bool:
+        """The idle hold's standstill: within `band` of the hold `cmd.q_d` and slower than it,
+        the arm is put exactly there, at rest (and its tool likewise, `tool.settle`). True if
+        a position changed."""
+        tmp, q, dq = self._tmp, self._q, self._dq
+        moved = False
+        if (np.abs(dq, out=tmp).max() < band
+                and np.abs(np.subtract(q, cmd.q_d, out=tmp), out=tmp).max() < band):
+            moved = not np.array_equal(q, cmd.q_d)
+            q[:] = cmd.q_d
+            dq[:] = 0.0
+        if tool is None:
+            return moved
+        return tool.settle(tool_cmd, band) or moved
+
     def rest(self) -> None:
         """No torque followed any more (a reset, the idle drive at rest)."""
         self.ff.fill(0.0)

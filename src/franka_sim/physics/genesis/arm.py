@@ -100,15 +100,7 @@ class GenesisArm:
     def settle(self) -> bool:
         """The idle hold's standstill (physics/arm.py): within SETTLE of the hold, exactly
         there and at rest. True if a position changed (the world writes it to Genesis)."""
-        q, dq, q_d = self._q, self._dq, self.cmd.q_d
-        moved = False
-        if np.abs(dq).max() < SETTLE and np.abs(q - q_d).max() < SETTLE:
-            moved = not np.array_equal(q, q_d)
-            q[:] = q_d
-            dq[:] = 0.0
-        if self.tool is None:
-            return moved
-        return self.tool.settle(self._tool_cmd, SETTLE) or moved
+        return self._law.settle(self.cmd, self._tool_cmd, self.tool, SETTLE)
 
     def drive(self) -> None:
         """The torque of every dof for this step into `applied` (the state is current)."""
