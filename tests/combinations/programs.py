@@ -111,6 +111,12 @@ def base_problems(result: dict) -> list[str]:
     return problems
 
 
+def only_lost_cycles(result: dict | None) -> bool:
+    """An arm's motion ran without an error but lost cycles (its success rate below 1)."""
+    return bool(result and "min_rate" in result and not result["error"]
+                and result["min_rate"] < 1.0)
+
+
 def held_up(result: dict | None, *, realtime_and_enforced: bool) -> bool:
     """Whether the program's only failure is the abort a held-up host causes (see HELD_UP)."""
     return bool(realtime_and_enforced and result and HELD_UP in result.get("error", ""))
