@@ -124,7 +124,7 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=3.0, help="simulated s per motion (3)")
     ap.add_argument("--engines", nargs="+", default=["mujoco", "genesis"])
     args = ap.parse_args()
-    from franka_sim.physics.engine import engine_missing
+    from franka_sim.physics.engine_choice import engine_missing
 
     for engine in args.engines:
         if missing := engine_missing(engine):

@@ -16,7 +16,8 @@ from franka_sim.config import ArmSpec, Config
 from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
 from franka_sim.model_library import ModelLibrary
-from franka_sim.physics.engine import Physics, make_physics
+from franka_sim.physics.engine import Physics
+from franka_sim.physics.engine_choice import make_physics
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
                                       resolve_scene, scene_mounts)
 from franka_sim.robot.arm_core import ArmCore

@@ -50,7 +50,7 @@ class ClockMode(str, Enum):
 
 
 class PhysicsEngine(str, Enum):
-    """The physics engines (physics/engine.py ENGINES; docs/engines.md)."""
+    """The physics engines (physics/engine_choice.py ENGINES; docs/engines.md)."""
 
     mujoco = "mujoco"
     genesis = "genesis"

@@ -188,7 +188,7 @@ def test_the_hand_homes_and_grasps_the_cube(sim, robot):
 def test_the_clients_model_is_the_engines_dynamics(sim, robot):
     from franka_sim.config import READY_POSE
     from franka_sim.description.urdf import default_urdf_text, load_arm_description
-    from franka_sim.physics.engine import make_physics
+    from franka_sim.physics.engine_choice import make_physics
     from franka_sim.physics.fingers import FINGERS
     from franka_sim.physics.scene import ArmPlacement, default_scene_path
 

@@ -5,9 +5,10 @@ An engine builds a `World` from the arms' placements, their start poses and the 
 physics/backend.py's `Backend`: drive, measure, queries, its tool). The cycle thread owns the
 `Physics` of a world: the world and every robot's body in it, by robot index (an arm's
 `ArmBody`, the mobile base's body). MuJoCo is the engine today (physics/world.py, physics/arm.py,
-physics/mujoco_backend.py) by default, Genesis the second (physics/genesis/, the `genesis`
-extra); each implements these protocols and its own `make_physics`, this one chooses by the
-engine's name (ENGINES), and nothing above physics/ changes. docs/engines.md says how to add one.
+physics/mujoco_backend.py; its `make_physics`: physics/mujoco_engine.py) by default, Genesis the
+second (physics/genesis/, the `genesis` extra); each implements these protocols and its own
+`make_physics`, physics/engine_choice.py chooses by the engine's name (ENGINES), and nothing
+above physics/ changes. docs/engines.md says how to add one.
 
 Contracts the robot relies on, which an engine must keep (the MuJoCo engine's tests check them):
 - one `step()` advances every arm by exactly `timestep` (0.001 s) with the command each arm was
@@ -33,7 +34,6 @@ import numpy as np
 
 from franka_sim.physics.backend import Backend as ArmBody
 from franka_sim.physics.bodies import BodyState
-from franka_sim.physics.engine_choice import ENGINES, engine_missing
 
 
 class Bodies(Protocol):
@@ -98,26 +98,4 @@ class Physics:
         return self.robots[index]
 
 
-def make_physics(placements, q0s: Mapping[str, np.ndarray], scene, *,
-                 mobile_base: bool = False, engine: str = "mujoco") -> Physics:
-    """The world of `placements` (physics/scene.py) in `scene` on `engine` (ENGINES), each
-    arm's body in it by index, then the mobile base's body if the arms ride one."""
-    if engine == "genesis":
-        from franka_sim.physics.genesis import make_physics as make_genesis
-
-        return make_genesis(placements, q0s, scene, mobile_base=mobile_base)
-    if engine != "mujoco":
-        raise ValueError(f"unknown physics engine {engine!r} (one of {', '.join(ENGINES)})")
-    from franka_sim.physics.mobile_base import BaseBody
-    from franka_sim.physics.mujoco_backend import ArmBackend
-    from franka_sim.physics.world import World as MujocoWorld
-
-    world = MujocoWorld(placements, q0s, scene_xml=scene)
-    robots = [ArmBackend(world, placement.name) for placement in placements]
-    if mobile_base:
-        robots.append(BaseBody(world.model, world.data))
-    return Physics(world, tuple(robots))
-
-
-__all__ = ["ENGINES", "ArmBody", "Bodies", "Physics", "World", "engine_missing",
-           "make_physics"]
+__all__ = ["ArmBody", "Bodies", "Physics", "World"]

@@ -1,6 +1,6 @@
-"""The physics engines by name, and whether one can run here: what `serve --physics` and the
-Config rules ask before anything imports numpy, MuJoCo or an engine (physics/engine.py builds
-the world on the one chosen; docs/engines.md)."""
+"""The physics engines by name, whether one can run here, and the world built on the one chosen:
+what `serve --physics` and the Config rules ask before anything imports numpy, MuJoCo or an
+engine (each engine is imported when its world is made; docs/engines.md)."""
 
 from __future__ import annotations
 
@@ -14,3 +14,16 @@ def engine_missing(engine: str) -> str | None:
 
         return genesis_missing()
     return None
+
+
+def make_physics(placements, q0s, scene, *, mobile_base: bool = False,
+                 engine: str = "mujoco"):
+    """The world of `placements` (physics/scene.py) in `scene` on `engine`, each arm's body in
+    it by index, then the mobile base's body if the arms ride one (physics/engine.py Physics)."""
+    if engine == "genesis":
+        from franka_sim.physics.genesis import make_physics as make
+    elif engine == "mujoco":
+        from franka_sim.physics.mujoco_engine import make_physics as make
+    else:
+        raise ValueError(f"unknown physics engine {engine!r} (one of {', '.join(ENGINES)})")
+    return make(placements, q0s, scene, mobile_base=mobile_base)
