@@ -129,3 +129,28 @@ class Backend(Protocol):
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace what hangs on the flange (hand + load): mass, CoM in F, inertia about CoM."""
+
+
+class WorldArmBody:
+    """An arm's body in a world of several (each engine's ArmBody builds on it): what it is
+    given each step goes to its arm (`world.arms[name]`: `command`, `last`), and the world
+    steps for all of them."""
+
+    def __init__(self, world, name: str) -> None:
+        self.world = world
+        self.arm = arm = world.arms[name]
+        self.desc = arm.desc
+        self.timestep = world.timestep
+        self.command = arm.command  # (cmd, tool): what the arm does in the world's next step
+
+    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
+        """Command this arm and step the world (the world's other arms keep their commands)."""
+        self.arm.command(cmd, tool)
+        self.world.step()
+        return self.arm.last
+
+    def finish_step(self) -> None:
+        self.world.finish_step()
+
+    def measure(self) -> Measured:
+        return self.arm.last

@@ -18,7 +18,7 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3
-from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.backend import WorldArmBody
 from franka_sim.physics.scene import ArmPlacement
 from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.world import World
@@ -26,32 +26,15 @@ from franka_sim.physics.world import World
 _UNPREPARED = object()
 
 
-class ArmBackend:
+class ArmBackend(WorldArmBody):
     """One arm of `world` (by name); not thread-safe (the cycle thread serialises access)."""
 
     def __init__(self, world: World, name: str) -> None:
-        self.world = world
-        self.arm = arm = world.arms[name]
-        self.desc = arm.desc
+        super().__init__(world, name)
         self.model: mujoco.MjModel = world.model
         self.data: mujoco.MjData = world.data
         self._scratch = world.scratch  # where the queries leave their kinematics
-        self.timestep = world.timestep
-        self._queries = arm.queries
-        self.command = arm.command  # (cmd, tool): what the arm does in the world's next step
-
-    # -- the hot path ---------------------------------------------------------------------------
-    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
-        """Command this arm and step the world (the world's other arms keep their commands)."""
-        self.arm.command(cmd, tool)
-        self.world.step()
-        return self.arm.last
-
-    def finish_step(self) -> None:
-        self.world.finish_step()
-
-    def measure(self) -> Measured:
-        return self.arm.last
+        self._queries = self.arm.queries
 
     def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:
         """O_T_F and the flange Jacobian at q from one kinematics pass (the desired-state path)."""

@@ -5,33 +5,19 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.description import kinematics
-from franka_sim.physics.backend import JointCommand, Measured
+from franka_sim.physics.backend import WorldArmBody
 from franka_sim.physics.genesis.world import GenesisWorld
 
 
-class GenesisArmBody:
+class GenesisArmBody(WorldArmBody):
     """The arm `name` of `world`; not thread-safe (the cycle thread serialises access)."""
 
     def __init__(self, world: GenesisWorld, name: str) -> None:
-        self.world = world
-        self.arm = arm = world.arms[name]
-        self.desc = arm.desc
-        self.timestep = world.timestep
+        super().__init__(world, name)
+        arm = self.arm
         self._dynamics = arm.dynamics
         self._armature = np.asarray(arm.placement.armature, float)
         self._base = arm.placement.base_frame()
-        self.command = arm.command  # (cmd, tool): what the arm does in the world's next step
-
-    def step(self, cmd: JointCommand, tool: object | None = None) -> Measured:
-        self.arm.command(cmd, tool)
-        self.world.step()
-        return self.arm.last
-
-    def finish_step(self) -> None:
-        self.world.finish_step()
-
-    def measure(self) -> Measured:
-        return self.arm.last
 
     def reset(self, q0, tool_setting: object | None = None) -> None:
         """At rest at q0, its tool at its start or at `tool_setting`; the world as at its
