@@ -8,6 +8,14 @@ from pathlib import Path
 import typer
 
 
+# render's and view's --meshes (one option, as serve's)
+MESHES = typer.Option(
+    None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
+    help="Draw the arms with the visual meshes of the franka_description at DIR (as "
+    "serve --meshes).",
+)
+
+
 def _open(path: Path):
     """The recording at `path`, or its one-line error and exit 1."""
     from franka_sim.recording import mcap_missing
@@ -80,11 +88,7 @@ def render(
                                 help="The video to write (.mp4)."),
     camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
     fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
-    meshes: Path | None = typer.Option(
-        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
-        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
-        "serve --meshes).",
-    ),
+    meshes: Path | None = MESHES,
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
@@ -109,11 +113,7 @@ def view(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     host: str = typer.Option("127.0.0.1", help="Address to serve the page on."),
     port: int = typer.Option(8080, min=1, max=65535, help="Port to serve the page on."),
-    meshes: Path | None = typer.Option(
-        None, envvar="FRANKA_SIM_MESHES", exists=True, file_okay=False, metavar="DIR",
-        help="Draw the arms with the visual meshes of the franka_description at DIR (as "
-        "serve --meshes).",
-    ),
+    meshes: Path | None = MESHES,
 ) -> None:
     """Watch a recording in a browser: the world in 3D with a timeline to scrub or play, and
     each arm's readouts and plots (docs/viewing.md; needs franka-sim\\[web]). Until Ctrl-C."""
