@@ -6,15 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engines.engine_params import ENGINES, START_TIMEOUT
+from engines.engine_params import ENGINES, engine_server
 from franka_sim.control import Control
-from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_placed_body_falls_and_a_pushed_arm_comes_back_without_a_client(engine):
-    sim = ServerProcess(fresh_loopback_address(), "--clock", "lockstep",
-                        "--physics", engine).wait_ready(START_TIMEOUT)
+    sim = engine_server(engine)
     try:
         control = Control(sim.host)
         control.set_pose("cube", [0.45, 0.0, 0.3])

@@ -19,10 +19,9 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from engine_params import ENGINES, START_TIMEOUT
+from engine_params import ENGINES, engine_server
 from support.clients import connect, move_to, pose, press_until_reflex
 from franka_sim.control import Control
-from franka_sim.testing.server_process import ServerProcess, fresh_loopback_address
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import generate_cartesian_pose_motion  # noqa: E402
@@ -45,8 +44,7 @@ RESULTS: dict[str, dict[str, np.ndarray]] = {}  # engine → program → where i
 @pytest.fixture(scope="module", params=ENGINES)
 def sim(request):
     engine = request.param
-    server = ServerProcess(fresh_loopback_address(), "--clock", "lockstep",
-                           "--physics", engine).wait_ready(START_TIMEOUT)
+    server = engine_server(engine)
     server.engine = engine
     RESULTS.setdefault(engine, {})
     try:
