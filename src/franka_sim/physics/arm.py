@@ -33,6 +33,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from franka_sim.kernels import add_add_sub
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, write_inertial
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
@@ -71,6 +72,7 @@ class Arm:
         self._gcomp = gravity[self.vs]
         self._dq_prev = np.zeros(7)
         self._ff_accel, self._ff_torque = np.zeros(model.nv), np.zeros(model.nv)
+        self._ff_accel_arm, self._ff_torque_arm = self._ff_accel[self.vs], self._ff_torque[self.vs]
         self._bias = data.qfrc_bias[self.vs]
         base = queried = placement.base_frame()
         if placement.rides:  # on the mobile base the root moves: its pose as it is now, in
@@ -127,12 +129,9 @@ class Arm:
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
         """Add M(q)·ddq_d + c(q, dq): the inverse dynamics of the reference's acceleration, on
         mj_step1's inertia and bias at the current state (c = bias − g; g is already in)."""
-        accel, out, applied = self._ff_accel, self._ff_torque, self._applied
-        accel[self.vs] = ddq_d
-        mujoco.mj_mulM(self._model, self._data, out, accel)
-        applied += out[self.vs]
-        applied += self._bias
-        applied -= self._gcomp
+        self._ff_accel_arm[:] = ddq_d
+        mujoco.mj_mulM(self._model, self._data, self._ff_torque, self._ff_accel)
+        add_add_sub(self._applied, self._ff_torque_arm, self._bias, self._gcomp)
 
     def after_integration(self) -> None:
         """After mj_step2, before the kinematics move on: ddq, the external torque (on the

@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from franka_sim.kernels import drive_follow, drive_impedance, saturate_less
 from franka_sim.physics.backend import NO_GAINS, JointCommand
 from franka_sim.physics.friction import JointFriction
 
@@ -43,42 +44,24 @@ class DriveLaw:
     def apply(self, cmd: JointCommand, load_gravity: np.ndarray | None = None) -> None:
         """The drive torque for this step into `applied` (g(q) prepared at this q);
         `load_gravity`: the declared load's g(q) when the command declares one."""
-        tmp, applied = self._tmp, self._applied
-        if cmd.K is NO_GAINS:  # torque control: no impedance terms
-            applied[:] = self._follow(cmd.tau_ff)
+        applied = self._applied
+        # tau_ff as the motors give it this step (ff: within a step's rate of the last; tau_ff
+        # is finite, the robot drops a non-finite command, robot/fci.py), plus g(q) and, but in
+        # torque control, the impedance terms (kernels/: one call each).
+        if cmd.K is NO_GAINS:
+            drive_follow(applied, self.ff, cmd.tau_ff, self._ff_step, self._gcomp)
         else:
-            np.subtract(cmd.q_d, self._q, out=tmp)
-            np.multiply(cmd.K, tmp, out=applied)
-            np.subtract(cmd.dq_d, self._dq, out=tmp)
-            tmp *= cmd.D
-            applied += tmp
-            applied += self._follow(cmd.tau_ff)
-        applied += self._gcomp
+            drive_impedance(applied, self.ff, cmd.tau_ff, self._ff_step, self._gcomp,
+                            cmd.q_d, self._q, cmd.K, cmd.dq_d, self._dq, cmd.D)
         if cmd.ddq_d is not None:
             self._feed_forward(cmd.ddq_d)
-            applied += self.friction.at(cmd.dq_d, tmp)  # the robot's own compensation
+            applied += self.friction.at(cmd.dq_d, self._tmp)  # the robot's own compensation
         if cmd.load is not None and load_gravity is not None:
             applied += load_gravity
-        self._saturate(applied)
-        applied -= self.friction.step(self._dq)  # on the link, past the motor
-
-    def _follow(self, tau_ff: np.ndarray) -> np.ndarray:
-        """The controller's torque as the motors give it this step: within a step's rate of
-        the last. (tau_ff is finite: the robot drops a non-finite command, robot/fci.py.)"""
-        ff, tmp, step = self.ff, self._tmp, self._ff_step
-        np.subtract(tau_ff, ff, out=tmp)
-        np.minimum(tmp, step, out=tmp)
-        np.maximum(tmp, -step, out=tmp)
-        ff += tmp
-        return ff
-
-    def _saturate(self, applied: np.ndarray) -> None:
-        """The motors saturate at their torque limits, whatever the command asked (an absurd
-        one, applied when limits are only logged, must not blow up the physics). The torque
-        is finite: so is every command the robot takes and what it derives from one
-        (robot/fci.py COMMAND_RANGE)."""
-        np.minimum(applied, self._tau_max, out=applied)
-        np.maximum(applied, self._tau_min, out=applied)
+        # The motors saturate at their torque limits, whatever the command asked (an absurd
+        # one, applied when limits are only logged, must not blow up the physics; it is finite,
+        # robot/fci.py COMMAND_RANGE); the friction acts on the link, past the motor.
+        saturate_less(applied, self._tau_max, self._tau_min, self.friction.step(self._dq))
 
     def same_inputs(self, last: JointCommand | None, cmd: JointCommand, tool_cmd,
                     tool) -> bool:

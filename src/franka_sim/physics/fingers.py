@@ -163,19 +163,26 @@ class Palm:
                    - self.mass * _spread(com - c))
         return com, inertia
 
-    def write(self, model: mujoco.MjModel, body: int, x1: float, x2: float) -> None:
-        """Store the palm for finger positions x1, x2 into the model's hand body."""
+    def slot(self, model: mujoco.MjModel, body: int) -> tuple[np.ndarray, ...]:
+        """The model's inertial fields of the hand body, as the views `write` stores into
+        (each model attribute access builds a new view: this runs every step the fingers move)."""
+        return (model.body_iquat[body], model.body_mass[body:body + 1], model.body_ipos[body],
+                model.body_inertia[body])
+
+    def write(self, slot: tuple[np.ndarray, ...], x1: float, x2: float) -> None:
+        """Store the palm for finger positions x1, x2 into the hand body's `slot`."""
+        iquat, mass, ipos, body_inertia = slot
         k = self._monomials
         k[1], k[2], k[3], k[4], k[5] = x1, x2, x1 * x1, x2 * x2, x1 * x2
         # np.dot: the very BLAS call `@` makes here (the same bits), with less dispatch and
-        # into a given array; this runs every step the fingers move.
+        # into a given array.
         inertia = np.dot(k, self._inertia_coeffs, out=self._inertia)
-        mujoco.mju_eig3(self._eigval, self._eigvec, model.body_iquat[body], inertia)
+        mujoco.mju_eig3(self._eigval, self._eigvec, iquat, inertia)
         if min(self._eigval.tolist()) <= 0.0:
             raise ValueError("the fingers outweigh the end effector's inertia")
-        model.body_mass[body] = self.mass
-        np.dot(k, self._com_coeffs, out=model.body_ipos[body])
-        model.body_inertia[body] = self._eigval
+        mass[0] = self.mass
+        np.dot(k, self._com_coeffs, out=ipos)
+        body_inertia[:] = self._eigval
 
 
 def _clip(f: float, limit: float) -> float:
@@ -199,8 +206,8 @@ class Fingers:
         fq, fv = slice(qadr[0], qadr[0] + 2), slice(vadr[0], vadr[0] + 2)
         self._q, self._v = data.qpos[fq], data.qvel[fv]
         self._applied, self._gravity = data.qfrc_applied[fv], gravity[fv]
-        self._model, self._hand = model, hand_body
         self._palm = Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
+        self._palm_slot = self._palm.slot(model, hand_body)
         self._palm_at: list[float] | None = None  # finger positions the palm is for
         self.command = FingerCommand(OPEN_WIDTH, 0.0, MAX_FINGER_FORCE)
         self._drive = (0.0, 0.0)
@@ -239,7 +246,7 @@ class Fingers:
         """Rewrite the palm for the fingers' new positions, so the hand stays the reported body."""
         x = self._q.tolist()
         if x != self._palm_at:
-            self._palm.write(self._model, self._hand, *x)
+            self._palm.write(self._palm_slot, *x)
             self._palm_at = x
 
     def reading(self) -> FingerState:

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from franka_sim.kernels import friction_argument, friction_torque
+
 PHI1 = np.array([0.54615, 0.87224, 0.64068, 1.2794, 0.83904, 0.30301, 0.56489])  # Nm
 PHI2 = np.array([5.1181, 9.0657, 10.136, 5.5903, 8.3469, 17.133, 10.336])  # s/rad
 PHI3 = np.array([0.039533, 0.025882, -0.04607, 0.036194, 0.026226, -0.021047,
@@ -40,12 +42,12 @@ class JointFriction:
         self._tmp = np.zeros(7)
 
     def at(self, dq: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """tau_f(dq) into `out`."""
-        tmp = np.add(dq, PHI3, out=self._tmp)
-        tmp *= self._half_phi2
+        """tau_f(dq) into `out` (numpy's tanh between two fused loops, kernels/)."""
+        tmp = self._tmp
+        friction_argument(dq, PHI3, self._half_phi2, tmp)
         np.tanh(tmp, out=tmp)
-        tmp -= self._at_rest
-        return np.multiply(tmp, self._half_phi1, out=out)
+        friction_torque(tmp, self._at_rest, self._half_phi1, out)
+        return out
 
     def step(self, dq: np.ndarray) -> np.ndarray:
         """This step's friction at the joints' velocity (kept in `torque`)."""

@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP, ArmDescription
+from franka_sim.kernels import bind_readings
 from franka_sim.physics.backend import Measured
 
 # Nm/rad, inferred (docs/figures.md, "Joint elasticity and rotor inertia").
@@ -106,6 +107,13 @@ class Readings:
         self._timesteps = np.full(15, float(model.opt.timestep))  # dtau_J, dtheta (with a pad)
         self.timestep7 = self._timesteps[:7]
         self._stiffness = np.full(7, JOINT_STIFFNESS)
+        # The step's arithmetic and copies in one call (kernels/: compiled where built).
+        self._compute = bind_readings(
+            work, self._applied, self._armature, self._friction, self._stiffness, self._q,
+            self._dq, self._timesteps, self._flange_mat, self._flange_pos, self._sensordata,
+            self.ddq, self._tau_J, self._theta, self._tau_J_theta, self._derivatives,
+            self._work_q, self._work_dq, block.mat, block.pos, self._work_sensors,
+            self._gather.tolist())
 
     def flange_jacobian(self) -> None:
         """The flange Jacobian at the current q into `jac` (the kinematics must be fresh)."""
@@ -117,25 +125,13 @@ class Readings:
 
         The drive torque is in qfrc_applied; ddq, tau_ext and the Jacobian in the work array.
         """
-        tau_J, theta = self._tau_J, self._theta
-        np.multiply(self._armature, self.ddq, out=tau_J)
-        np.subtract(self._applied, tau_J, out=tau_J)
-        tau_J += self._friction
-        np.divide(tau_J, self._stiffness, out=theta)
-        theta += self._q
-        if first:
-            self._derivatives.fill(0.0)
-        else:  # dtau_J and dtheta in one go (the pad between them stays 0)
-            np.subtract(self._tau_J_theta, self._previous, out=self._derivatives)
-            np.divide(self._derivatives, self._timesteps, out=self._derivatives)
-        self._work_q[:] = self._q
-        self._work_dq[:] = self._dq
-        self._flange.mat[:] = self._flange_mat
-        self._flange.pos[:] = self._flange_pos
-        if self._base is not None:  # the world's frame is not this arm's
+        r = np.empty(_READINGS)
+        if self._base is None:
+            self._compute(first, self._previous, r)
+        else:  # the world's frame is not this arm's: the flange block turns before the gather
+            self._compute(first, self._previous, None)
             self._flange.to_base(self._base)
-        self._work_sensors[:] = self._sensordata
-        r = self._work[self._gather]
+            np.take(self._work, self._gather, out=r)
         self._previous = r[_TAU_J_THETA]
         return Measured(
             q=r[_Q], dq=r[_DQ], ddq=r[_DDQ], tau_J=r[_TAU_J], dtau_J=r[_DTAU_J], theta=r[_THETA],

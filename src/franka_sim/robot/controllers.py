@@ -26,14 +26,6 @@ def impedance_damping(K: np.ndarray) -> np.ndarray:
     return 2.0 * np.sqrt(K * NOMINAL_JOINT_INERTIA)
 
 
-def impedance_torque(K: np.ndarray, D: np.ndarray, q_d, dq_d, q, dq) -> np.ndarray:
-    """The impedance's torque without gravity: what the robot reports as tau_J_d.
-
-    D is impedance_damping(K) (RobotSettings.D_theta keeps it, derived once per K).
-    """
-    return K * (q_d - q) + D * (dq_d - dq)
-
-
 # Cartesian impedance: damping derived from the stiffness against a nominal apparent inertia
 # at the EE (translation kg, rotation kg·m²), critically damped like the joint law.
 NOMINAL_EE_INERTIA = np.array([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])

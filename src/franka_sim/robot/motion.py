@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from franka_sim.kernels import joint_follow
 from franka_sim.physics.backend import Measured
 from franka_sim.robot.cartesian import CartesianTarget, dls_step, ee_jacobian
 from franka_sim.protocol.enums import (
@@ -101,10 +102,10 @@ class JointReference:
         self.ddq_d = np.zeros(7)
 
     def follow_position(self, q_c: np.ndarray) -> None:
-        dq = (q_c - self.q_d) / DT
-        self.ddq_d = (dq - self.dq_d) / DT
-        self.dq_d = dq
-        self.q_d = np.array(q_c, dtype=float)
+        """q_d = q_c, its first two differences (fresh arrays: a drive command keeps them)."""
+        signals = np.empty(21)
+        joint_follow(q_c, self.q_d, self.dq_d, DT, signals)
+        self.q_d, self.dq_d, self.ddq_d = signals.reshape(3, 7)
 
     def follow_velocity(self, dq_c: np.ndarray) -> None:
         dq = np.array(dq_c, dtype=float)

@@ -19,12 +19,12 @@ import numpy as np
 
 from franka_sim.description import hand
 from franka_sim.description.kinematics import elbow as elbow_of
+from franka_sim.kernels import impedance_torque
 from franka_sim.physics.backend import Measured
 from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import ControllerMode, MotionGeneratorMode
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
-from franka_sim.robot.controllers import impedance_torque
 from franka_sim.robot.settings import RobotSettings
 from franka_sim.spatial import column_major, point_twist
 
@@ -212,10 +212,9 @@ class StatePublisher:
         s.dq_d[:] = dq_d
         if spec.torque_controlled:
             s.tau_J_d[:] = motion.tau_J_d
-        else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d)
-            settings = self.settings
-            s.tau_J_d[:] = impedance_torque(settings.K_theta, settings.D_theta, q_d, dq_d,
-                                            m.q, m.dq)
+        else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d):
+            settings = self.settings  # K·(q_d − q) + D·(dq_d − dq), D derived from K
+            impedance_torque(settings.K_theta, settings.D_theta, q_d, dq_d, m.q, m.dq, s.tau_J_d)
         if desired_kinematics is not None:
             O_T_F_d, J_F_d = desired_kinematics
             O_T_EE_d = np.dot(O_T_F_d, F_T_EE)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.kernels import joint_position_step
 from franka_sim.robot.checks.checker import CommandChecker, first_over
 from franka_sim.robot.checks.figures import (
     JOINT_POSITION_MAGNITUDE, JOINT_POSITION_NAMES, JOINT_RANGE_ERROR, JOINT_START_ERROR,
@@ -81,16 +82,17 @@ class JointPositionChecker(_JointStream):
     def judge(self, command, n: int, out: list) -> None:
         first, self._first = self._first, False
         table = self._table
-        q = table.signed(command["q_c"])
         s1, s2, s3 = self._grid.spacings(n)
-        v = (q - self._q) / s1
-        a = (v - self._v) / s2
-        j = (a - self._a) / s3
+        # q, v, a, j signed, and the proof (_proven_inside) in one call (kernels/).
+        steps = np.empty(56)
+        inside = joint_position_step(command["q_c"], self._q, self._v, self._a, s1, s2, s3,
+                                     self._floor.limits, self._proof_thresholds, steps)
+        q, v, a, j = steps.reshape(4, 14)
         if first and self._start_pose_invalid(q, out):
             v = a = np.zeros(14)  # the jump is reported as what it is; judge on from here
             self._report_range(q, out)
             self._move_floor(q)
-        elif first or not self._proven_inside(q, v, a, j):
+        elif first or not inside:
             limits = table.speed_limits(self._q)  # the law where the step starts, as libfranka
             excess = np.maximum(v - limits - self._v_slack, q - table.ends)
             excess = np.maximum(excess, np.maximum(a - self._a_thr, j - self._j_thr))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.kernels import measured_inside
 from franka_sim.robot.checks.figures import (
     MEASURED_RANGE_ERROR, MEASURED_VELOCITY_ERROR, MEASURED_VELOCITY_TOLERANCE,
 )
@@ -32,12 +33,11 @@ class MeasuredChecker:
 
     def check(self, q, dq) -> list[Violation]:
         table, proof = self._table, self._proof
-        signed = table.signed_stack(q, dq)
         # In range and within the floor's reach (q − 0 ≤ reach), and no faster than the floor
         # allows (dq − floor ≤ tolerance): nothing to report.
-        if proof is not None and all((signed - proof[0] <= proof[1]).tolist()):
+        if proof is not None and measured_inside(q, dq, *proof):
             return []
-        q, dq = signed[:14], signed[14:]
+        q, dq = table.signed(q), table.signed(dq)
         floor = SpeedLimitFloor(table, q)
         self._proof = (np.concatenate((np.zeros(14), floor.limits)),
                        np.concatenate((floor.reach_in_range,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.kernels import torque_inside
 from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.checks.checker import CommandChecker
 from franka_sim.robot.checks.figures import (
@@ -26,9 +27,10 @@ class TorqueChecker(CommandChecker):
         self._rate_thr = TORQUE_RATE + echo_slack(TORQUE_MAGNITUDE, 1)
 
     def judge(self, command, n: int, out: list) -> None:
-        tau = self._table.signed(command["tau_J_d"])
-        rate = (tau - self._tau) / (n * CYCLE_PERIOD)
-        if not max(np.maximum(rate - self._rate_thr, tau - self._effort).tolist()) <= 0.0:
+        tau, dt = np.empty(14), n * CYCLE_PERIOD
+        if not torque_inside(command["tau_J_d"], self._tau, tau, self._effort, self._rate_thr,
+                             dt):
+            rate = (tau - self._tau) / dt
             for i in range(7):
                 if not abs(rate[i]) <= self._rate_thr:
                     out.append(Violation(TORQUE_RATE_ERROR, f"joint {i + 1}", float(abs(rate[i])),

@@ -1,0 +1,44 @@
+"""The cycle's fused vector loops: compiled where the package was built with a C compiler,
+else their numpy reference (kernels/reference.py), which gives the same bits.
+
+`FRANKA_SIM_KERNELS=numpy` in the environment makes a process use the reference even where the
+compiled module is there (to compare the two, or to rule the compiled module out); `COMPILED`
+says which one this process runs. docs/benchmarks.md gives what the compiled module saves.
+"""
+
+from __future__ import annotations
+
+import os
+
+from franka_sim.kernels import reference
+
+def _load_compiled():
+    if os.environ.get("FRANKA_SIM_KERNELS", "").lower() == "numpy":
+        return None
+    try:
+        from franka_sim.kernels import _compiled
+    except ImportError:  # built without a compiler: the reference runs
+        return None
+    return _compiled
+
+
+_source = _load_compiled() or reference
+COMPILED = _source is not reference
+
+drive_follow = _source.drive_follow
+drive_impedance = _source.drive_impedance
+saturate_less = _source.saturate_less
+torque_inside = _source.torque_inside
+measured_inside = _source.measured_inside
+joint_position_step = _source.joint_position_step
+friction_argument = _source.friction_argument
+friction_torque = _source.friction_torque
+add_add_sub = _source.add_add_sub
+impedance_torque = _source.impedance_torque
+joint_follow = _source.joint_follow
+bind_readings = _source.bind_readings
+signed = reference.signed
+
+__all__ = ["COMPILED", "add_add_sub", "bind_readings", "drive_follow", "drive_impedance",
+           "friction_argument", "friction_torque", "impedance_torque", "joint_follow",
+           "joint_position_step", "measured_inside", "saturate_less", "signed", "torque_inside"]
