@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import zipfile
@@ -137,6 +138,21 @@ def test_impedance_torque_into_a_float64_or_a_state_field(inputs, dtype):
 @given(vec(7), vec(7), vec(7), POSITIVE)
 def test_joint_follow(q_c, q_d, dq_d, dt):
     assert_same("joint_follow", q_c, q_d, dq_d, dt, np.zeros(21), outputs=(4,))
+
+
+@needs_compiled
+@settings(max_examples=300, deadline=None)
+@given(st.lists(ANY, min_size=45, max_size=45), st.sampled_from([1e6, sys.float_info.max]))
+def test_doubles_within_a_command(values, bound):
+    """The RobotCommand's two runs of doubles (q_c … elbow_c, tau_J_d), any values."""
+    record = bytearray(371)
+    struct.pack_into("<38d", record, 8, *values[:38])
+    struct.pack_into("<7d", record, 314, *values[38:])
+    runs = ((8, 38), (314, 7))
+    assert compiled.doubles_within(record, runs, bound) is \
+        reference.doubles_within(record, runs, bound)
+    with pytest.raises(ValueError, match="outside"):
+        compiled.doubles_within(record, ((314, 8),), bound)
 
 
 @needs_compiled

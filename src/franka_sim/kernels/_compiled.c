@@ -13,6 +13,10 @@
 #include <stddef.h>
 #include <string.h>
 
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "doubles_within reads the wire's little-endian doubles in place"
+#endif
+
 typedef struct {
     Py_buffer view;
     double *p;
@@ -357,6 +361,49 @@ static PyObject *joint_follow(PyObject *self, PyObject *const *args, Py_ssize_t 
     Py_RETURN_NONE;
 }
 
+/* -- doubles_within(record, runs, bound): every little-endian double of the runs ((byte offset,
+ * count) pairs) in the record's bytes is finite and within ±bound ------------------------------ */
+static PyObject *doubles_within(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer record;
+    if (check_args(nargs, 3, "doubles_within") < 0)
+        return NULL;
+    double bound = PyFloat_AsDouble(args[2]);
+    if (bound == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (!PyTuple_Check(args[1])) {
+        PyErr_SetString(PyExc_TypeError, "runs: a tuple of (offset, count) pairs");
+        return NULL;
+    }
+    if (PyObject_GetBuffer(args[0], &record, PyBUF_SIMPLE) < 0)
+        return NULL;
+    int within = 1;
+    const char *bytes = record.buf;
+    for (Py_ssize_t r = 0; r < PyTuple_GET_SIZE(args[1]) && within; r++) {
+        PyObject *run = PyTuple_GET_ITEM(args[1], r);
+        Py_ssize_t offset, count;
+        if (!PyTuple_Check(run) || PyTuple_GET_SIZE(run) != 2 ||
+            (offset = PyLong_AsSsize_t(PyTuple_GET_ITEM(run, 0))) < 0 ||
+            (count = PyLong_AsSsize_t(PyTuple_GET_ITEM(run, 1))) < 0 ||
+            offset + 8 * count > record.len) {
+            PyBuffer_Release(&record);
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_ValueError, "a run outside the record");
+            return NULL;
+        }
+        for (Py_ssize_t i = 0; i < count; i++) {
+            double x;
+            memcpy(&x, bytes + offset + 8 * i, sizeof x);
+            if (!(x <= bound && x >= -bound)) {  /* NaN fails too */
+                within = 0;
+                break;
+            }
+        }
+    }
+    PyBuffer_Release(&record);
+    return PyBool_FromLong(within);
+}
+
 /* -- Readings: one arm's step readings, bound to its arrays ------------------------------------ */
 enum {
     R_WORK, R_APPLIED, R_ARMATURE, R_FRICTION, R_STIFFNESS, R_Q, R_DQ, R_TIMESTEPS, R_MAT, R_POS,
@@ -510,7 +557,8 @@ static PyMethodDef methods[] = {
     FASTCALL(drive_follow), FASTCALL(drive_impedance), FASTCALL(saturate_less),
     FASTCALL(torque_inside), FASTCALL(measured_inside), FASTCALL(joint_position_step),
     FASTCALL(friction_argument), FASTCALL(friction_torque), FASTCALL(add_add_sub),
-    FASTCALL(impedance_torque), FASTCALL(joint_follow), FASTCALL(bind_readings),
+    FASTCALL(impedance_torque), FASTCALL(joint_follow), FASTCALL(doubles_within),
+    FASTCALL(bind_readings),
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {

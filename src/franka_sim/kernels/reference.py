@@ -9,6 +9,9 @@ joint_table.py).
 
 from __future__ import annotations
 
+import math
+import struct
+from functools import lru_cache
 from typing import Callable
 
 import numpy as np
@@ -115,6 +118,28 @@ def joint_follow(q_c, q_d, dq_d, dt: float, out) -> None:
     q_next[:] = q_c
     np.divide(q_next - q_d, dt, out=dq)
     np.divide(dq - dq_d, dt, out=ddq)
+
+
+def doubles_within(record, runs: tuple[tuple[int, int], ...], bound: float) -> bool:
+    """Every little-endian double of `runs` ((byte offset, count) pairs) in the bytes of
+    `record` is finite and within ±bound. One unpack; their sum is finite unless one of them
+    is not or it overflowed (then each is looked at)."""
+    start, floats = _runs_struct(runs)
+    values = floats.unpack_from(record, start)
+    if math.isfinite(sum(values)):
+        return max(values) <= bound and min(values) >= -bound
+    return all(-bound <= v <= bound for v in values)
+
+
+@lru_cache(maxsize=8)
+def _runs_struct(runs: tuple[tuple[int, int], ...]) -> tuple[int, struct.Struct]:
+    """(offset, Struct) unpacking every double of `runs` at once, skipping what lies between."""
+    start = position = runs[0][0]
+    fmt = "<"
+    for offset, count in runs:
+        fmt += f"{offset - position}x{count}d" if offset > position else f"{count}d"
+        position = offset + 8 * count
+    return start, struct.Struct(fmt)
 
 
 def bind_readings(work, applied, armature, friction, stiffness, q, dq, timesteps, mat, pos,

@@ -7,12 +7,13 @@ written by hand, so the schema stays the one place where the layout is defined; 
 both give identical bytes.
 """
 
-import math
-import struct
+import sys
 from typing import Any
 
 import numpy as np
 from construct import Array, Construct, Enum, Flag, FormatField, Struct
+
+from franka_sim.kernels import doubles_within
 
 from .exceptions import DatagramSizeError
 from .gripper_messages import GripperState
@@ -143,29 +144,14 @@ def _float64_runs(dtype: np.dtype) -> list[tuple[int, int, tuple[str, ...]]]:
 
 
 _COMMAND_FLOAT_RUNS = _float64_runs(COMMAND_DTYPE)
-
-
-def _runs_struct(runs: list[tuple[int, int, tuple[str, ...]]]) -> tuple[int, struct.Struct]:
-    """(offset, Struct) unpacking every double of `runs` at once, skipping what lies between."""
-    start = position = runs[0][0]
-    fmt = "<"
-    for offset, count, _ in runs:
-        fmt += f"{offset - position}x{count}d" if offset > position else f"{count}d"
-        position = offset + 8 * count
-    return start, struct.Struct(fmt)
-
-
-_COMMAND_FLOATS = _runs_struct(_COMMAND_FLOAT_RUNS)
+_COMMAND_RUNS = tuple((offset, count) for offset, count, _ in _COMMAND_FLOAT_RUNS)
+_LARGEST = sys.float_info.max  # within ±_LARGEST: finite
 
 
 def non_finite_command_fields(record: np.void) -> list[str]:
-    """Names of RobotCommand fields holding NaN or ±inf ([] for a usable command).
-
-    The common case costs ~1 µs: the sum of all the doubles, unpacked in one go, is finite
-    unless one of them is not (or the sum overflows; the per-field look then clears that).
-    """
-    start, floats = _COMMAND_FLOATS
-    if math.isfinite(sum(floats.unpack_from(record, start))):
+    """Names of RobotCommand fields holding NaN or ±inf ([] for a usable command); the common
+    case is one look at every double (kernels.doubles_within)."""
+    if doubles_within(record, _COMMAND_RUNS, _LARGEST):
         return []
     return _non_finite(record)
 
@@ -177,13 +163,10 @@ def _non_finite(record: np.void) -> list[str]:
 
 def command_fields_out(record: np.void, bound: float) -> tuple[list[str], list[str]]:
     """(fields holding NaN or ±inf, finite fields holding a value beyond ±bound) of a
-    RobotCommand; one unpack of its doubles, ~1 µs when both are empty."""
-    start, floats = _COMMAND_FLOATS
-    values = floats.unpack_from(record, start)
-    if math.isfinite(sum(values)):
-        if max(values) <= bound and min(values) >= -bound:
-            return [], []
-    elif bad := _non_finite(record):
+    RobotCommand; one look at its doubles when both are empty (kernels.doubles_within)."""
+    if doubles_within(record, _COMMAND_RUNS, bound):
+        return [], []
+    if bad := _non_finite(record):
         return bad, []
     return [], [n for _, _, names in _COMMAND_FLOAT_RUNS for n in names
                 if (np.abs(record[n]) > bound).any()]
