@@ -24,22 +24,8 @@ ENV PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_CACHE_DIR=1 PIP_ROOT_USER_ACTION=igno
 WORKDIR /src
 # The context is filtered by .dockerignore: the package sources, and the wheelhouse if any.
 COPY . .
-RUN set -eu; \
-    from=""; \
-    if ls "$WHEELHOUSE"/*.whl >/dev/null 2>&1; then \
-        from="--no-index --find-links $WHEELHOUSE"; \
-    fi; \
-    python3 -m venv /opt/franka-sim; \
-    /opt/franka-sim/bin/pip wheel --quiet $from --no-deps --wheel-dir /dist .; \
-    wheel=$(ls /dist/franka_sim-*.whl); \
-    /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
-    /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
-    find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
-# The model library older libfranka clients (0.9-0.13) load, prebuilt for each packaged robot
-# (fr3, fer) and Linux x86_64 and aarch64: the runtime has no C compiler to build one. zig's
-# clang (the package's `zig` extra: ~410 MB) cross-compiles them here, in a virtual environment
-# of its own that the runtime stage does not copy; the libraries (~85 KB each) are in
-# /opt/franka-sim/share/model-libraries, which FRANKA_SIM_MODEL_LIBRARIES names below.
+# zig's clang (the package's `zig` extra: ~410 MB), in a virtual environment of its own that the
+# runtime stage does not copy, is this stage's C compiler: the runtime has none.
 RUN set -eu; \
     from=""; \
     if ls "$WHEELHOUSE"/*.whl >/dev/null 2>&1; then \
@@ -48,7 +34,27 @@ RUN set -eu; \
     zig=$(python3 -c 'import tomllib; project = tomllib.load(open("pyproject.toml", "rb")); \
         print(*project["project"]["optional-dependencies"]["zig"])'); \
     python3 -m venv /tmp/zig; \
-    /tmp/zig/bin/pip install --quiet $from "$zig"; \
+    /tmp/zig/bin/pip install --quiet $from "$zig"
+# The wheel, with the cycle's kernels compiled by zig's clang (franka_sim.kernels; where the
+# base image has no Python headers the wheel is pure Python and says so: the same robot, a
+# slower cycle, docs/benchmarks.md).
+RUN set -eu; \
+    from=""; \
+    if ls "$WHEELHOUSE"/*.whl >/dev/null 2>&1; then \
+        from="--no-index --find-links $WHEELHOUSE"; \
+    fi; \
+    python3 -m venv /opt/franka-sim; \
+    CC="/tmp/zig/bin/python -m ziglang cc" \
+        /opt/franka-sim/bin/pip wheel --quiet $from --no-deps --wheel-dir /dist .; \
+    wheel=$(ls /dist/franka_sim-*.whl); \
+    /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
+    /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
+    find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
+# The model library older libfranka clients (0.9-0.13) load, prebuilt for each packaged robot
+# (fr3, fer) and Linux x86_64 and aarch64, cross-compiled by the same zig; the libraries
+# (~85 KB each) are in /opt/franka-sim/share/model-libraries, which FRANKA_SIM_MODEL_LIBRARIES
+# names below.
+RUN set -eu; \
     /opt/franka-sim/bin/python -m franka_sim.model_library /opt/franka-sim/share/model-libraries \
         --cc "/tmp/zig/bin/python -m ziglang cc"; \
     rm -rf /tmp/zig "${HOME:-/root}/.cache/zig"

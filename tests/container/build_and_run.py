@@ -95,6 +95,14 @@ def python_of(docker: Docker, image: str) -> tuple[int, int]:
     return int(major), int(minor)
 
 
+def kernels_compiled(docker: Docker, image: str) -> bool:
+    """Whether the image runs the cycle's compiled kernels (built by its build stage's zig)."""
+    done = docker.run("kernels", "run", "--rm", "--pull", "never", "--network", "none",
+                      "--entrypoint", "python", image, "-c",
+                      "import franka_sim.kernels as k; print(k.COMPILED)")
+    return done.stdout.strip() == "True"
+
+
 def build(docker: Docker, context: Path, base: str, image: str, logs: Path) -> None:
     docker.run("build", "build", "--network", "none", "--force-rm",
                "--build-arg", f"BASE_IMAGE={base}", "--tag", image, str(context),
@@ -237,6 +245,7 @@ def _steps(args, cleanup: ExitStack) -> dict:
         build(docker, context, base, args.image, logs)
         took("build")
     report["image_mb"] = round(int(docker.inspect("build", args.image, "{{.Size}}")) / 1e6)
+    report["kernels_compiled"] = kernels_compiled(docker, args.image)
     name = f"franka-sim-selftest-{int(time.time() * 1000) % 10**8}"
     cleanup.callback(docker.run, "stop", "rm", "--force", name, check=False)
     if args.bridge:

@@ -1,6 +1,7 @@
 """The base image, made from Debian's packages: no container registry is needed.
 
-`debootstrap --variant=minbase --include=python3,python3-venv bookworm` from the Debian mirror
+`debootstrap --variant=minbase --include=python3,python3-venv,libpython3.11-dev bookworm` (the
+headers: as in python:3.11-slim, the build stage compiles the cycle's kernels) from the Debian mirror
 apt is configured with, trimmed of apt's caches, the docs and the translations, packed as a
 tarball and imported. The tarball is kept in a cache folder, one per ISO week (so security
 updates come in weekly) and recipe: a cold start costs ~45 s, a warm one the import (~3 s).
@@ -20,7 +21,7 @@ from pathlib import Path
 from docker_cli import Docker, StepFailed, last_line
 
 SUITE = "bookworm"  # its python3 is 3.11, the project's version
-PACKAGES = "python3,python3-venv"
+PACKAGES = "python3,python3-venv,libpython3.11-dev"
 TRIMMED = ("var/cache/apt/archives", "var/lib/apt/lists", "usr/share/doc", "usr/share/man",
            "usr/share/info", "usr/share/locale")  # the folders' contents go
 KEPT = {"locale.alias"}

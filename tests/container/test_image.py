@@ -64,7 +64,9 @@ def built(daemon, tmp_path_factory):
 
 
 def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built, daemon):
-    assert built["image_mb"] < 400  # 370 MB with the web extra (317 without)
+    # 422 MB with the web extra: the test's Debian base carries the Python headers for the
+    # build stage (libpython3.11-dev, ~52 MB with its static library; python:3.11-slim has them)
+    assert built["image_mb"] < 450
     assert "web_s" in built  # its web view served its page
     # An older client's LoadModelLibrary (protocol 5) for Linux x86_64 and aarch64: each that
     # architecture's ELF library, prebuilt (fr3's and fer's, ~85 KB each; the image has no
@@ -72,6 +74,7 @@ def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built,
     assert 20_000 < built["library_x86_64_bytes"] < 500_000
     assert 20_000 < built["library_aarch64_bytes"] < 500_000
     assert built["prebuilt_libraries"] == 4 and built["prebuilt_bytes"] < 1_000_000
+    assert built["kernels_compiled"]  # the build stage's zig compiled them (hatch_build.py)
     assert built["stop_s"] < 3.0  # docker stop's kill timeout is 10 s
     assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()  # nothing left
 
