@@ -4,16 +4,14 @@ The builds come from FRANKA_SIM_LIBFRANKA_BUILDS (build directories made by
 build_older_libfranka.sh, separated by ':'); nothing here fetches or builds libfranka.
 
 libfranka's Robot refuses to start a control loop unless /sys/kernel/realtime reads 1 (a
-PREEMPT_RT kernel; the examples do not ask for RealtimeConfig::kIgnore). So each example runs
-in a mount namespace of its own where a tmpfs over /sys/kernel holds that file; that takes
-root (CAP_SYS_ADMIN, and CAP_SYS_NICE for the SCHED_FIFO priority libfranka then sets).
+PREEMPT_RT kernel; the examples do not ask for RealtimeConfig::kIgnore). So each example that
+opens a robot connection runs under franka_sim.testing.realtime_kernel.as_realtime (root).
 """
 
 from __future__ import annotations
 
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -24,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from franka_sim.control import Control
+from franka_sim.testing.realtime_kernel import as_realtime, cannot_fake
 
 BUILDS_VARIABLE = "FRANKA_SIM_LIBFRANKA_BUILDS"
 BUILD_SCRIPT = "tests/support/build_older_libfranka.sh"
@@ -35,11 +34,6 @@ PROTOCOL = {(0, 9): 5, (0, 10): 6, (0, 11): 6, (0, 12): 6, (0, 13): 7, (0, 14): 
             (0, 21): 10}
 GRIPPER_PROTOCOL = 3  # the same in every tag since 0.9
 VACUUM_GRIPPER_PROTOCOL = 1  # likewise
-
-# Runs the example with /sys/kernel/realtime reading 1, in a mount namespace of its own.
-_REALTIME = ["unshare", "--mount", "sh", "-c",
-             'mount -t tmpfs none /sys/kernel && echo 1 > /sys/kernel/realtime && exec "$0" "$@"']
-
 
 @dataclass(frozen=True)
 class Build:
@@ -76,9 +70,8 @@ def cannot_run() -> str | None:
     if not os.environ.get(BUILDS_VARIABLE):
         return (f"{BUILDS_VARIABLE} is unset: build libfranka tags with {BUILD_SCRIPT} and "
                 f"list their build directories in it")
-    if sys.platform != "linux" or os.geteuid() != 0 or shutil.which("unshare") is None:
-        return ("libfranka's examples need /sys/kernel/realtime; faking it takes root and "
-                "unshare(1)")
+    if why := cannot_fake():
+        return f"libfranka's examples need /sys/kernel/realtime; {why}"
     return None
 
 
@@ -145,8 +138,8 @@ def run(build: Build, name: str, host: str, cycles: int | None = None,
     example, control = EXAMPLES.get(name, VACUUM_OBJECT), Control(host)
     if name in _PRE_MOVES:
         control.reset(q=_PRE_MOVES[name]().tolist())
-    proc = subprocess.Popen([*(_REALTIME if example.realtime else ()), str(build.example(name)),
-                             host, *example.args],
+    command = [str(build.example(name)), host, *example.args]
+    proc = subprocess.Popen(as_realtime(command) if example.realtime else command,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     proc.stdin.write("\n")  # the Enter its prompt waits for
