@@ -1,5 +1,6 @@
-"""Build hook: compile franka_sim.kernels._compiled (one C file, the Python headers, no numpy
-headers) into the wheel, where a C compiler and the headers are there.
+"""Build hook: compile franka_sim.kernels._compiled (the C files of src/franka_sim/kernels/c/,
+the Python headers, no numpy headers) into the wheel, where a C compiler and the headers are
+there.
 
 Without them the wheel stays pure Python and franka_sim.kernels runs its numpy reference, which
 gives the same bits, only slower (docs/benchmarks.md): `pip install` never needs a compiler.
@@ -20,7 +21,8 @@ from pathlib import Path
 
 from hatchling.builders.hooks.plugin.interface import BuildHookInterface
 
-SOURCE = Path("src/franka_sim/kernels/_compiled.c")
+SOURCES = Path("src/franka_sim/kernels/c")  # its *.c files make the one module
+MODULE = "_compiled"
 PACKAGE_DIR = "franka_sim/kernels"  # where the module goes in the wheel
 # -ffp-contract=off: no fused multiply-add, so each operation rounds as numpy's does.
 FLAGS = ["-O2", "-ffp-contract=off", "-fPIC", "-shared", "-fvisibility=hidden"]
@@ -36,8 +38,9 @@ def compiler() -> list[str] | None:
     return command if shutil.which(command[0]) else None
 
 
-def compile_kernels(source: Path, target: Path) -> str | None:
-    """Compile `source` into the extension module `target`; the reason if it could not."""
+def compile_kernels(sources: Path, target: Path) -> str | None:
+    """Compile the C files in `sources` into the extension module `target`; the reason if it
+    could not."""
     if os.environ.get("FRANKA_SIM_KERNELS", "").lower() == "numpy":
         return "FRANKA_SIM_KERNELS=numpy"
     cc = compiler()
@@ -48,7 +51,8 @@ def compile_kernels(source: Path, target: Path) -> str | None:
         return f"no Python headers in {include}"
     extra = ["-undefined", "dynamic_lookup"] if sys.platform == "darwin" else []
     target.parent.mkdir(parents=True, exist_ok=True)
-    command = [*cc, *FLAGS, *extra, f"-I{include}", str(source), "-o", str(target)]
+    files = [str(path) for path in sorted(sources.glob("*.c"))]
+    command = [*cc, *FLAGS, *extra, f"-I{include}", *files, "-o", str(target)]
     try:
         run = subprocess.run(command, capture_output=True, text=True, timeout=300)
     except (OSError, subprocess.TimeoutExpired) as error:
@@ -63,12 +67,12 @@ class CustomBuildHook(BuildHookInterface):
         if self.target_name != "wheel":
             return
         root = Path(self.root)
-        name = SOURCE.stem + sysconfig.get_config_var("EXT_SUFFIX")
+        name = MODULE + sysconfig.get_config_var("EXT_SUFFIX")
         if version == "editable":
-            target = root / SOURCE.with_name(name)
+            target = root / SOURCES.parent / name
         else:
             target = root / "build" / "kernels" / name
-        problem = compile_kernels(root / SOURCE, target)
+        problem = compile_kernels(root / SOURCES, target)
         if problem is not None:
             self.app.display_warning(
                 f"franka-sim: the compiled kernels are not built ({problem}); the numpy "
