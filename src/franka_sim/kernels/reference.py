@@ -18,11 +18,13 @@ import numpy as np
 
 _TWICE = np.r_[0:7, 0:7]
 _SIGNS = np.r_[np.ones(7), -np.ones(7)]
+_TWICE_PAIR = np.r_[_TWICE, _TWICE + 7]  # [x, −x, y, −y] of [x, y]
+_SIGNS_PAIR = np.tile(_SIGNS, 2)
 
 
-def signed(x) -> np.ndarray:
-    """[x, −x] for a (7,) vector."""
-    return np.asarray(x, dtype=float)[_TWICE] * _SIGNS
+def signed(x, out=None) -> np.ndarray:
+    """[x, −x] for a (7,) vector (into `out` if given)."""
+    return np.multiply(np.asarray(x, dtype=float)[_TWICE], _SIGNS, out=out)
 
 
 def drive_follow(applied, ff, tau_ff, step: float, gcomp) -> None:
@@ -61,14 +63,14 @@ def saturate_less(applied, tau_max, tau_min, friction) -> None:
 def torque_inside(tau_J_d, last, out, effort, rate_threshold: float, dt: float) -> bool:
     """out = signed(tau_J_d); True if, signed, the rate from `last` over dt is within
     rate_threshold and the torque within `effort` (entries all ≤ 0 after subtracting)."""
-    out[:] = signed(tau_J_d)
+    signed(tau_J_d, out)
     rate = (out - last) / dt
     return all((np.maximum(rate - rate_threshold, out - effort) <= 0.0).tolist())
 
 
 def measured_inside(q, dq, offsets, thresholds) -> bool:
     """True if [signed(q), signed(dq)] − offsets ≤ thresholds everywhere (28 entries)."""
-    stacked = np.concatenate((signed(q), signed(dq)))
+    stacked = np.concatenate((q, dq))[_TWICE_PAIR] * _SIGNS_PAIR
     return all((stacked - offsets <= thresholds).tolist())
 
 
@@ -78,7 +80,7 @@ def joint_position_step(q_c, q, v, a, s1: float, s2: float, s3: float, floor_lim
     v' = (q' − q)/s1, a' = (v' − v)/s2, j' = (a' − a)/s3. True if [q', v' − floor_limits, a', j']
     ≤ thresholds everywhere."""
     q_next, v_next, a_next, j_next = out.reshape(4, 14)
-    q_next[:] = signed(q_c)
+    signed(q_c, q_next)
     np.divide(q_next - q, s1, out=v_next)
     np.divide(v_next - v, s2, out=a_next)
     np.divide(a_next - a, s3, out=j_next)

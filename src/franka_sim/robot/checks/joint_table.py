@@ -13,6 +13,7 @@ from functools import lru_cache
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.kernels import signed
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,10 +46,8 @@ class JointLimitTable:
         set_(self, "_offset", np.tile(self.velocity_offset, 2))
         set_(self, "_cap", np.tile(self.velocity, 2))
 
-    @staticmethod
-    def signed(x) -> np.ndarray:
-        """[x, −x] for a (7,) vector: the form `ends` and `speed_limits` use."""
-        return np.asarray(x, dtype=float)[_TWICE] * _SIGNS
+    # [x, −x] for a (7,) vector: the form `ends` and `speed_limits` use (the kernels' own).
+    signed = staticmethod(signed)
 
     @staticmethod
     def signed_stack(*vectors) -> np.ndarray:
