@@ -25,6 +25,7 @@ from hypothesis.extra.numpy import arrays
 
 from franka_sim import kernels
 from franka_sim.kernels import reference
+from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 REPO = Path(__file__).resolve().parents[2]
 RECORDINGS = Path(__file__).resolve().parents[1] / "data" / "older_libfranka" / "0.21.2"
@@ -209,6 +210,21 @@ def test_the_package_says_which_kernels_it_runs():
                            "print(k.COMPILED, k.drive_follow.__module__)"],
                           capture_output=True, text=True, env=env, timeout=60)
     assert done.stdout.split() == ["False", "franka_sim.kernels.reference"]
+
+
+@pytest.mark.parametrize("pick", ["numpy", ""])
+def test_a_server_on_the_numpy_kernels_says_so_at_start(pick):
+    """One line, at start, where the cycle runs the reference (a machine without a compiler
+    at install time runs it too); none where it runs the compiled module."""
+    if not pick and compiled is None:
+        pytest.skip("the compiled module is not built here")
+    server = ServerProcess(fresh_loopback_address(), env={"FRANKA_SIM_KERNELS": pick})
+    server.wait_ready().stop()  # every line it wrote is read once it has exited
+    said = [line for line in server.lines if "the cycle runs its numpy kernels" in line]
+    if pick:
+        assert len(said) == 1 and "FRANKA_SIM_KERNELS=numpy" in said[0]
+    else:
+        assert said == [] and any("serving on" in line for line in server.lines)
 
 
 @pytest.mark.parametrize("name", ["generate_joint_position_motion", "cartesian_impedance_control",

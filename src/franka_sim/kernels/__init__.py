@@ -13,16 +13,18 @@ import os
 from franka_sim.kernels import reference
 
 def _load_compiled():
+    """(the compiled module or None, why not)."""
     if os.environ.get("FRANKA_SIM_KERNELS", "").lower() == "numpy":
-        return None
+        return None, "FRANKA_SIM_KERNELS=numpy"
     try:
         from franka_sim.kernels import _compiled
     except ImportError:  # built without a compiler: the reference runs
-        return None
-    return _compiled
+        return None, "franka-sim was installed without a C compiler or Python's headers"
+    return _compiled, ""
 
 
-_source = _load_compiled() or reference
+_compiled_module, WHY_NUMPY = _load_compiled()
+_source = _compiled_module or reference
 COMPILED = _source is not reference
 
 drive_follow = _source.drive_follow

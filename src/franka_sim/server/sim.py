@@ -14,6 +14,7 @@ import asyncio
 import logging
 import threading
 
+from franka_sim import kernels
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.config_rules import ConfigError, checked
@@ -110,6 +111,9 @@ class FrankaSim(EmbeddedOperations):
                      _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
                      robot.describe(),
                      config.clock.value, self.scene)
+        if not kernels.COMPILED:
+            log.info("the cycle runs its numpy kernels (%s): the same states, ~40 %% more CPU a "
+                     "cycle (docs/benchmarks.md, The compiled kernels)", kernels.WHY_NUMPY)
         return self
 
     async def stop(self) -> None:
