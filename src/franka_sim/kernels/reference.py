@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import struct
-from functools import lru_cache
 from typing import Callable
 
 import numpy as np
@@ -79,11 +78,11 @@ def joint_position_step(q_c, q, v, a, s1: float, s2: float, s3: float, floor_lim
     """A q_c stream's next step, signed: out = [q', v', a', j'] (4 × 14) with q' = signed(q_c),
     v' = (q' − q)/s1, a' = (v' − v)/s2, j' = (a' − a)/s3. True if [q', v' − floor_limits, a', j']
     ≤ thresholds everywhere."""
-    q_next, v_next, a_next, j_next = out.reshape(4, 14)
-    signed(q_c, q_next)
-    np.divide(q_next - q, s1, out=v_next)
-    np.divide(v_next - v, s2, out=a_next)
-    np.divide(a_next - a, s3, out=j_next)
+    q_next = signed(q_c)
+    v_next = (q_next - q) / s1
+    a_next = (v_next - v) / s2
+    j_next = (a_next - a) / s3
+    np.concatenate((q_next, v_next, a_next, j_next), out=out)
     stacked = np.concatenate((q_next, v_next - floor_limits, a_next, j_next))
     return all((stacked <= thresholds).tolist())
 
@@ -126,14 +125,19 @@ def doubles_within(record, runs: tuple[tuple[int, int], ...], bound: float) -> b
     """Every little-endian double of `runs` ((byte offset, count) pairs) in the bytes of
     `record` is finite and within ±bound. One unpack; their sum is finite unless one of them
     is not or it overflowed (then each is looked at)."""
-    start, floats = _runs_struct(runs)
+    unpacking = _RUNS.get(runs)
+    if unpacking is None:
+        unpacking = _RUNS[runs] = _runs_struct(runs)
+    start, floats = unpacking
     values = floats.unpack_from(record, start)
     if math.isfinite(sum(values)):
         return max(values) <= bound and min(values) >= -bound
     return all(-bound <= v <= bound for v in values)
 
 
-@lru_cache(maxsize=8)
+_RUNS: dict[tuple, tuple[int, struct.Struct]] = {}  # the unpacking of each runs seen
+
+
 def _runs_struct(runs: tuple[tuple[int, int], ...]) -> tuple[int, struct.Struct]:
     """(offset, Struct) unpacking every double of `runs` at once, skipping what lies between."""
     start = position = runs[0][0]
