@@ -157,6 +157,26 @@ def test_doubles_within_a_command(values, bound):
 
 
 @needs_compiled
+@settings(max_examples=300, deadline=None)
+@given(st.lists(vec(7, ANY | st.sampled_from([3.5e38, -3.5e38, 1e-46])), min_size=6, max_size=6),
+       vec(18, ANY))
+def test_narrow_into_a_states_float32_fields(sevens, eighteen):
+    """A Measured's arrays into a state's fields: float32, rounded (overflowing to ±inf, NaN
+    kept) as numpy casts; an (6, 3) accelerometer into its (6, 3) view."""
+    sources = (*sevens, eighteen.reshape(6, 3))
+    results = []
+    for module in (compiled, reference):
+        targets = (*(np.zeros(7, np.float32) for _ in range(6)),
+                   np.zeros(18, np.float32).reshape(6, 3))
+        with np.errstate(all="ignore"):
+            module.narrow_into(targets, sources)
+        results.append(b"".join(t.tobytes() for t in targets))
+    assert results[0] == results[1]
+    with pytest.raises(ValueError, match="a target of 7 values for a source of 6"):
+        compiled.narrow_into((np.zeros(7, np.float32),), (np.zeros(6),))
+
+
+@needs_compiled
 @settings(max_examples=100, deadline=None)
 @given(st.data())
 def test_readings(data):

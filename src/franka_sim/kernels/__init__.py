@@ -39,10 +39,12 @@ add_add_sub = _source.add_add_sub
 impedance_torque = _source.impedance_torque
 joint_follow = _source.joint_follow
 doubles_within = _source.doubles_within
+narrow_into = _source.narrow_into
 bind_readings = _source.bind_readings
 signed = reference.signed
 
 __all__ = ["COMPILED", "add_add_sub", "bind_readings", "doubles_within", "drive_follow",
            "drive_impedance",
            "friction_argument", "friction_torque", "impedance_torque", "joint_follow",
-           "joint_position_step", "measured_inside", "saturate_less", "signed", "torque_inside"]
+           "joint_position_step", "measured_inside", "narrow_into", "saturate_less", "signed",
+           "torque_inside"]

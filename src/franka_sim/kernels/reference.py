@@ -148,6 +148,13 @@ def _runs_struct(runs: tuple[tuple[int, int], ...]) -> tuple[int, struct.Struct]
     return start, struct.Struct(fmt)
 
 
+def narrow_into(targets: tuple, sources: tuple) -> None:
+    """Each target (a state's float32 field, or float64) = its source (float64, of its shape),
+    rounded as numpy casts; the tuples are of one length."""
+    for target, source in zip(targets, sources):
+        target[...] = source
+
+
 def bind_readings(work, applied, armature, friction, stiffness, q, dq, timesteps, mat, pos,
                   sensordata, ddq, tau_J, theta, tau_J_theta, derivatives, work_q, work_dq,
                   flange_mat, flange_pos, work_sensors, gather) -> Callable:

@@ -1,5 +1,5 @@
 /* franka_sim.kernels._compiled: the cycle's fused vector loops, compiled (one module from the
- * .c files beside this header: drive.c, checks.c, readings.c, module.c). */
+ * .c files beside this header: drive.c, checks.c, readings.c, state.c, module.c). */
 #ifndef FRANKA_SIM_KERNELS_H
 #define FRANKA_SIM_KERNELS_H
 
@@ -100,6 +100,7 @@ KERNEL(torque_inside);
 KERNEL(measured_inside);
 KERNEL(joint_position_step);
 KERNEL(doubles_within);
+KERNEL(narrow_into);
 KERNEL(bind_readings);
 int readings_type_ready(void);
 

@@ -7,7 +7,7 @@ static PyMethodDef methods[] = {
     FASTCALL(torque_inside), FASTCALL(measured_inside), FASTCALL(joint_position_step),
     FASTCALL(friction_argument), FASTCALL(friction_torque), FASTCALL(add_add_sub),
     FASTCALL(impedance_torque), FASTCALL(joint_follow), FASTCALL(doubles_within),
-    FASTCALL(bind_readings),
+    FASTCALL(narrow_into), FASTCALL(bind_readings),
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {
