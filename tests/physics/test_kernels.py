@@ -9,6 +9,7 @@ it those tests skip, saying so, and the reference is what runs everywhere.
 
 from __future__ import annotations
 
+import inspect
 import os
 import shutil
 import struct
@@ -123,8 +124,8 @@ def test_friction_loops(x, phi3, half_phi2, at_rest):
 @needs_compiled
 @settings(max_examples=300, deadline=None)
 @given(vec(7), vec(7), vec(7), vec(7))
-def test_add_add_sub(out, a, b, c):
-    assert_same("add_add_sub", out, a, b, c, outputs=(0,))
+def test_add_feed_forward(out, a, b, c):
+    assert_same("add_feed_forward", out, a, b, c, outputs=(0,))
 
 
 @needs_compiled
@@ -212,15 +213,35 @@ def test_readings(data):
 @needs_compiled
 def test_bad_arrays_are_refused_with_a_clear_error():
     with pytest.raises(TypeError, match="float64"):
-        compiled.add_add_sub(np.zeros(7, np.float32), np.zeros(7), np.zeros(7), np.zeros(7))
+        compiled.add_feed_forward(np.zeros(7, np.float32), np.zeros(7), np.zeros(7), np.zeros(7))
     with pytest.raises(ValueError, match="at least 7"):
-        compiled.add_add_sub(np.zeros(6), np.zeros(7), np.zeros(7), np.zeros(7))
+        compiled.add_feed_forward(np.zeros(6), np.zeros(7), np.zeros(7), np.zeros(7))
     with pytest.raises(TypeError, match="4 arguments"):
-        compiled.add_add_sub(np.zeros(7))
+        compiled.add_feed_forward(np.zeros(7))
     with pytest.raises(ValueError, match="not C-contiguous"):
-        compiled.add_add_sub(np.zeros(14)[::2], np.zeros(7), np.zeros(7), np.zeros(7))
+        compiled.add_feed_forward(np.zeros(14)[::2], np.zeros(7), np.zeros(7), np.zeros(7))
     with pytest.raises(TypeError, match="bytes-like"):
-        compiled.add_add_sub(np.zeros(7), np.zeros(7), np.zeros(7), [1.0] * 7)
+        compiled.add_feed_forward(np.zeros(7), np.zeros(7), np.zeros(7), [1.0] * 7)
+
+
+def test_every_kernel_is_listed_and_in_both_modules():
+    defined = {name for name, value in vars(reference).items() if inspect.isfunction(value)
+               and value.__module__ == reference.__name__ and not name.startswith("_")}
+    assert defined - {"signed"} == set(kernels.KERNELS)
+    if compiled is not None:
+        assert all(callable(getattr(compiled, name, None)) for name in kernels.KERNELS)
+
+
+def test_a_compiled_module_older_than_the_package_is_not_used():
+    """An editable install not reinstalled after a kernel was added: the reference runs."""
+    stub = ("import sys, types; sys.modules['franka_sim.kernels._compiled'] = "
+            "types.ModuleType('franka_sim.kernels._compiled'); import franka_sim.kernels as k; "
+            "print(k.COMPILED); print(k.WHY_NUMPY)")
+    env = {k: v for k, v in os.environ.items() if k != "FRANKA_SIM_KERNELS"}
+    done = subprocess.run([sys.executable, "-c", stub], capture_output=True, text=True,
+                          env=env, timeout=60)
+    compiled_flag, why = done.stdout.splitlines()
+    assert compiled_flag == "False" and why.startswith("the compiled module predates drive_follow")
 
 
 def test_the_package_says_which_kernels_it_runs():

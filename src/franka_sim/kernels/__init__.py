@@ -12,6 +12,11 @@ import os
 
 from franka_sim.kernels import reference
 
+KERNELS = ("drive_follow", "drive_impedance", "saturate_less", "torque_inside", "measured_inside",
+           "joint_position_step", "friction_argument", "friction_torque", "add_feed_forward",
+           "impedance_torque", "joint_follow", "doubles_within", "narrow_into", "bind_readings")
+
+
 def _load_compiled():
     """(the compiled module or None, why not)."""
     if os.environ.get("FRANKA_SIM_KERNELS", "").lower() == "numpy":
@@ -20,6 +25,8 @@ def _load_compiled():
         from franka_sim.kernels import _compiled
     except ImportError:  # built without a compiler: the reference runs
         return None, "franka-sim was installed without a C compiler or Python's headers"
+    if missing := [name for name in KERNELS if not hasattr(_compiled, name)]:
+        return None, f"the compiled module predates {', '.join(missing)}: install again"
     return _compiled, ""
 
 
@@ -35,7 +42,7 @@ measured_inside = _source.measured_inside
 joint_position_step = _source.joint_position_step
 friction_argument = _source.friction_argument
 friction_torque = _source.friction_torque
-add_add_sub = _source.add_add_sub
+add_feed_forward = _source.add_feed_forward
 impedance_torque = _source.impedance_torque
 joint_follow = _source.joint_follow
 doubles_within = _source.doubles_within
@@ -43,8 +50,4 @@ narrow_into = _source.narrow_into
 bind_readings = _source.bind_readings
 signed = reference.signed
 
-__all__ = ["COMPILED", "add_add_sub", "bind_readings", "doubles_within", "drive_follow",
-           "drive_impedance",
-           "friction_argument", "friction_torque", "impedance_torque", "joint_follow",
-           "joint_position_step", "measured_inside", "narrow_into", "saturate_less", "signed",
-           "torque_inside"]
+__all__ = ["COMPILED", "KERNELS", "WHY_NUMPY", "signed", *KERNELS]

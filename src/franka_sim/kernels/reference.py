@@ -99,11 +99,12 @@ def friction_torque(tanh, at_rest, half_phi1, out) -> None:
     out *= half_phi1
 
 
-def add_add_sub(out, a, b, c) -> None:
-    """out = ((out + a) + b) − c."""
-    out += a
-    out += b
-    out -= c
+def add_feed_forward(applied, M_ddq, bias, gravity) -> None:
+    """applied = ((applied + M·ddq_d) + bias) − g: the reference's inverse dynamics, with
+    MuJoCo's bias c + g and the g already applied."""
+    applied += M_ddq
+    applied += bias
+    applied -= gravity
 
 
 def impedance_torque(K, D, q_d, dq_d, q, dq, out) -> None:

@@ -33,7 +33,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from franka_sim.kernels import add_add_sub
+from franka_sim.kernels import add_feed_forward
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, write_inertial
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
@@ -131,7 +131,7 @@ class Arm:
         mj_step1's inertia and bias at the current state (c = bias − g; g is already in)."""
         self._ff_accel_arm[:] = ddq_d
         mujoco.mj_mulM(self._model, self._data, self._ff_torque, self._ff_accel)
-        add_add_sub(self._applied, self._ff_torque_arm, self._bias, self._gcomp)
+        add_feed_forward(self._applied, self._ff_torque_arm, self._bias, self._gcomp)
 
     def after_integration(self) -> None:
         """After mj_step2, before the kinematics move on: ddq, the external torque (on the

@@ -112,12 +112,12 @@ PyObject *friction_torque(PyObject *self, PyObject *const *args, Py_ssize_t narg
     Py_RETURN_NONE;
 }
 
-/* -- add_add_sub(out, a, b, c): out = ((out + a) + b) − c ------------------------------------ */
-PyObject *add_add_sub(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* -- add_feed_forward(applied, M_ddq, bias, gravity): applied = ((applied + M_ddq) + bias) − g --- */
+PyObject *add_feed_forward(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     static const Py_ssize_t sizes[] = {7, 7, 7, 7};
     Vec v[4];
-    if (check_args(nargs, 4, "add_add_sub") < 0 || vec_take_all(args, v, 4, sizes, "w---") < 0)
+    if (check_args(nargs, 4, "add_feed_forward") < 0 || vec_take_all(args, v, 4, sizes, "w---") < 0)
         return NULL;
     double *out = v[0].p;
     for (int i = 0; i < 7; i++)

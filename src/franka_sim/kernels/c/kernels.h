@@ -93,7 +93,7 @@ KERNEL(drive_impedance);
 KERNEL(saturate_less);
 KERNEL(friction_argument);
 KERNEL(friction_torque);
-KERNEL(add_add_sub);
+KERNEL(add_feed_forward);
 KERNEL(impedance_torque);
 KERNEL(joint_follow);
 KERNEL(torque_inside);

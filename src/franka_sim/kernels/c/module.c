@@ -5,7 +5,7 @@
 static PyMethodDef methods[] = {
     FASTCALL(drive_follow), FASTCALL(drive_impedance), FASTCALL(saturate_less),
     FASTCALL(torque_inside), FASTCALL(measured_inside), FASTCALL(joint_position_step),
-    FASTCALL(friction_argument), FASTCALL(friction_torque), FASTCALL(add_add_sub),
+    FASTCALL(friction_argument), FASTCALL(friction_torque), FASTCALL(add_feed_forward),
     FASTCALL(impedance_torque), FASTCALL(joint_follow), FASTCALL(doubles_within),
     FASTCALL(narrow_into), FASTCALL(bind_readings),
     {NULL, NULL, 0, NULL}};
