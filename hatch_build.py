@@ -4,6 +4,8 @@ there.
 
 Without them the wheel stays pure Python and franka_sim.kernels runs its numpy reference, which
 gives the same bits, only slower (docs/benchmarks.md): `pip install` never needs a compiler.
+Why the module was not built is a warning of the build (pip shows it with -v); a server on the
+reference says so in its log at start.
 The compiler is $CC (e.g. CC="python -m ziglang cc"), else the one Python was built with.
 FRANKA_SIM_KERNELS=numpy skips the compilation. An editable install compiles in place, beside
 the source (src/franka_sim/kernels/), as the editable package is imported from there.

@@ -88,7 +88,8 @@ def _physics(config: Config) -> None:
     if missing := engine_missing(engine):
         raise ConfigError("--physics", missing)
     if len(config.arm_specs()) > 1 or config.mobile_base is not None:
-        raise ConfigError("--physics", f"{engine} simulates one arm (no --arm, no --mobile-base)")
+        raise ConfigError("--physics", f"{engine} simulates one arm on the world (one --arm at "
+                                       "most, no --mobile-base)")
     if any(config.tool_of(spec) not in ("hand", "none") for spec in config.arm_specs()):
         raise ConfigError("--physics", f"{engine} carries the Franka Hand or no tool")
     for flag, used in (("--web", config.web_port), ("--record", config.record),

@@ -1,15 +1,18 @@
 """Choosing the physics engine: `serve --help` lists them; an engine whose extra is missing
 says in one line what to install and the serve exits non-zero (Genesis is made unimportable
-here when it is installed); an embedded Config meets the same rule."""
+here when it is installed); an embedded Config meets the same rule; what Genesis does not
+simulate is refused in one line."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
-from franka_sim.config import Config
+from franka_sim.config import ArmSpec, Config
 from franka_sim.config_rules import ConfigError, checked
 
 # `franka-sim serve --physics genesis` in a process where `import genesis` finds nothing.
@@ -44,3 +47,34 @@ def test_an_embedded_config_meets_the_same_rule(monkeypatch):
     with pytest.raises(ConfigError, match="not an engine"):
         checked(Config(physics="bullet"))
     assert checked(Config()).physics == "mujoco"
+
+
+ONE_ARM = (ArmSpec("left", "127.0.0.2"),)
+TWO_ARMS = ONE_ARM + (ArmSpec("right", "127.0.0.3", base=(0.0, 1.0, 0.0, 0.0)),)
+
+
+@pytest.mark.parametrize("changes,refused", [
+    (dict(arms=TWO_ARMS), "simulates one arm"),
+    (dict(arms=ONE_ARM, mobile_base="127.0.0.4"), "simulates one arm"),
+    (dict(tool="vacuum"), "carries the Franka Hand or no tool"),
+    (dict(arms=(ArmSpec("left", "127.0.0.2", tool="vacuum"),)), "carries the Franka Hand"),
+    (dict(web_port=8080), "without --web"),
+    (dict(record=Path("run.mcap")), "without --record"),
+    (dict(meshes=Path("franka_description")), "without --meshes"),
+])
+def test_genesis_refuses_what_it_does_not_simulate(monkeypatch, changes, refused):
+    """What docs/engines.md lists as MuJoCo's alone, refused in one ConfigError (installed or
+    not: the extra's check is made to pass)."""
+    monkeypatch.setattr("franka_sim.physics.engine_choice.engine_missing", lambda name: None)
+    with pytest.raises(ConfigError, match=refused) as raised:
+        checked(Config(physics="genesis", **changes))
+    assert raised.value.flag == "--physics"
+    checked(Config(physics="genesis", arms=ONE_ARM))  # one arm on the world, the Hand: served
+
+
+def test_genesis_refuses_the_mujoco_viewer_at_the_command_line():
+    # (a display named, so that the viewer's own need of one is not what refuses it)
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--physics", "genesis",
+                           "--viewer", "--host", "127.0.0.1"], capture_output=True, text=True,
+                          timeout=60, env={**os.environ, "DISPLAY": ":987"})
+    assert done.returncode != 0 and "MuJoCo's viewer shows the MuJoCo world only" in done.stderr

@@ -18,9 +18,9 @@ compensates what it knows, so only torque control feels what is left.
 Standstill. An arm that has moved comes back to rest under the idle hold only asymptotically:
 float round-off keeps it trembling at ~1e-13 rad/s for ever. So, as a drive's standstill
 control does, the hold puts a joint (and a finger at its commanded opening) that is within
-SETTLE of its set-point, and slower than SETTLE, exactly there and at rest: a change below the
-resolution of a 20-bit joint encoder (6e-6 rad) and four orders of magnitude below the noise of
-a measured dq (~1e-2 rad/s), made the same way every run. The band decides how long an arm
+SETTLE (physics/drive.py) of its set-point, and slower than SETTLE, exactly there and at
+rest: a change below the resolution of a 20-bit joint encoder (6e-6 rad) and four orders of
+magnitude below the noise of a measured dq (~1e-2 rad/s), made the same way every run. The band decides how long an arm
 settles after a motion (~230 cycles after a 0.5 s joint motion; 1e-9 took ~470), which a
 lockstep server runs before it answers the motion's end.
 
@@ -37,15 +37,14 @@ from franka_sim.kernels import add_feed_forward
 from franka_sim.physics.arm_model import FLANGE_SITE, HAND_BODY, write_inertial
 from franka_sim.physics.backend import JointCommand, Measured
 from franka_sim.physics.declared_load import DeclaredLoad
-from franka_sim.physics.drive import MOTOR_TORQUE_RATE, DriveLaw
+from franka_sim.physics.drive import SETTLE, DriveLaw
 from franka_sim.physics.external_torque import ExternalTorque
 from franka_sim.physics.friction import JointFriction
 from franka_sim.physics.queries import Queries
 from franka_sim.physics.readings import Readings
 from franka_sim.physics.scene import ArmPlacement
 
-SETTLE = 1e-6  # rad and rad/s (m and m/s for a finger): the standstill band of the idle hold
-__all__ = ["Arm", "MOTOR_TORQUE_RATE", "SETTLE"]
+__all__ = ["Arm"]
 
 
 class Arm:
@@ -84,7 +83,6 @@ class Arm:
         tau_max = np.array([j.limits.effort for j in self.desc.joints], dtype=float)
         self._law = DriveLaw(self._q, self._dq, self._applied, self._gcomp, tau_max,
                              float(model.opt.timestep), self.friction, self._feed_forward)
-        self._ff = self._law.ff  # the torque the motors follow
         self.readings = Readings(model, data, self.desc, prefix, self.qs, self.vs, flange, base,
                                  self.friction.torque)
         self._external = ExternalTorque(model, data, self.vs, jids, self.readings.tau_ext)
@@ -160,7 +158,7 @@ class Arm:
         """At q0 and at rest in freshly reset data, its tool at its start (or `tool_setting`:
         the Hand's opening); no step to compare with."""
         self._last_cmd = None
-        self._ff.fill(0.0)
+        self._law.rest()
         self._q[:] = q0
         if self.tool is not None:
             self.tool.place(tool_setting)
@@ -168,7 +166,7 @@ class Arm:
     def hold_still(self) -> None:
         """Gravity compensation alone as the drive (g(q) computed at this q)."""
         self._applied[:] = self._gcomp
-        self._ff.fill(0.0)
+        self._law.rest()
         self.friction.rest()
         if self.tool is not None:
             self.tool.hold()

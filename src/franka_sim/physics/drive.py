@@ -19,6 +19,9 @@ from franka_sim.kernels import drive_follow, drive_impedance, saturate_less
 from franka_sim.physics.backend import NO_GAINS, JointCommand
 from franka_sim.physics.friction import JointFriction
 
+SETTLE = 1e-6  # rad and rad/s (m and m/s for a finger): the idle hold's standstill band
+# (physics/arm.py, "Standstill", says why this size)
+
 # Nm/s: the fastest a motor follows a change of the controller's torque (the FR3's torque-rate
 # figure, tests/data/fr3_limits.md); a step in tau_ff reaches the joint as a ramp at this rate.
 MOTOR_TORQUE_RATE = 1000.0
@@ -43,7 +46,7 @@ class DriveLaw:
 
     def apply(self, cmd: JointCommand, load_gravity: np.ndarray | None = None) -> None:
         """The drive torque for this step into `applied` (g(q) prepared at this q);
-        `load_gravity`: the declared load's g(q) when the command declares one."""
+        `load_gravity`: the declared load's g(q) when the command declares one (else None)."""
         applied = self._applied
         # tau_ff as the motors give it this step (ff: within a step's rate of the last; tau_ff
         # is finite, the robot drops a non-finite command, robot/fci.py), plus g(q) and, but in
@@ -56,7 +59,7 @@ class DriveLaw:
         if cmd.ddq_d is not None:
             self._feed_forward(cmd.ddq_d)
             applied += self.friction.at(cmd.dq_d, self._tmp)  # the robot's own compensation
-        if cmd.load is not None and load_gravity is not None:
+        if load_gravity is not None:
             applied += load_gravity
         # The motors saturate at their torque limits, whatever the command asked (an absurd
         # one, applied when limits are only logged, must not blow up the physics; it is finite,

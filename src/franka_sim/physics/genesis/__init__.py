@@ -8,7 +8,7 @@ and its step; body.py: an arm's ArmBody. docs/engines.md says what differs from 
 
 from __future__ import annotations
 
-from franka_sim.physics.genesis.runtime import INSTALL, MISSING, genesis_missing
+from franka_sim.physics.genesis.runtime import genesis_missing
 
 
 def make_physics(placements, q0s, scene, *, mobile_base: bool = False):
@@ -23,4 +23,4 @@ def make_physics(placements, q0s, scene, *, mobile_base: bool = False):
     return Physics(world, tuple(GenesisArmBody(world, p.name) for p in placements))
 
 
-__all__ = ["INSTALL", "MISSING", "genesis_missing", "make_physics"]
+__all__ = ["genesis_missing", "make_physics"]

@@ -22,9 +22,9 @@ import numpy as np
 
 from franka_sim.description.kinematics import fk_frames
 from franka_sim.description.urdf import ACCELEROMETER_BOTTOM, ACCELEROMETER_TOP
-from franka_sim.physics.arm import SETTLE
 from franka_sim.physics.backend import JointCommand, Measured
-from franka_sim.physics.drive import DriveLaw
+from franka_sim.kernels import add_feed_forward
+from franka_sim.physics.drive import SETTLE, DriveLaw
 from franka_sim.physics.fingers import (MAX_FINGER_FORCE, OPEN_WIDTH, FingerCommand, Fingers,
                                         FingersMount)
 from franka_sim.physics.friction import JointFriction
@@ -76,7 +76,6 @@ class GenesisArm:
             raise ValueError("the Genesis engine carries the Franka Hand or no tool")
         self._armature = np.asarray(placement.armature, float)
         self._base = placement.base_frame()
-        self._upper, self._lower = self.desc.upper, self.desc.lower
         self._sensors = [[self.desc.frames[name] for name in names if name in self.desc.frames]
                          for names in (ACCELEROMETER_TOP, ACCELEROMETER_BOTTOM)]
         self._g = -np.asarray(GRAVITY)
@@ -117,9 +116,7 @@ class GenesisArm:
     def _feed_forward(self, ddq_d: np.ndarray) -> None:
         """Add M(q)·ddq_d + c(q, dq), Genesis's at the current state (rotors included)."""
         bias, M = self.dynamics.bias_and_mass(self._q, self._dq, self.q[7:])
-        self._applied += M @ ddq_d
-        self._applied += bias
-        self._applied -= self._gcomp
+        add_feed_forward(self._applied, M @ ddq_d, bias, self._gcomp)
 
     def record(self, constraint: np.ndarray, pushed: np.ndarray | None, flange) -> None:
         """The readings of the step just taken: `constraint` is Genesis's constraint force on

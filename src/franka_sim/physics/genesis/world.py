@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
-from franka_sim.physics.arm import SETTLE
+from franka_sim.physics.drive import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount
 from franka_sim.physics.genesis.arm import GenesisArm
