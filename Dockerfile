@@ -50,14 +50,13 @@ RUN set -eu; \
     /opt/franka-sim/bin/pip install --quiet $from "$wheel${EXTRAS:+[$EXTRAS]}"; \
     /opt/franka-sim/bin/pip uninstall --quiet --yes pip setuptools 2>/dev/null || true; \
     find /opt/franka-sim -path '*/numpy/*' -type d -name tests -prune -exec rm -rf {} +
-# The model library older libfranka clients (0.9-0.13) load, prebuilt for each packaged robot
+# The model library older libfranka clients (0.9-0.17) load, prebuilt for each packaged robot
 # (fr3, fer) and Linux x86_64 and aarch64, cross-compiled by the same zig; the libraries
 # (~85 KB each) are in /opt/franka-sim/share/model-libraries, which FRANKA_SIM_MODEL_LIBRARIES
 # names below.
 RUN set -eu; \
     /opt/franka-sim/bin/python -m franka_sim.model_library /opt/franka-sim/share/model-libraries \
-        --cc "/tmp/zig/bin/python -m ziglang cc"; \
-    rm -rf /tmp/zig "${HOME:-/root}/.cache/zig"
+        --cc "/tmp/zig/bin/python -m ziglang cc"
 
 # --- runtime: the environment alone, run by an unprivileged user -------------------------------
 FROM ${BASE_IMAGE}

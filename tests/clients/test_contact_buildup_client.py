@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from support.clients import connect, press_until_reflex as _press_until_reflex
+from support.clients import connect, press_until_reflex
 from franka_sim.testing import running_sim
 
 
@@ -21,7 +21,7 @@ def robot():
 
 
 def test_the_force_builds_up_before_the_reflex_and_the_threshold_decides_it(robot):
-    runs = {threshold: _press_until_reflex(robot, threshold) for threshold in (5.0, 20.0)}
+    runs = {threshold: press_until_reflex(robot, threshold) for threshold in (5.0, 20.0)}
     for threshold, (seen, _) in runs.items():
         pressing = [(t, f, c) for t, f, c in seen if f < -0.1]  # visibly pressing
         forces = [f for _, f, _ in pressing]

@@ -14,13 +14,10 @@ import pylibfranka
 import pytest
 
 from franka_sim.testing import running_sim
-from support.clients import connect, move_to, pose
+from support.clients import PAD_BOTTOM, SPOT, connect, move_to, pose
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402  (its offline IK)
+import pick_and_place as pp  # its offline IK
 
-PAD_BOTTOM = 0.0175  # m under the TCP: where the fingers first touch the table
-SPOT = np.array([0.35, 0.2])  # on the table, clear of the cube
 K_X = [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0]
 
 

@@ -4,8 +4,6 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pylibfranka
@@ -14,8 +12,7 @@ from franka_sim.control import Control
 from franka_sim.testing import running_sim
 from support.clients import connect
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402
+import pick_and_place as pp
 
 OFF_AXIS = 0.012  # m along the closing direction (the base's y at the grasp pose)
 

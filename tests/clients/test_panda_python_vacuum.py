@@ -20,8 +20,7 @@ from franka_sim.control import Control
 from franka_sim.testing import running_sim
 from support.client_venv import client_python
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402
+import pick_and_place as pp
 
 PROGRAM = Path(__file__).resolve().parents[1] / "support" / "panda_py_vacuum_program.py"
 HEAVY = Path(__file__).resolve().parents[1] / "data" / "heavy_part.xml"

@@ -22,6 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from docker_cli import StepFailed  # noqa: E402
+from franka_sim.blocking_io import recv_exact  # noqa: E402
 
 ROBOT_PORT = 1337
 VERSION = 5
@@ -48,35 +49,31 @@ print(json.dumps({"files": sorted(p.name for p in place.iterdir()), "missing": m
 """
 
 
-def _recv_exact(s: socket.socket, n: int) -> bytes:
-    data = b""
-    while len(data) < n:
-        chunk = s.recv(n - len(data))
-        if not chunk:
-            raise StepFailed("library", f"the robot closed the connection after {len(data)} "
-                                        f"of {n} bytes")
-        data += chunk
-    return data
-
-
 def load_model_library(host: str, architecture: str) -> tuple[int, bytes]:
     """(status, library) of a v5 client's LoadModelLibrary for Linux on `architecture`."""
+    try:
+        return _load_model_library(host, architecture)
+    except ConnectionError as exc:
+        raise StepFailed("library", f"the robot closed the connection: {exc}") from None
+
+
+def _load_model_library(host: str, architecture: str) -> tuple[int, bytes]:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as udp, \
             socket.create_connection((host, ROBOT_PORT), timeout=30,
                                      source_address=(host, 0)) as tcp:
         udp.bind((host, 0))  # where the states go (this client reads none)
         tcp.sendall(struct.pack("<IIIHH", CONNECT, 0, 16, VERSION, udp.getsockname()[1]))
-        command, _, _, status, version = struct.unpack("<IIIBH", _recv_exact(tcp, 15))
+        command, _, _, status, version = struct.unpack("<IIIBH", recv_exact(tcp, 15))
         if (command, status, version) != (CONNECT, 0, VERSION):
             raise StepFailed("library", f"Connect of version {VERSION} answered status {status}"
                                         f" (version {version})")
         tcp.sendall(struct.pack("<IIIBB", LOAD_MODEL_LIBRARY, 1, 14,
                                 ARCHITECTURES[architecture], LINUX))
-        command, command_id, size = struct.unpack("<III", _recv_exact(tcp, 12))
+        command, command_id, size = struct.unpack("<III", recv_exact(tcp, 12))
         if (command, command_id) != (LOAD_MODEL_LIBRARY, 1) or size < 13:
             raise StepFailed("library", f"LoadModelLibrary answered by command {command}, "
                                         f"id {command_id}, {size} bytes")
-        body = _recv_exact(tcp, size - 12)
+        body = recv_exact(tcp, size - 12)
     return body[0], body[1:]
 
 

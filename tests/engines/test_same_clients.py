@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import gc
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pylibfranka
@@ -23,10 +21,9 @@ from engine_params import ENGINES, engine_server
 from support.clients import connect, move_to, pose, press_until_reflex
 from franka_sim.control import Control
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import generate_cartesian_pose_motion  # noqa: E402
-import generate_joint_velocity_motion  # noqa: E402
-import pick_and_place as pp  # noqa: E402
+import generate_cartesian_pose_motion
+import generate_joint_velocity_motion
+import pick_and_place as pp
 
 # Where the engines may end the same program apart: joint angles (rad), the end effector's
 # position (m), the Hand's opening on the cube (m), the grasped cube's position (m). The arm's

@@ -101,7 +101,8 @@ def test_another_machine_or_no_compiler_is_answered_without_one(description, tmp
         assert ModelLibrary(description).for_client(other) is None
         assert "/kWindows asked for" in caplog.text
         monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-        monkeypatch.setenv("CC", "/nonexistent/cc")
+        monkeypatch.setattr("franka_sim.model_library.build.system_compiler",
+                            lambda: ["/nonexistent/cc"])  # a compiler that cannot run
         assert ModelLibrary(description).for_client(HERE) is None
         assert "did not compile" in caplog.text or "no C compiler" in caplog.text
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import logging
+import shutil
 import struct
 import sys
 
@@ -20,7 +21,7 @@ from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.model_library import ModelLibrary
 from franka_sim.model_library import __main__ as prebuild_cli
 from franka_sim.model_library.build import (PREBUILT_VARIABLE, cache_dir, library_name,
-                                            this_machine, zig_compiler)
+                                            system_compiler, this_machine, zig_compiler)
 from franka_sim.model_library.source import c_source
 
 X64, ARM64 = ("kX64", "kLinux"), ("kARM64", "kLinux")
@@ -123,6 +124,16 @@ def test_a_target_libfranka_has_no_name_for_is_k_error(description, places, capl
     with caplog.at_level(logging.WARNING, logger="franka_sim.model_library"):
         assert ModelLibrary(description).for_client(_request(("7", "kLinux"))) is None
     assert "7/kLinux asked for: no such target: answered kError" in caplog.text
+
+
+def test_a_cc_naming_no_compiler_is_passed_over_for_the_machines_own(monkeypatch):
+    """$CC names nothing that is there: this machine's cc is used (or none, then zig may be),
+    not a command that fails at the first build."""
+    monkeypatch.setenv("CC", "/no/such/cc -O2")
+    found = system_compiler()
+    assert found is None or (found[0] != "/no/such/cc" and shutil.which(found[0]))
+    monkeypatch.setenv("CC", f"{sys.executable} -c pass")
+    assert system_compiler() == [sys.executable, "-c", "pass"]
 
 
 def test_the_prebuild_command_refuses_what_it_cannot_build(tmp_path, capsys):

@@ -4,8 +4,6 @@ vacuum gives, or when vented."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +14,7 @@ from franka_sim.physics.backend import JointCommand
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402
+import pick_and_place as pp
 
 DESC = load_arm_description(default_urdf_text())
 K = np.array([3000, 3000, 3000, 2500, 2500, 2000, 2000.0])

@@ -7,8 +7,6 @@ mapped to K, and judged against the SetCollisionBehavior thresholds. A collision
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -34,8 +32,7 @@ from franka_sim.robot.external_forces import (
 from franka_sim.robot.settings import CollisionThresholds
 from support.harness import Harness, reply_status
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import pick_and_place as pp  # noqa: E402  (its offline IK)
+import pick_and_place as pp  # its offline IK
 
 ARM = load_arm_description(default_urdf_text())
 ROBOT_GEOMS = ("link", "hand", "finger")

@@ -205,10 +205,6 @@ def test_stop_when_idle_succeeds():
 
 def test_a_blocked_move_answers_unsuccessful():
     """Closing the fingers on the cube with a Move: they stop on it and the Move gives up."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     import pick_and_place
 
     _, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)
@@ -221,10 +217,6 @@ def test_a_blocked_move_answers_unsuccessful():
 
 
 def test_grasping_the_cube_squeezes_with_the_commanded_force():
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     import pick_and_place
 
     _, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pylibfranka
@@ -62,14 +60,6 @@ def cartesian_pose_motion(robot, targets, controller=pylibfranka.ControllerMode.
 
 
 # -- a press on the table (the default scene) until the robot's reflex ------------------------------
-def _pick_and_place():
-    """examples/pick_and_place.py (its offline IK and poses)."""
-    examples = str(Path(__file__).resolve().parents[2] / "examples")
-    if examples not in sys.path:
-        sys.path.insert(0, examples)
-    import pick_and_place
-
-    return pick_and_place
 
 
 PAD_BOTTOM = 0.0175  # m under the TCP: where the fingers first touch the table
@@ -97,7 +87,7 @@ def descend_until_reflex(robot) -> list[tuple[float, float, float]]:
 def press_until_reflex(robot, threshold: float):
     """From 5 mm over the touching height, down onto the table with the Cartesian collision
     threshold at `threshold` (contact from 2 N); the states seen, and the force at the reflex."""
-    pp = _pick_and_place()
+    import pick_and_place as pp
     robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [2.0] * 6, [threshold] * 6)
     move_to(robot, pp.solve_ik([*SPOT, PAD_BOTTOM + 0.005], pp.READY), seconds=1.0)
     seen = descend_until_reflex(robot)

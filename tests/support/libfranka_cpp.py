@@ -14,7 +14,6 @@ import os
 import re
 import signal
 import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -102,21 +101,15 @@ VACUUM_OBJECT = Example("vacuum_object", moves=False, realtime=False)
 SERVE_ARGS = {"vacuum_object": ("--tool", "vacuum")}  # what an example's simulator serves
 
 
-def _pick_and_place():
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-    import pick_and_place as pp
-    return pp
-
-
 def grasp_pose() -> np.ndarray:
     """Joint angles with the open Hand around the default scene's cube."""
-    pp = _pick_and_place()
+    import pick_and_place as pp
     return pp.poses_over(pp.CUBE, pp.READY)[1]
 
 
 def pump_pose() -> np.ndarray:
     """Joint angles with the suction cup's lip 1 mm into the default scene's cube's top."""
-    pp = _pick_and_place()
+    import pick_and_place as pp
     return pp.solve_ik(pp.CUBE + [0, 0, 0.024], pp.READY)
 
 

@@ -19,7 +19,8 @@ import os
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+# What pytest's `pythonpath` gives the tests: tests/ (support) and examples/ (pick_and_place).
+sys.path[:0] = [str(Path(__file__).resolve().parents[n] / d) for n, d in ((1, ""), (2, "examples"))]
 
 from franka_sim.testing import running_sim  # noqa: E402
 from support import libfranka_cpp as cpp  # noqa: E402

@@ -15,17 +15,16 @@ on stderr and exit status 1 or 2.
 from __future__ import annotations
 
 import argparse
-import os
 import shlex
-import shutil
 import sys
 from pathlib import Path
 
 from franka_sim.config import ROBOTS
 from franka_sim.description.urdf import (DescriptionError, default_urdf_text,
                                          load_arm_description)
-from franka_sim.model_library.build import (ZIG_TARGETS, CompileError, _is_zig, parse_target,
-                                            prebuild, this_machine, zig_compiler)
+from franka_sim.model_library.build import (ZIG_TARGETS, CompileError, is_zig, parse_target,
+                                            prebuild, system_compiler, this_machine,
+                                            zig_compiler)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,9 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         parser.error(str(exc))
     compiler = shlex.split(args.cc) if args.cc else (
-        zig_compiler() or shlex.split(_system_cc() or "cc"))
+        zig_compiler() or system_compiler() or ["cc"])
     if not targets:
-        targets = list(ZIG_TARGETS) if _is_zig(compiler) else [this_machine()]
+        targets = list(ZIG_TARGETS) if is_zig(compiler) else [this_machine()]
     descriptions = {}
     try:
         for robot in args.robot or ([] if args.urdf else ROBOTS):
@@ -65,10 +64,6 @@ def main(argv: list[str] | None = None) -> int:
     for path in written:
         print(f"{path} ({path.stat().st_size} bytes)")
     return 0
-
-
-def _system_cc() -> str | None:
-    return os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
 
 
 if __name__ == "__main__":

@@ -7,10 +7,10 @@ for them is, in this order:
    franka_sim.model_library DIR` makes such a directory);
 2. kept: one built before, in the user's cache (`$XDG_CACHE_HOME/franka-sim`, else
    `~/.cache/franka-sim`);
-3. built now, with the system's C compiler (`$CC`, else `cc`, else `gcc`) for this machine
-   alone; where there is none but the `ziglang` package is installed, with `python -m ziglang
-   cc`, which also builds for the Linux targets of other machines (x86_64, aarch64). What is
-   built is kept in the cache.
+3. built now: for this machine with the system's C compiler (`$CC` where it names one that is
+   there, else `cc`, else `gcc`); where the `ziglang` package is installed, with `python -m
+   ziglang cc` for the Linux targets of any machine (x86_64, aarch64), this one too when it
+   has no compiler. What is built is kept in the cache.
 Each file is named by a hash of the library's C source and its target
 (`model-library-HASH-ARCH-SYSTEM.so`, e.g. `...-x86_64-linux.so`), so a library is found for
 the very description it was made from. A client whose library none of these gives is answered
@@ -99,6 +99,16 @@ def prebuilt_dir() -> Path | None:
     return Path(value) if value else None
 
 
+def system_compiler() -> list[str] | None:
+    """This machine's C compiler: $CC if it names one that is there, else cc or gcc; None."""
+    if cc := os.environ.get("CC"):
+        command = shlex.split(cc)
+        if command and shutil.which(command[0]):
+            return command
+    found = shutil.which("cc") or shutil.which("gcc")
+    return [found] if found else None
+
+
 def zig_compiler() -> list[str] | None:
     """`python -m ziglang cc` where the ziglang package is installed, else None."""
     if importlib.util.find_spec("ziglang") is None:
@@ -183,10 +193,10 @@ class ModelLibrary:
 
     def _build(self, wanted: tuple[str, str]) -> bytes | None:
         here = this_machine()
-        system_cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+        system_cc = system_compiler()
         zig = zig_compiler()
         if wanted == here and system_cc is not None:
-            compiler, zig_target = shlex.split(system_cc), None
+            compiler, zig_target = system_cc, None
         elif wanted in ZIG_TARGETS and zig is not None:
             compiler, zig_target = zig, ZIG_TARGETS[wanted]
         elif wanted == here:
@@ -232,7 +242,7 @@ def prebuild(directory: Path, descriptions: dict[str, ArmDescription],
     `-target`; any other compiler builds for its own machine, so one target only), into
     `directory` under the names ModelLibrary looks for: the files written, or CompileError
     (ValueError: a target `compiler` cannot build for)."""
-    zig = _is_zig(compiler)
+    zig = is_zig(compiler)
     for target in targets:
         if target not in ZIG_TARGETS if zig else target != this_machine():
             raise ValueError(f"{shlex.join(compiler)} builds no library for "
@@ -254,5 +264,6 @@ def prebuild(directory: Path, descriptions: dict[str, ArmDescription],
     return written
 
 
-def _is_zig(compiler: list[str]) -> bool:
-    return any(Path(part).name.startswith("zig") for part in compiler) or "ziglang" in compiler
+def is_zig(compiler: list[str]) -> bool:
+    """The compiler command is zig's (`zig cc`, `python -m ziglang cc`): it cross-compiles."""
+    return any(Path(part).name.startswith("zig") for part in compiler)

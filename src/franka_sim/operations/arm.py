@@ -56,7 +56,7 @@ class ArmOps(DeskOps, FaultOps):
                  arm_index: int = 0, faults=None, taps=None, recordings=None,
                  desk_boot: str = "ready", desk_effects=None) -> None:
         self.core, self.tool, self.driver = core, tool, driver
-        # The arm's Desk (operations/desk.py) holds the arm while its brakes are locked or it
+        # The arm's Desk (operations/arm_desk.py) holds the arm while its brakes are locked or it
         # is not in Execution (--desk-boot locked: from the start); `desk_effects` applies
         # what it means for the robot's endpoints (None: nothing to open or close).
         self.desk_boot, self.desk_effects = desk_boot, desk_effects

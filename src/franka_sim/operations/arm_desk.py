@@ -13,7 +13,6 @@ class DeskOps:
     `lock`, `driver` and `_job` (operations/arm.py)."""
 
     _desk = None
-    desk_effects = None
 
     @property
     def desk_state(self):

@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 from enum import IntEnum
 
-from construct import Array, Enum, Flag, Float64l, Int8ul, Int32sl, Int32ul, Struct
+from construct import Array, Enum, Flag, Float64l, Int8ul, Int32sl, Struct
 
 from . import enums as v10
 from . import robot_v9
@@ -106,12 +106,9 @@ SetFiltersResponse = message(CommandHeader, "status" / Enum(Int8ul, GetterSetter
 
 def _requests(commands: type[IntEnum], header: Struct) -> dict:  # (v6 too)
     """Every request of `commands`: v7's layouts under these ids, and the two v7 dropped."""
-    structs = renumbered(robot_v9.REQUEST_STRUCTS, commands, header)
-    for name, struct in (("GetCartesianLimit", GetCartesianLimitRequest),
-                         ("SetFilters", SetFiltersRequest)):
-        if name in commands.__members__:
-            structs[commands[name]] = message(header, *struct.subcons[1:])
-    return structs
+    return {**renumbered(robot_v9.REQUEST_STRUCTS, commands, header),
+            **renumbered({Command.GetCartesianLimit: GetCartesianLimitRequest,
+                          Command.SetFilters: SetFiltersRequest}, commands, header)}
 
 
 REQUEST_STRUCTS = _requests(Command, CommandHeader)

@@ -22,7 +22,7 @@ from enum import IntEnum
 from xml.etree import ElementTree
 
 import numpy as np
-from construct import Array, Enum, Float32l, Float64l, GreedyBytes, Int8ul, Int32ul, Struct
+from construct import Array, Enum, Float32l, Float64l, GreedyBytes, Int8ul, Struct
 
 from . import robot_messages as rm
 from . import robot_state as rs
