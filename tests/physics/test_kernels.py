@@ -260,7 +260,7 @@ def test_a_server_on_the_numpy_kernels_says_so_at_start(pick):
     if not pick and compiled is None:
         pytest.skip("the compiled module is not built here")
     server = ServerProcess(fresh_loopback_address(), env={"FRANKA_SIM_KERNELS": pick})
-    server.wait_ready().stop()  # every line it wrote is read once it has exited
+    server.wait_ready().stop()  # (said before "serving on": read by then)
     said = [line for line in server.lines if "the cycle runs its numpy kernels" in line]
     if pick:
         assert len(said) == 1 and "FRANKA_SIM_KERNELS=numpy" in said[0]

@@ -106,14 +106,14 @@ class FrankaSim(EmbeddedOperations):
         self._started = True
         if self.recorder is not None:
             self.recorder.start()  # (what the taps queued so far is written first)
+        if not kernels.COMPILED:
+            log.info("the cycle runs its numpy kernels (%s): the same states, ~40 %% more CPU a "
+                     "cycle (docs/benchmarks.md, The compiled kernels)", kernels.WHY_NUMPY)
         for robot in self.robots:
             log.info("simulated %s %s; clock %s; scene %s)",
                      _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
                      robot.describe(),
                      config.clock.value, self.scene)
-        if not kernels.COMPILED:
-            log.info("the cycle runs its numpy kernels (%s): the same states, ~40 %% more CPU a "
-                     "cycle (docs/benchmarks.md, The compiled kernels)", kernels.WHY_NUMPY)
         return self
 
     async def stop(self) -> None:

@@ -40,7 +40,7 @@ class GenesisFingers(Fingers):
     def __init__(self, q: np.ndarray, v: np.ndarray, applied: np.ndarray,
                  gravity: np.ndarray) -> None:  # noqa: D107 - not Fingers' (no MuJoCo model)
         self._q, self._v, self._applied, self._gravity = q, v, applied, gravity
-        self._palm, self._palm_at, self._model, self._hand = None, None, None, None
+        self._palm_at = None  # (no palm: after_integration rewrites nothing here)
         self.command = FingerCommand(OPEN_WIDTH, 0.0, MAX_FINGER_FORCE)
         self._drive = (0.0, 0.0)
 
