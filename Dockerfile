@@ -88,6 +88,6 @@ HEALTHCHECK --interval=10s --timeout=5s --start-period=30s --retries=3 \
     CMD host="${FRANKA_SIM_HOST:-0.0.0.0}"; [ "$host" != 0.0.0.0 ] || host=127.0.0.1; \
         exec franka-sim check "$host" --control-port "${FRANKA_SIM_CONTROL_PORT:-1340}"
 
-# `franka-sim serve` replaces itself with the server (same pid): as PID 1 it gets SIGTERM from
-# `docker stop` and exits at once.
+# The process `franka-sim serve` starts is the server (its flags are checked in a child): as
+# PID 1 it gets SIGTERM from `docker stop` and exits at once.
 ENTRYPOINT ["franka-sim", "serve"]

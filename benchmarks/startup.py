@@ -5,14 +5,20 @@ connects as soon as that line appears), and SIGTERM → exit (with the client st
 `--alternative "CMD"` starts another simulator (e.g. franka-sim 1.1.7, docs/benchmarks.md) in
 the same run, alternated with ours, and prints its spawn → first RobotState beside ours.
 
+franka_sim's bytecode is compiled first, as `pip install` does: a source tree run with
+PYTHONDONTWRITEBYTECODE set (as some shells and images are) would otherwise compile every
+module at every start (~60 ms here), which no installed copy does.
+
     python benchmarks/startup.py [--runs 5] [--alternative CMD]
 """
 
 from __future__ import annotations
 
 import argparse
+import compileall
 import statistics
 import time
+from pathlib import Path
 
 from _common import PRIVATE_HOST, start_server
 from franka_sim.testing import RawClient
@@ -41,6 +47,9 @@ def main() -> None:
     ap.add_argument("--host", default=PRIVATE_HOST, help=f"address to serve on ({PRIVATE_HOST})")
     ap.add_argument("--alternative", help="another simulator's command ({host}: the address)")
     args = ap.parse_args()
+    import franka_sim
+
+    compileall.compile_dir(Path(franka_sim.__file__).parent, quiet=1)
     ours, theirs = [], []
     for _ in range(args.runs):
         ours.append(once(args.host, None))

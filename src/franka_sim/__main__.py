@@ -1,3 +1,3 @@
-from franka_sim.cli import main
+from franka_sim.launch import main
 
 main()

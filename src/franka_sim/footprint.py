@@ -14,14 +14,22 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   aiohttp (the control API) does without `ssl` when it cannot be imported, but would build TLS
   contexts at import from a stand-in: it is imported while `ssl` reads as missing
   (`import_without_tls`).
+- The scan for MuJoCo plugins that other packages register (`mujoco.plugins` entry points):
+  `import mujoco` reads every installed package's metadata for them (~13 ms and ~1.8 MiB here,
+  importlib.metadata and the parsers it brings), though no packaged scene uses one. MuJoCo's
+  own bundled plugins still load at import; the scan runs when a scene that is not packaged
+  is loaded (`load_plugin_entry_points`).
 """
 
 from __future__ import annotations
 
 import importlib
 import itertools
+import logging
 import sys
 import types
+
+log = logging.getLogger(__name__)
 
 _RENDERER_MODULES = ("mujoco._render", "mujoco.rendering", "mujoco.rendering.classic",
                      "mujoco.rendering.classic.renderer", "mujoco.rendering.classic.gl_context")
@@ -33,6 +41,39 @@ def leave_out_renderer() -> None:
     """Make `import mujoco` skip its renderer (an import of it now raises ImportError)."""
     for name in _RENDERER_MODULES:
         sys.modules.setdefault(name, None)
+
+
+_plugins_deferred = False  # the entry point scan was left out of `import mujoco`
+
+
+def import_mujoco_without_plugin_scan() -> None:
+    """Import MuJoCo without its scan of every package's entry points for plugins (which it
+    skips when importlib.metadata cannot be imported); load_plugin_entry_points runs it."""
+    global _plugins_deferred
+    if "mujoco" in sys.modules or "importlib.metadata" in sys.modules:
+        return  # imported already, or the scan would cost nothing more
+    sys.modules["importlib.metadata"] = None
+    try:
+        import mujoco  # noqa: F401
+    finally:
+        del sys.modules["importlib.metadata"]
+    _plugins_deferred = True
+
+
+def load_plugin_entry_points() -> None:
+    """Load the MuJoCo plugins other packages register, as `import mujoco` does, if its scan was
+    left out (import_mujoco_without_plugin_scan); before a scene that may use one is loaded."""
+    global _plugins_deferred
+    if not _plugins_deferred:
+        return
+    _plugins_deferred = False
+    from importlib.metadata import entry_points
+
+    for entry in entry_points(group="mujoco.plugins"):
+        try:
+            entry.load()()
+        except Exception as exc:  # noqa: BLE001 - as MuJoCo does: one broken plugin, a warning
+            log.warning("MuJoCo plugin %s not loaded: %s", entry.name, exc)
 
 
 def leave_out_tls() -> None:

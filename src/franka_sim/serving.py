@@ -1,10 +1,11 @@
 """The serving process: what `franka-sim serve` becomes once its flags are parsed.
 
-The CLI (typer, which brings click, rich and pydantic) parses and checks the flags, then
-replaces itself with this module (`os.execv`: same process, same pid, so signals and exit
-codes are the caller's as before). The ~10 MiB the parsing machinery occupies stay out of a
-server that runs for hours, possibly dozens of them side by side. The parsed flags travel as
-one JSON argument; this module takes no flags of its own.
+The CLI (typer, which brings click and rich) parses and checks the flags in a child process
+forked at start (franka_sim.launch) and hands them back; the process the caller started serves
+them, having imported meanwhile what serving needs. The ~10 MiB the parsing machinery occupies
+stay out of a server that runs for hours, possibly dozens of them side by side. The parsed flags
+travel as one JSON argument (through the pipe, or `python -m franka_sim.serving ARGUMENT` where
+a process starts afresh); this module takes no flags of its own.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from franka_sim.footprint import leave_out_renderer, leave_out_tls
+from franka_sim.footprint import (import_mujoco_without_plugin_scan, leave_out_renderer,
+                                  leave_out_tls)
 
 if TYPE_CHECKING:
     from franka_sim.config import Config
@@ -35,17 +37,31 @@ _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 _DESK_USERS = "FRANKA_SIM_DESK_USERS"  # (their passwords too)
 
 
+_hand_back: int | None = None  # the pipe to the serving process, in the CLI's child (launch)
+
+
+def hand_back_to(fd: int) -> None:
+    """This process is the CLI forked by franka_sim.launch: exec_serving writes to `fd`."""
+    global _hand_back
+    _hand_back = fd
+
+
 def exec_serving(config: Config, *, rt_priority: int, log_level: str,
                  viewer: bool = False) -> None:
-    """Become the serving process (does not return)."""
-    os.environ.pop(_TOKEN, None)
-    if config.control_token is not None:
-        os.environ[_TOKEN] = config.control_token
-    os.environ.pop(_DESK_USERS, None)
-    if config.desk_users:
-        os.environ[_DESK_USERS] = "\n".join(config.desk_users)
-    _become_serving(serving_argument(config, rt_priority=rt_priority, log_level=log_level,
-                                     viewer=viewer))
+    """Become the serving process (does not return), or, in the CLI's child, hand the parsed
+    flags back to it (returns)."""
+    env = {_TOKEN: config.control_token,
+           _DESK_USERS: "\n".join(config.desk_users) if config.desk_users else None}
+    blob = serving_argument(config, rt_priority=rt_priority, log_level=log_level, viewer=viewer)
+    if _hand_back is not None:
+        with os.fdopen(_hand_back, "wb") as pipe:
+            pipe.write(json.dumps({"blob": blob, "env": env}).encode())
+        return
+    for name, value in env.items():
+        os.environ.pop(name, None)
+        if value is not None:
+            os.environ[name] = value
+    become_serving(blob)
 
 
 def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "info",
@@ -61,12 +77,12 @@ def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "
                        "viewer": viewer})
 
 
-def _become_serving(blob: str) -> None:
+def become_serving(blob: str) -> None:
     """Replace this process (same pid) with `python -m franka_sim.serving blob`."""
     sys.stdout.flush()
     sys.stderr.flush()
     # A SIGTERM that comes before the new program handles it waits for it, pending (a mask
-    # survives exec), rather than being lost: see _stop_on_sigterm.
+    # survives exec), rather than being lost: see stop_on_sigterm.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
 
@@ -95,13 +111,19 @@ def _config(settings: dict) -> Config:
 _KEEP_TLS = "_FRANKA_SIM_SERVING_KEEPS_TLS"
 
 
-def _stop_on_sigterm() -> None:
+def stop_on_sigterm(also: int | None = None) -> None:
     """Until the event loop takes SIGTERM over: as a container's PID 1 this process would
     otherwise never see it (the kernel drops a signal PID 1 has no handler for), and
-    `docker stop` during start-up would wait out its timeout. One that came during the exec
-    was held pending (_become_serving) and stops it now. It exits at once: an exception
-    raised in the middle of an extension module's initialisation would become an ImportError."""
+    `docker stop` during start-up would wait out its timeout. One that came during an exec
+    was held pending (become_serving) and stops it now. It exits at once (and stops the CLI's
+    child, pid `also`, should it still be checking the flags): an exception raised in the
+    middle of an extension module's initialisation would become an ImportError."""
     def stop_now(signum, frame) -> None:
+        if also is not None:
+            try:
+                os.kill(also, signal.SIGTERM)
+            except OSError:  # gone already
+                pass
         os.write(2, b"franka-sim: stopped (SIGTERM) while starting\n")
         os._exit(0)
 
@@ -109,16 +131,31 @@ def _stop_on_sigterm() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
-def main(blob: str) -> int:
-    _stop_on_sigterm()
-    args = json.loads(blob)
-    if not args.get("viewer"):
+def import_for_serving(*, viewer: bool, tls: bool) -> None:
+    """Import what serving needs, leaving out the renderer unless `viewer` and OpenSSL unless
+    `tls` (the Desk: TLS; the web view: viser imports `ssl` for a tunnel it never opens here).
+    A uvloop that does not import is left for main to handle."""
+    _leave_out(viewer=viewer, tls=tls)
+    try:
+        import uvloop  # noqa: F401
+    except Exception:  # noqa: BLE001 - main says why and starts again with OpenSSL
+        return
+    import franka_sim.server.sim  # noqa: F401
+
+
+def _leave_out(*, viewer: bool, tls: bool) -> None:
+    if not viewer:
         leave_out_renderer()
-    if _KEEP_TLS not in os.environ and not (args["config"].get("desk_port")
-                                            or args["config"].get("web_port")):
-        # before asyncio, uvloop and construct are imported (the Desk: TLS; the web view:
-        # viser imports `ssl` for a tunnel it never opens here)
-        leave_out_tls()
+    if not tls and _KEEP_TLS not in os.environ:
+        leave_out_tls()  # before asyncio, uvloop and construct are imported
+    import_mujoco_without_plugin_scan()
+
+
+def main(blob: str) -> int:
+    stop_on_sigterm()
+    args = json.loads(blob)
+    _leave_out(viewer=bool(args.get("viewer")),
+               tls=bool(args["config"].get("desk_port") or args["config"].get("web_port")))
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:
@@ -143,7 +180,7 @@ def _import_uvloop(blob: str):
         log.warning("uvloop does not import without OpenSSL (%s: %s); starting again with it",
                     type(exc).__name__, exc)
         os.environ[_KEEP_TLS] = "1"
-        _become_serving(blob)
+        become_serving(blob)
     return uvloop
 
 

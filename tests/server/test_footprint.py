@@ -140,3 +140,43 @@ def test_the_control_api_costs_nothing_until_its_first_connection():
         assert Control(sim.host).state()["robot_mode"] == "Idle"
         assert aiohttp_loaded(sim.pid)
         del robot
+
+
+def test_mujoco_plugins_other_packages_register_load_with_a_scene_that_is_not_packaged(tmp_path):
+    """The serving process imports MuJoCo without its scan of every package's entry points
+    (its bundled plugins load as ever); a scene from a file runs the scan before it is loaded,
+    a packaged one does not need it."""
+    info = tmp_path / "site" / "fakeplugin-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fakeplugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[mujoco.plugins]\nfake = fakeplugin:register\n")
+    (tmp_path / "site" / "fakeplugin.py").write_text(
+        "CALLS = []\ndef register():\n    CALLS.append(1)\n")
+    scene = tmp_path / "my_scene.xml"
+    from franka_sim.physics.scene import default_scene_path
+
+    scene.write_text(default_scene_path().read_text())
+    out = _run(f"""
+        import sys
+        sys.path.insert(0, {str(tmp_path / "site")!r})
+        from franka_sim.footprint import import_mujoco_without_plugin_scan
+        import_mujoco_without_plugin_scan()
+        import mujoco, fakeplugin
+        print("metadata" if "importlib.metadata" in sys.modules else "no metadata",
+              len(mujoco.PLUGIN_HANDLES) > 0, len(fakeplugin.CALLS))
+        from franka_sim.config import Config
+        from franka_sim.server.sim import FrankaSim
+        FrankaSim(Config(host="127.0.0.1"))
+        print(len(fakeplugin.CALLS))
+        FrankaSim(Config(host="127.0.0.1", scene={str(scene)!r}))
+        FrankaSim(Config(host="127.0.0.1", scene={str(scene)!r}))
+        print(len(fakeplugin.CALLS))
+    """)
+    assert out.split("\n")[:3] == ["no metadata True 0", "0", "1"]
+    plain = _run(f"""
+        import sys
+        sys.path.insert(0, {str(tmp_path / "site")!r})
+        import mujoco, fakeplugin
+        print(len(fakeplugin.CALLS))
+    """)
+    assert plain.strip() == "1"  # what `import mujoco` alone does, for comparison

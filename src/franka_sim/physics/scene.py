@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.footprint import load_plugin_entry_points
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
 from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.mobile_base import add_mobile_base
@@ -110,6 +111,8 @@ def build_world_spec(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
         add_arm(spec, arm.desc, prefix=arm.prefix, base=base, armature=arm.armature,
                 tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent, look=arm.look)
     if scene_xml is not None:
+        if not _packaged(scene_xml):
+            load_plugin_entry_points()  # (the serving process left the scan out of its import)
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)
         else:
@@ -146,6 +149,11 @@ def default_scene_path() -> Path:
     return packaged_scenes()["default"]
 
 
+def _packaged(scene: str | os.PathLike) -> bool:
+    """A packaged scene's file (which uses no plugin), not a user's MJCF text or file."""
+    return not isinstance(scene, str) and Path(scene) in packaged_scenes().values()
+
+
 def resolve_scene(scene: str | os.PathLike) -> Path:
     """A packaged scene's name or an MJCF file's path, as a path (SceneError: neither)."""
     packaged = packaged_scenes()
@@ -161,6 +169,8 @@ def resolve_scene(scene: str | os.PathLike) -> Path:
 def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, float]]:
     """Where the scene at `path` stands its arms: (x, y, z, yaw) of each `arm/NAME` site of
     its worldbody, by NAME (the yaw of the site's orientation about the vertical)."""
+    if not _packaged(path):
+        load_plugin_entry_points()
     try:
         spec = mujoco.MjSpec.from_file(os.fspath(path))
     except ValueError as exc:
