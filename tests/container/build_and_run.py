@@ -95,12 +95,15 @@ def python_of(docker: Docker, image: str) -> tuple[int, int]:
     return int(major), int(minor)
 
 
-def kernels_compiled(docker: Docker, image: str) -> bool:
-    """Whether the image runs the cycle's compiled kernels (built by its build stage's zig)."""
+def compiled(docker: Docker, image: str) -> dict:
+    """Whether the image runs the cycle's compiled kernels (built by its build stage's zig), and
+    whether franka_sim's bytecode is in it (pip compiled it: a start compiles nothing)."""
     done = docker.run("kernels", "run", "--rm", "--pull", "never", "--network", "none",
                       "--entrypoint", "python", image, "-c",
-                      "import franka_sim.kernels as k; print(k.COMPILED)")
-    return done.stdout.strip() == "True"
+                      "import importlib.util, json, os, franka_sim.kernels as k, franka_sim.launch"
+                      " as l; print(json.dumps({'kernels_compiled': k.COMPILED, 'bytecode': "
+                      "os.path.exists(importlib.util.cache_from_source(l.__file__))}))")
+    return json.loads(done.stdout)
 
 
 def build(docker: Docker, context: Path, base: str, image: str, logs: Path) -> None:
@@ -245,7 +248,7 @@ def _steps(args, cleanup: ExitStack) -> dict:
         build(docker, context, base, args.image, logs)
         took("build")
     report["image_mb"] = round(int(docker.inspect("build", args.image, "{{.Size}}")) / 1e6)
-    report["kernels_compiled"] = kernels_compiled(docker, args.image)
+    report.update(compiled(docker, args.image))
     name = f"franka-sim-selftest-{int(time.time() * 1000) % 10**8}"
     cleanup.callback(docker.run, "stop", "rm", "--force", name, check=False)
     if args.bridge:

@@ -75,6 +75,7 @@ def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built,
     assert 20_000 < built["library_aarch64_bytes"] < 500_000
     assert built["prebuilt_libraries"] == 4 and built["prebuilt_bytes"] < 1_000_000
     assert built["kernels_compiled"]  # the build stage's zig compiled them (hatch_build.py)
+    assert built["bytecode"]  # (the runtime sets PYTHONDONTWRITEBYTECODE: pip compiled it)
     assert built["stop_s"] < 3.0  # docker stop's kill timeout is 10 s
     assert not daemon.run("stop", "ps", "--all", "--quiet").stdout.strip()  # nothing left
 
