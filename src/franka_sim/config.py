@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 
+from franka_sim.physics.engine_choice import ENGINES
+
 # The pose libfranka's examples move to before they start ("ready"): a comfortable,
 # non-singular configuration well inside every joint range.
 READY_POSE = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4)
@@ -49,11 +51,8 @@ class ClockMode(str, Enum):
     lockstep = "lockstep"
 
 
-class PhysicsEngine(str, Enum):
-    """The physics engines (physics/engine_choice.py ENGINES; docs/engines.md)."""
-
-    mujoco = "mujoco"
-    genesis = "genesis"
+# The physics engines, as the CLI's choices: physics/engine_choice.py's ENGINES (docs/engines.md).
+PhysicsEngine = Enum("PhysicsEngine", [(name, name) for name in ENGINES], type=str)
 
 
 class ToolName(str, Enum):
@@ -72,7 +71,7 @@ class Config:
     robot: str = "fr3"  # every arm's kind (ROBOTS) but those whose ArmSpec names their own
     strict_versions: bool = False  # a client must speak the protocols its robot's kind does
     clock: ClockMode = ClockMode.realtime
-    physics: str = "mujoco"  # the engine (PhysicsEngine; docs/engines.md)
+    physics: str = ENGINES[0]  # the engine, one of ENGINES (docs/engines.md)
     enforce_comm_constraints: bool = False  # abort after 20 lost cycles, as the robot does
     enforce_motion_limits: bool = False  # abort on a limit violation, as the robot does
     joint_discontinuity_scale: float = 1.0  # scales the joint envelope the IK output is held to
