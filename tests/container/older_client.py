@@ -20,8 +20,10 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))  # tests/: support/
 
 from docker_cli import StepFailed  # noqa: E402
+from support.elf import elf_machine  # noqa: E402
 from franka_sim.blocking_io import recv_exact  # noqa: E402
 
 ROBOT_PORT = 1337
@@ -29,7 +31,6 @@ VERSION = 5
 CONNECT, LOAD_MODEL_LIBRARY = 0, 13  # v5's command ids
 ARCHITECTURES = {"x86_64": 0, "aarch64": 3}  # libfranka's Architecture: kX64, kARM64
 LINUX = 0  # System::kLinux
-ELF_MACHINES = {0x3E: "x86_64", 0xB7: "aarch64"}
 
 # Run in the image: its prebuilt libraries, one per packaged robot and target, and no compiler.
 IN_IMAGE = """
@@ -75,14 +76,6 @@ def _load_model_library(host: str, architecture: str) -> tuple[int, bytes]:
                                         f"id {command_id}, {size} bytes")
         body = recv_exact(tcp, size - 12)
     return body[0], body[1:]
-
-
-def elf_machine(library: bytes) -> str | None:
-    """The architecture of a 64-bit little-endian ELF shared object; None if it is none."""
-    if library[:6] != b"\x7fELF\x02\x01" or len(library) < 20:
-        return None
-    e_type, e_machine = struct.unpack_from("<HH", library, 16)
-    return ELF_MACHINES.get(e_machine, hex(e_machine)) if e_type == 3 else None  # ET_DYN
 
 
 def model_libraries(host: str, docker=None, image: str | None = None) -> dict:

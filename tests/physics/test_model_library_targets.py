@@ -9,7 +9,6 @@ from __future__ import annotations
 import ctypes
 import logging
 import shutil
-import struct
 import sys
 
 import numpy as np
@@ -23,10 +22,10 @@ from franka_sim.model_library import __main__ as prebuild_cli
 from franka_sim.model_library.build import (PREBUILT_VARIABLE, cache_dir, library_name,
                                             system_compiler, this_machine, zig_compiler)
 from franka_sim.model_library.source import c_source
+from support.elf import elf_machine
 
 X64, ARM64 = ("kX64", "kLinux"), ("kARM64", "kLinux")
 OTHER = ARM64 if this_machine() != ARM64 else X64  # a machine other than this one
-ELF_MACHINES = {0x3E: "x86_64", 0xB7: "aarch64"}
 
 
 def _request(target):
@@ -150,14 +149,6 @@ def test_the_prebuild_command_refuses_what_it_cannot_build(tmp_path, capsys):
     assert not list(tmp_path.glob("*.so"))
 
 
-def _elf_machine(data: bytes) -> str:
-    """The architecture of a little-endian 64-bit ELF shared object, from its header."""
-    assert data[:4] == b"\x7fELF" and data[4] == 2 and data[5] == 1  # ELF64, little-endian
-    e_type, e_machine = struct.unpack_from("<HH", data, 16)
-    assert e_type == 3  # ET_DYN: a shared object
-    return ELF_MACHINES.get(e_machine, hex(e_machine))
-
-
 needs_zig = pytest.mark.skipif(
     zig_compiler() is None,
     reason="the ziglang package is not installed (the test extra has it): no cross-compiler")
@@ -176,8 +167,8 @@ def test_zig_builds_the_prebuilt_directory_that_serves_an_aarch64_client(descrip
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.setattr("franka_sim.model_library.build.zig_compiler", lambda: None)
     library = ModelLibrary(description)
-    assert _elf_machine(library.for_client(_request(ARM64))) == "aarch64"
-    assert _elf_machine(library.for_client(_request(X64))) == "x86_64"
+    assert elf_machine(library.for_client(_request(ARM64))) == "aarch64"
+    assert elf_machine(library.for_client(_request(X64))) == "x86_64"
     assert not cache_dir().exists()  # nothing built: both prebuilt
     if this_machine() in (X64, ARM64):  # this machine's loads: the description's flange pose
         path = tmp_path / "here.so"
@@ -198,6 +189,6 @@ def test_without_a_c_compiler_zig_builds_for_the_machine_asked_for(description, 
     monkeypatch.setenv("PATH", str(tmp_path))  # no cc, no gcc
     monkeypatch.delenv("CC", raising=False)
     data = ModelLibrary(description).for_client(_request(ARM64))
-    assert _elf_machine(data) == "aarch64"
+    assert elf_machine(data) == "aarch64"
     kept = cache_dir() / library_name(c_source(description), ARM64)
     assert kept.read_bytes() == data
