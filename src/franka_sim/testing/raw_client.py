@@ -21,7 +21,11 @@ SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux value; Python la
 
 class RawClient:
     """Connected on construction; with `first_state` it also waits for the first state, which
-    gives `state` and `server` (where commands go)."""
+    gives `state` and `server` (where commands go). `timeout` bounds each read of a state; the
+    first state is waited for as long as a loaded machine may take to send it
+    (`FIRST_STATE_TIMEOUT`: a server still starting its clock)."""
+
+    FIRST_STATE_TIMEOUT = 10.0  # s
 
     def __init__(self, host: str, timeout: float = 2.0, first_state: bool = True,
                  receive_buffer: int | None = None) -> None:
@@ -43,7 +47,9 @@ class RawClient:
         self.server: tuple[str, int] | None = None
         self._next_id = 1
         if first_state:
+            self.udp.settimeout(max(timeout, self.FIRST_STATE_TIMEOUT))
             data, self.server = self.udp.recvfrom(2048)
+            self.udp.settimeout(timeout)
             self.state = decode_state(data)
 
     def _recv_exact(self, n: int) -> bytes:
