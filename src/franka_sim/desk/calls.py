@@ -72,10 +72,9 @@ class Answer:
 
 
 Handler = Callable[[Call], Answer]
-# A call that only acts, with the caller's control token, and answers an empty 200:
-# (method, path, effect(token), body), `body` "form" when the call carries a form the action
-# does not read (a malformed one is still refused), None when it is not read.
-Action = tuple[str, str, Callable[[str | None], object], str | None]
+# A call that only acts, with the caller's control token, and answers an empty 200: a POST of
+# (path, effect(token)).
+Action = tuple[str, Callable[[str | None], object]]
 
 
 class Routes:
@@ -90,9 +89,11 @@ class Routes:
             return handler
         return register
 
-    def actions(self, rows: Iterable[Action]) -> None:
-        for method, path, effect, body in rows:
-            self.table[(method, path)] = _acting(effect, body)
+    def actions(self, rows: Iterable[Action], *, form: bool = False) -> None:
+        """POSTs that only act; with `form` each carries a form the action does not read (a
+        malformed one is still refused), else a body that is not read."""
+        for path, effect in rows:
+            self.table[("POST", path)] = _acting(effect, form)
 
     def find(self, method: str, path: str) -> Handler | None:
         return self.table.get((method, path))
@@ -104,9 +105,9 @@ class Routes:
         return sorted({f"{method} {path}" for method, path in self.table})
 
 
-def _acting(effect: Callable[[str | None], object], body: str | None) -> Handler:
+def _acting(effect: Callable[[str | None], object], form: bool) -> Handler:
     def handler(call: Call) -> Answer:
-        if body == "form":
+        if form:
             call.form()
         effect(call.control_token)
         return Answer()

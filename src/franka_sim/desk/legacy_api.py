@@ -88,22 +88,20 @@ def routes(desk: Desk, users: Users) -> Routes:
 
     api.actions([
         # System 4's brake actions: their multipart body ("force") changes nothing here.
-        ("POST", "/desk/api/robot/open-brakes", lambda token: desk.set_brakes(token, UNLOCKED),
-         None),
-        ("POST", "/desk/api/robot/close-brakes", lambda token: desk.set_brakes(token, LOCKED),
-         None),
-        ("POST", "/desk/api/gripper/homing", desk.home_gripper, None),
-        ("POST", "/desk/api/joints/unlock", lambda token: desk.set_brakes(token, UNLOCKED),
-         "form"),
-        ("POST", "/desk/api/joints/lock", lambda token: desk.set_brakes(token, LOCKED), "form"),
-        ("POST", "/desk/api/operating-mode/programming",
-         lambda token: desk.set_operating_mode(token, PROGRAMMING), "form"),
-        ("POST", "/desk/api/operating-mode/execution",
-         lambda token: desk.set_operating_mode(token, EXECUTION), "form"),
+        ("/desk/api/robot/open-brakes", lambda token: desk.set_brakes(token, UNLOCKED)),
+        ("/desk/api/robot/close-brakes", lambda token: desk.set_brakes(token, LOCKED)),
+        ("/desk/api/gripper/homing", desk.home_gripper),
         # No recoverable safety error is simulated: nothing left to acknowledge.
-        ("POST", "/admin/api/safety/recoverable-safety-errors/acknowledge", desk.check_token,
-         None),
+        ("/admin/api/safety/recoverable-safety-errors/acknowledge", desk.check_token),
     ])
+    api.actions([
+        ("/desk/api/joints/unlock", lambda token: desk.set_brakes(token, UNLOCKED)),
+        ("/desk/api/joints/lock", lambda token: desk.set_brakes(token, LOCKED)),
+        ("/desk/api/operating-mode/programming",
+         lambda token: desk.set_operating_mode(token, PROGRAMMING)),
+        ("/desk/api/operating-mode/execution",
+         lambda token: desk.set_operating_mode(token, EXECUTION)),
+    ], form=True)
     return api
 
 

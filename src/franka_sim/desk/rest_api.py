@@ -90,16 +90,14 @@ def routes(desk: Desk) -> Routes:
                           ("NoRecoveryPending",))
 
     api.actions([
-        ("POST", "/api/system/control-token:release", desk.release, None),
-        ("POST", "/api/fci:activate", lambda token: desk.set_fci(token, True), None),
-        ("POST", "/api/fci:deactivate", lambda token: desk.set_fci(token, False), None),
-        ("POST", "/api/arm/joints:unlock", lambda token: desk.set_brakes(token, UNLOCKED), None),
-        ("POST", "/api/arm/joints:lock", lambda token: desk.set_brakes(token, LOCKED), None),
-        ("POST", "/api/end-effector/power:on",
-         lambda token: desk.set_end_effector_power(token, True), None),
-        ("POST", "/api/end-effector/power:off",
-         lambda token: desk.set_end_effector_power(token, False), None),
-        ("POST", "/api/safety/self-tests:execute", desk.run_self_tests, None),
+        ("/api/system/control-token:release", desk.release),
+        ("/api/fci:activate", lambda token: desk.set_fci(token, True)),
+        ("/api/fci:deactivate", lambda token: desk.set_fci(token, False)),
+        ("/api/arm/joints:unlock", lambda token: desk.set_brakes(token, UNLOCKED)),
+        ("/api/arm/joints:lock", lambda token: desk.set_brakes(token, LOCKED)),
+        ("/api/end-effector/power:on", lambda token: desk.set_end_effector_power(token, True)),
+        ("/api/end-effector/power:off", lambda token: desk.set_end_effector_power(token, False)),
+        ("/api/safety/self-tests:execute", desk.run_self_tests),
     ])
     return api
 
