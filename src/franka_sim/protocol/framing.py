@@ -87,11 +87,12 @@ class FrameReader:
             del buffer[:start]
         return frames
 
-    def take_buffered(self) -> bytes:
-        """The bytes of a message begun but not complete, handed over (none are left)."""
-        rest = bytes(self._buffer)
-        self._buffer.clear()
-        return rest
+    def retable(self, header_struct: Struct, request_sizes: Mapping[int, int]) -> None:
+        """Cut what follows by another version's header and sizes (an older client's, from its
+        Connect on); bytes already buffered are cut by them too."""
+        self._header = header_struct
+        self._header_size = header_struct.sizeof()
+        self._sizes = {int(cmd): size for cmd, size in request_sizes.items()}
 
     def _check(self, command: int, size: int) -> None:
         if size < self._header_size:

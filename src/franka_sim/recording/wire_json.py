@@ -80,7 +80,7 @@ class RequestDecoder:
         make = DIALECTS.get(version)
         if make is not None and self.dialect is None:
             self.dialect = dialect = make()
-            self._reader = FrameReader(dialect.header, dialect.request_sizes, 64 * 1024)
+            self._reader.retable(dialect.header, dialect.request_sizes)
             self._structs = dialect.request_structs
 
 

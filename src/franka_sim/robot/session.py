@@ -110,26 +110,31 @@ class Session:
 
     def feed(self, data: bytes) -> list[bytes]:
         """Feed received bytes; return the replies to send, in order."""
-        if self.closed:
-            return []
         replies: list[bytes] = []
-        while True:
-            reader, connecting = self._reader, self.handshake is None
-            try:
-                # Until the Connect, one message at a time: the client's version decides
-                # whose sizes cut the rest.
-                frames = reader.feed(data, most=1 if connecting else None)
-            except ProtocolError as exc:
-                self.closed = True
-                raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
-            for frame in frames:
-                self.requests += 1
-                replies.extend(self._dispatch(frame))
-                if self.closed:
-                    return replies
-            if not (connecting and frames):
-                return replies
-            data = reader.take_buffered() if self._reader is not reader else b""
+        if self.handshake is None and not self.closed:
+            # Until the Connect, one message at a time: the client's version decides whose
+            # header and sizes cut the rest (_connect retables the reader).
+            replies = self._handle(self._frames(data, most=1))
+            data = b""  # (the rest is buffered)
+        if self.handshake is None or self.closed:
+            return replies
+        return replies + self._handle(self._frames(data))
+
+    def _frames(self, data: bytes, most: int | None = None) -> list:
+        try:
+            return self._reader.feed(data, most=most)
+        except ProtocolError as exc:
+            self.closed = True
+            raise SessionError(f"malformed {self.service.name} message: {exc}") from exc
+
+    def _handle(self, frames: list) -> list[bytes]:
+        replies: list[bytes] = []
+        for frame in frames:
+            self.requests += 1
+            replies.extend(self._dispatch(frame))
+            if self.closed:
+                break
+        return replies
 
     def _dispatch(self, frame) -> list[bytes]:
         service, dialect = self.service, self.dialect
@@ -174,7 +179,7 @@ class Session:
         state = command = None
         if make_dialect is not None:
             self.dialect = dialect = make_dialect()
-            self._reader = FrameReader(dialect.header, dialect.request_sizes, service.max_size)
+            self._reader.retable(dialect.header, dialect.request_sizes)
             state, command = dialect.state, dialect.command
             log.info("client speaks %s protocol version %d: served as such", service.name,
                      version)
