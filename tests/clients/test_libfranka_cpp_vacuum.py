@@ -30,7 +30,7 @@ def ran(request):
     if not example.exists():
         pytest.skip(f"libfranka {build.version}: no vacuum_object (make -C {build.path} "
                     "vacuum_object)")
-    with running_sim("--clock", "lockstep", *cpp.SERVE_ARGS["vacuum_object"]) as sim:
+    with running_sim("--clock", "lockstep", *cpp.VACUUM_OBJECT.serve) as sim:
         done = cpp.run(build, "vacuum_object", sim.host)  # after the pre-move (cpp.pump_pose)
         control = Control(sim.host)
         after = control.state()["vacuum_gripper"], control.pose("cube")["position"]

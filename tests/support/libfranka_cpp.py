@@ -16,6 +16,7 @@ import signal
 import subprocess
 import time
 from dataclasses import dataclass
+from typing import Callable
 from pathlib import Path
 
 import numpy as np
@@ -74,33 +75,6 @@ def cannot_run() -> str | None:
     return None
 
 
-@dataclass(frozen=True)
-class Example:
-    """One example: its arguments after the host, and whether it moves the arm."""
-
-    name: str
-    args: tuple[str, ...] = ()
-    moves: bool = True
-    realtime: bool = True  # it opens a robot connection (which wants /sys/kernel/realtime)
-
-
-EXAMPLES = {e.name: e for e in (
-    Example("communication_test"),
-    Example("echo_robot_state", moves=False),
-    Example("generate_joint_position_motion"),
-    Example("generate_cartesian_pose_motion"),
-    Example("cartesian_impedance_control"),
-    Example("grasp_object", ("1", "0.05"), moves=False),  # homing, the cube's width
-)}
-
-
-# The pump's example, run with the vacuum gripper on the flange (`--tool vacuum`): after the
-# pre-move `pump_pose` it vacuums the cube, finds it held 3 s later and drops it off. It opens
-# no robot connection.
-VACUUM_OBJECT = Example("vacuum_object", moves=False, realtime=False)
-SERVE_ARGS = {"vacuum_object": ("--tool", "vacuum")}  # what an example's simulator serves
-
-
 def grasp_pose() -> np.ndarray:
     """Joint angles with the open Hand around the default scene's cube."""
     import pick_and_place as pp
@@ -113,7 +87,36 @@ def pump_pose() -> np.ndarray:
     return pp.solve_ik(pp.CUBE + [0, 0, 0.024], pp.READY)
 
 
-_PRE_MOVES = {"grasp_object": grasp_pose, "vacuum_object": pump_pose}
+@dataclass(frozen=True)
+class Example:
+    """One example: its arguments after the host, whether it moves the arm, what its simulator
+    serves beyond the defaults, and the joint angles the arm is put at before it runs."""
+
+    name: str
+    args: tuple[str, ...] = ()
+    moves: bool = True
+    realtime: bool = True  # it opens a robot connection (which wants /sys/kernel/realtime)
+    serve: tuple[str, ...] = ()
+    pre_move: Callable[[], np.ndarray] | None = None
+
+
+EXAMPLES = {e.name: e for e in (
+    Example("communication_test"),
+    Example("echo_robot_state", moves=False),
+    Example("generate_joint_position_motion"),
+    Example("generate_cartesian_pose_motion"),
+    Example("cartesian_impedance_control"),
+    # homing, the cube's width
+    Example("grasp_object", ("1", "0.05"), moves=False, pre_move=grasp_pose),
+)}
+
+
+# The pump's example, in the builds that have it, run with the vacuum gripper on the flange:
+# after the pre-move it vacuums the cube, finds it held 3 s later and drops it off. It opens no
+# robot connection.
+VACUUM_OBJECT = Example("vacuum_object", moves=False, realtime=False, serve=("--tool", "vacuum"),
+                        pre_move=pump_pose)
+KNOWN = {**EXAMPLES, VACUUM_OBJECT.name: VACUUM_OBJECT}
 
 
 @dataclass
@@ -128,9 +131,9 @@ def run(build: Build, name: str, host: str, cycles: int | None = None,
     """Run one example against the simulator at `host` (Enter typed for its prompt). With
     `cycles`, it is stopped (SIGTERM) once the robot has run that many cycles since it was
     first seen moving."""
-    example, control = EXAMPLES.get(name, VACUUM_OBJECT), Control(host)
-    if name in _PRE_MOVES:
-        control.reset(q=_PRE_MOVES[name]().tolist())
+    example, control = KNOWN[name], Control(host)
+    if example.pre_move is not None:
+        control.reset(q=example.pre_move().tolist())
     command = [str(build.example(name)), host, *example.args]
     proc = subprocess.Popen(as_realtime(command) if example.realtime else command,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,

@@ -41,7 +41,7 @@ def record(build: cpp.Build, name: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.unlink(missing_ok=True)
     with running_sim("--clock", "lockstep", "--scene", SCENE, "--record", str(path),
-                     *cpp.SERVE_ARGS.get(name, ())) as sim:
+                     *cpp.KNOWN[name].serve) as sim:
         run = cpp.run(build, name, sim.host, cycles=CUTS.get(name))
     if run.returncode != 0 and not run.stopped:
         raise SystemExit(f"{name} of libfranka {build.version} failed:\n{run.stdout}")
