@@ -1,8 +1,8 @@
 """Each physics engine side by side (docs/engines.md): what a client sees and what it costs.
 
 Per engine (`--physics mujoco`, and `genesis` where its extra is installed), on a server of its
-own: spawn → "serving on"; a pylibfranka joint-position motion of `--seconds` simulated seconds
-in lockstep (simulated s per wall s, the server's CPU per simulated s) and the same motion in
+own: spawn → "serving on"; control_loop.py's pylibfranka joint-position motion of `--seconds`
+simulated seconds in lockstep (simulated s per wall s, the server's CPU per simulated s) and the same motion in
 realtime (robot s per wall s: an engine slower than real time slows the robot's clock; the
 success rate the robot reports);
 the server's RSS (and its anonymous part) after them. Then what the genesis extra adds to an
@@ -14,47 +14,16 @@ install: its packages' size on disk, and the import and initialisation time of G
 from __future__ import annotations
 
 import argparse
-import gc
-import math
 import subprocess
 import sys
-import time
 from importlib import metadata
 
-import numpy as np
-
 from _common import cpu_seconds, memory_mib
+from control_loop import control
 from franka_sim.testing import ServerProcess
 
 HOST = "127.0.0.201"
 START_TIMEOUT = 300.0  # s: Genesis compiles its kernels at a machine's first start
-
-
-def motion(host: str, seconds: float) -> tuple[float, float]:
-    """(wall s, success rate) of a cosine joint motion of `seconds` simulated seconds (its
-    robot time: the states' own `time`)."""
-    import pylibfranka
-
-    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
-    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
-    state, _ = control.readOnce()
-    q0, t, rates = np.array(state.q_d), 0.0, []
-    offset = np.array([0.3, 0.2, -0.2, 0.3, 0.2, -0.2, 0.3])
-    start = time.perf_counter()
-    while True:
-        state, period = control.readOnce()
-        rates.append(state.control_command_success_rate)
-        t += period.to_sec()
-        s = 0.5 * (1 - math.cos(2 * math.pi * min(t / seconds, 1.0)))  # there and back
-        command = pylibfranka.JointPositions((q0 + s * offset).tolist())
-        command.motion_finished = t >= seconds
-        control.writeOnce(command)
-        if command.motion_finished:
-            break
-    wall = time.perf_counter() - start
-    del control, robot
-    gc.collect()
-    return wall, float(np.mean(rates[100:])) if len(rates) > 100 else float("nan")
 
 
 def engine_figures(engine: str, seconds: float) -> dict:
@@ -66,14 +35,14 @@ def engine_figures(engine: str, seconds: float) -> dict:
             if clock == "lockstep":
                 figures["start s"] = server.serving_after
             cpu0 = cpu_seconds(server.pid)
-            wall, success = motion(HOST, seconds)
+            run = control(HOST, seconds, "joint")  # control_loop.py's joint motion
             cpu = cpu_seconds(server.pid) - cpu0
             if clock == "lockstep":
-                figures["lockstep sim s / wall s"] = seconds / wall
-                figures["server CPU s / sim s"] = cpu / seconds
+                figures["lockstep sim s / wall s"] = run["sim"] / run["wall"]
+                figures["server CPU s / sim s"] = cpu / run["sim"]
             else:
-                figures["realtime robot s / wall s"] = seconds / wall
-                figures["realtime success rate"] = success
+                figures["realtime robot s / wall s"] = run["sim"] / run["wall"]
+                figures["realtime success rate"] = run["mean_rate"]
                 figures["RSS MiB (anonymous)"] = memory_mib(server.pid)
         finally:
             server.stop()

@@ -17,7 +17,7 @@ alive() {  # a process that has exited but was not reaped yet (a zombie) is not
 pids=()
 while read -r pid host; do
     # Only a process that still is the server (a pid may have been reused since).
-    if ps -p "$pid" -o args= 2>/dev/null | grep -q franka_sim; then
+    if ps -p "$pid" -o args= 2>/dev/null | grep -Eq "franka[-_]sim"; then
         kill -TERM "$pid"
         pids+=("$pid")
         echo "stopping franka-sim on $host (pid $pid)"

@@ -1,6 +1,6 @@
 """What the serving process leaves out of memory: libraries a robot server never calls.
 
-Only `franka_sim.serving` (the process `franka-sim serve` becomes) applies these, before it
+Only `franka_sim.serving` (the process that serves `franka-sim serve`) applies these, before it
 imports anything else; a program embedding `FrankaSim` keeps its own imports untouched.
 
 - MuJoCo's renderer (OpenGL bindings, glfw, cffi): `import mujoco` goes on without it when

@@ -75,3 +75,18 @@ def exp_rotation(w: np.ndarray) -> np.ndarray:
 def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
     """[translation; rotation vector] taking T to T_target, in the base frame."""
     return np.concatenate([T_target[:3, 3] - T[:3, 3], rotation_vector(T_target[:3, :3] @ T[:3, :3].T)])
+
+
+def pose_in_base(pose: np.ndarray, base: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """A world-frame 4×4 pose expressed in an arm's base frame, in place (and returned); `base`
+    is the base's (R, p) in the world."""
+    R, p = base
+    pose[:3, :3] = R.T @ pose[:3, :3]
+    pose[:3, 3] = R.T @ (pose[:3, 3] - p)
+    return pose
+
+
+def jacobian_in_base(J: np.ndarray, base: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """A world-frame 6×n Jacobian (linear rows, then angular) in an arm's base frame."""
+    R = base[0]
+    return np.vstack([R.T @ J[:3], R.T @ J[3:]])

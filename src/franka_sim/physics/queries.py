@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.readings import FlangeBlock
+from franka_sim.spatial import jacobian_in_base, pose_in_base
 
 
 class Queries:
@@ -61,8 +62,7 @@ class Queries:
         mujoco.mj_jacSite(self._model, s, jacp, jacr, self._site)
         J = np.vstack([jacp[:, self._vs], jacr[:, self._vs]])
         if self._base is not None:
-            R = self._base[0]
-            J = np.vstack([R.T @ J[:3], R.T @ J[3:]])
+            J = jacobian_in_base(J, self._base)
         return J
 
     def flange_pose(self, q) -> np.ndarray:
@@ -72,9 +72,7 @@ class Queries:
         pose[:3, :3] = s.site_xmat[self._site].reshape(3, 3)
         pose[:3, 3] = s.site_xpos[self._site]
         if self._base is not None:
-            R, p = self._base
-            pose[:3, :3] = R.T @ pose[:3, :3]
-            pose[:3, 3] = R.T @ (pose[:3, 3] - p)
+            pose_in_base(pose, self._base)
         return pose
 
     def flange_pose_and_jacobian(self, q) -> tuple[np.ndarray, np.ndarray]:

@@ -30,6 +30,7 @@ from franka_sim.physics.fingers import (MAX_FINGER_FORCE, OPEN_WIDTH, FingerComm
 from franka_sim.physics.friction import JointFriction
 from franka_sim.physics.readings import JOINT_STIFFNESS
 from franka_sim.physics.scene import GRAVITY, ArmPlacement
+from franka_sim.spatial import jacobian_in_base, pose_in_base
 
 
 class GenesisFingers(Fingers):
@@ -154,11 +155,8 @@ class GenesisArm:
         self._previous = (tau_J, theta)
         O_T_F, J_F = flange
         if self._base is not None:
-            R, p = self._base
-            O_T_F = O_T_F.copy()
-            O_T_F[:3, :3] = R.T @ O_T_F[:3, :3]
-            O_T_F[:3, 3] = R.T @ (O_T_F[:3, 3] - p)
-            J_F = np.vstack([R.T @ J_F[:3], R.T @ J_F[3:]])
+            O_T_F = pose_in_base(O_T_F.copy(), self._base)
+            J_F = jacobian_in_base(J_F, self._base)
         top, bottom = self._accelerometers()
         return Measured(
             q=self._q.copy(), dq=self._dq.copy(), ddq=ddq, tau_J=tau_J, dtau_J=dtau_J,

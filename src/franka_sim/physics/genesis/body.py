@@ -7,6 +7,7 @@ import numpy as np
 from franka_sim.description import kinematics
 from franka_sim.physics.backend import WorldArmBody
 from franka_sim.physics.genesis.world import GenesisWorld
+from franka_sim.spatial import jacobian_in_base, pose_in_base
 
 
 class GenesisArmBody(WorldArmBody):
@@ -56,10 +57,8 @@ class GenesisArmBody(WorldArmBody):
     def _genesis_flange(self, q) -> tuple[np.ndarray, np.ndarray]:
         pose, J = self._dynamics.flange_pose_and_jacobian(np.asarray(q, float), self._tool_q())
         if self._base is not None:
-            R, p = self._base
-            pose[:3, :3] = R.T @ pose[:3, :3]
-            pose[:3, 3] = R.T @ (pose[:3, 3] - p)
-            J = np.vstack([R.T @ J[:3], R.T @ J[3:]])
+            pose_in_base(pose, self._base)
+            J = jacobian_in_base(J, self._base)
         return pose, J
 
     def jacobian_flange(self, q) -> np.ndarray:
