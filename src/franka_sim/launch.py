@@ -56,7 +56,8 @@ def _serve_overlapped(argv: list[str]) -> None:
     handed = _read_all(read_end)
     _, status = os.waitpid(child, 0)
     if not handed:  # help, or a flag refused: the CLI said so and how it exited
-        sys.exit(os.waitstatus_to_exitcode(status))
+        code = os.waitstatus_to_exitcode(status)
+        sys.exit(128 - code if code < 0 else code)  # (killed by a signal: as a shell says it)
     message = json.loads(handed)
     blob, args = message["blob"], json.loads(message["blob"])
     for name, value in message["env"].items():

@@ -94,6 +94,20 @@ def test_sigterm_while_the_flags_are_checked_stops_both_processes(tmp_path):
     assert any("stopped (SIGTERM) while starting" in line for line in server.sync())
 
 
+def test_a_cli_killed_while_checking_the_flags_exits_as_a_shell_says_it(tmp_path):
+    log = tmp_path / "imports"
+    host = fresh_loopback_address()
+    server = ServerProcess(host, command=_hooked(log, stall_cli=True) + ["--host", host])
+    deadline = time.monotonic() + 60
+    while not any(name == "typer" for _, name in _imports(log)):
+        assert time.monotonic() < deadline, server.lines
+        time.sleep(0.01)
+    cli = next(pid for pid, name in _imports(log) if name == "typer")
+    os.kill(cli, signal.SIGKILL)
+    assert server.proc.wait(timeout=60) == 128 + signal.SIGKILL
+    assert not any("serving on" in line for line in server.sync())
+
+
 def test_a_guess_the_flags_contradict_starts_afresh_with_what_it_left_out(tmp_path):
     """The imports left OpenSSL out, but the Desk needs TLS: the process execs itself (same
     pid) into a server that has it."""
