@@ -1,7 +1,7 @@
 """`franka-sim`'s entry point. `serve` runs its two halves at once, on two cores.
 
 Checking the flags needs typer (click, rich: ~50 ms here); serving needs numpy, MuJoCo, uvloop
-and franka-sim's own modules (~200 ms). Neither needs the other until the end, so `serve`
+and franka-sim's own modules (~120 ms). Neither needs the other until the end, so `serve`
 forks before either: the child is the CLI (it parses and checks the flags, prints help or the
 error, and hands the parsed flags back through a pipe), while this process, the one the caller
 started (its pid, its signals, its exit code), imports what serving needs meanwhile and then
