@@ -78,6 +78,23 @@ def clock_for(harness: Harness, send, **kwargs) -> Clock:
                  has_client=lambda: True, **kwargs)
 
 
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_a_wake_before_the_first_tick_starts_the_clock(lockstep):
+    """A client that connects before the cycle thread ran its first (due) tick wakes it first:
+    that tick must start the clock, not return the deadline it does not have yet (which left
+    the clock stopped and the client's Connect reply, which waits for a state, unsent)."""
+    left: list[float] = []
+
+    def send(states) -> float:
+        left.append(len(left) * PERIOD)
+        return left[-1]
+
+    clock = clock_for(Harness(), send, lockstep=lockstep)
+    deadline = clock.tick(False, False, False)
+    assert left and deadline is not None
+    assert clock.tick(False, False, False) == deadline  # then a wake is only a wake
+
+
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
     """A thread held up inside a send (preempted, a busy host) sends that state late; the next
     state must still leave at least min_spacing after it, not min_spacing after the late
