@@ -14,7 +14,7 @@ import pytest
 from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import MoveStatus
 from franka_sim.robot.world_cycle import WorldCycle
-from franka_sim.server.clock import Clock, ClockWatcher
+from franka_sim.server.clock import PAUSE_AFTER, Clock, ClockWatcher
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW, PERIOD, Pacer
 
@@ -93,6 +93,32 @@ def test_a_wake_before_the_first_tick_starts_the_clock(lockstep):
     deadline = clock.tick(False, False, False)
     assert left and deadline is not None
     assert clock.tick(False, False, False) == deadline  # then a wake is only a wake
+
+
+def test_a_paused_clock_starts_again_when_a_client_wakes_it():
+    """Nobody connected for PAUSE_AFTER cycles: the clock pauses (no deadline); a client's
+    arrival wakes it, and that tick releases a state again."""
+    left: list[float] = []
+    client = [False]
+
+    def send(states) -> float:
+        left.append(len(left) * PERIOD)
+        return left[-1]
+
+    harness = Harness()
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    clock = Clock(world, send=send, post=lambda message_id, replies: None,
+                  has_client=lambda: client[0], lockstep=False)
+    deadline = clock.tick(True, False, False)
+    for _ in range(PAUSE_AFTER + 1):
+        if deadline is None:
+            break
+        deadline = clock.tick(True, False, False)
+    assert deadline is None and clock.paused
+    sent = len(left)
+    client[0] = True
+    assert clock.tick(False, False, False) is not None  # the wake of the client's arrival
+    assert len(left) == sent + 1 and not clock.paused
 
 
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():

@@ -158,11 +158,12 @@ class Clock:
         lockstep = self.lockstep
         moving = cycle.in_motion
         requested = self._events != self._served and lockstep and not cycle.client_driven
-        started = self.deadline is not None or self.paused
-        if not due and started and not (answered and awaited) and not requested:
+        # (Woken before the first tick, by a client ahead of the thread's first deadline, there
+        # is no deadline to go back to: that tick runs now, or the clock would never start.)
+        started = self.deadline is not None
+        if not due and started and not self.paused and not (answered and awaited) \
+                and not requested:
             return self.deadline  # woken, but nothing to release
-        # (Woken before its first tick, a client's arrival ahead of the thread's first deadline:
-        # that tick runs now, or the clock would never start.)
         if self.paused and lockstep and not requested:
             return None  # a connection alone is no event: its first request resumes lockstep
         self.paused = False
