@@ -17,14 +17,8 @@ PyObject *drive_follow(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     static const Py_ssize_t sizes[] = {7, 7, 7, 7};
     Vec v[4];
-    PyObject *arrays[4];
-    if (check_args(nargs, 5, "drive_follow") < 0)
-        return NULL;
-    double step = PyFloat_AsDouble(args[3]);
-    if (step == -1.0 && PyErr_Occurred())
-        return NULL;
-    arrays[0] = args[0], arrays[1] = args[1], arrays[2] = args[2], arrays[3] = args[4];
-    if (vec_take_all(arrays, v, 4, sizes, "ww--") < 0)
+    double step;
+    if (take_around_double(args, nargs, 5, "drive_follow", &step, v, sizes, "ww--") < 0)
         return NULL;
     double tau_ff[7], *applied = v[0].p, *ff = v[1].p, *g = v[3].p;
     read7(tau_ff, &v[2]);
@@ -40,16 +34,9 @@ PyObject *drive_impedance(PyObject *self, PyObject *const *args, Py_ssize_t narg
 {
     static const Py_ssize_t sizes[] = {7, 7, 7, 7, 7, 7, 7, 7, 7, 7};
     Vec v[10];
-    PyObject *arrays[10];
-    if (check_args(nargs, 11, "drive_impedance") < 0)
-        return NULL;
-    double step = PyFloat_AsDouble(args[3]);
-    if (step == -1.0 && PyErr_Occurred())
-        return NULL;
-    arrays[0] = args[0], arrays[1] = args[1], arrays[2] = args[2];
-    for (int i = 4; i < 11; i++)
-        arrays[i - 1] = args[i];
-    if (vec_take_all(arrays, v, 10, sizes, "ww--------") < 0)
+    double step;
+    if (take_around_double(args, nargs, 11, "drive_impedance", &step, v, sizes,
+                           "ww--------") < 0)
         return NULL;
     double tau_ff[7], *applied = v[0].p, *ff = v[1].p, *g = v[3].p;
     const double *q_d = v[4].p, *q = v[5].p, *K = v[6].p, *dq_d = v[7].p, *dq = v[8].p,
@@ -173,14 +160,8 @@ PyObject *joint_follow(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     static const Py_ssize_t sizes[] = {7, 7, 7, 21};
     Vec v[4];
-    PyObject *arrays[4];
-    if (check_args(nargs, 5, "joint_follow") < 0)
-        return NULL;
-    double dt = PyFloat_AsDouble(args[3]);
-    if (dt == -1.0 && PyErr_Occurred())
-        return NULL;
-    arrays[0] = args[0], arrays[1] = args[1], arrays[2] = args[2], arrays[3] = args[4];
-    if (vec_take_all(arrays, v, 4, sizes, "---w") < 0)
+    double dt;
+    if (take_around_double(args, nargs, 5, "joint_follow", &dt, v, sizes, "---w") < 0)
         return NULL;
     double q_c[7], *out = v[3].p;
     read7(q_c, &v[0]);

@@ -86,6 +86,24 @@ static inline int check_args(Py_ssize_t nargs, Py_ssize_t want, const char *name
     return -1;
 }
 
+/* A kernel's arguments whose fourth is a float (a step or dt) and every other an array: check
+ * their count, read the float into *x, take the arrays as vec_take_all does. */
+static inline int take_around_double(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t want,
+                                     const char *name, double *x, Vec *v,
+                                     const Py_ssize_t *sizes, const char *writable)
+{
+    PyObject *arrays[16];
+    if (check_args(nargs, want, name) < 0)
+        return -1;
+    *x = PyFloat_AsDouble(args[3]);
+    if (*x == -1.0 && PyErr_Occurred())
+        return -1;
+    for (Py_ssize_t i = 0, j = 0; i < want; i++)
+        if (i != 3)
+            arrays[j++] = args[i];
+    return vec_take_all(arrays, v, (int)want - 1, sizes, writable);
+}
+
 /* The kernels (METH_FASTCALL), each documented where it is defined. */
 #define KERNEL(name) PyObject *name(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 KERNEL(drive_follow);
