@@ -60,6 +60,15 @@ def test_composite_is_the_reported_hand_at_every_opening(rigid):
             assert _rel(backend.coriolis(q, dq), rigid.coriolis(q, dq)) < 1e-12
 
 
+def test_the_palms_fit_is_the_least_squares_solve_of_its_grid():
+    """fingers.GRID_SOLVE, a constant kept so that no server runs an SVD, is pinv of the fit's
+    rows on GRID; its bits are those every recording was made with (recordings replay them)."""
+    basis = np.array([[1, a, b, a * a, b * b, a * b] for a, b in fg.GRID])
+    assert fg.GRID_SOLVE.shape == (6, 9)
+    np.testing.assert_allclose(fg.GRID_SOLVE, np.linalg.pinv(basis), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(fg.GRID_SOLVE @ basis, np.eye(6), rtol=0, atol=1e-14)
+
+
 def test_palm_plus_fingers_reproduces_the_composite_exactly():
     palm = fg.Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
     positions, rotations = fg.finger_frames()

@@ -119,6 +119,34 @@ def _spread(d: np.ndarray) -> np.ndarray:
     return float(d @ d) * np.eye(3) - np.outer(d, d)
 
 
+# The palm is evaluated on {-1, 0, 1}² and fitted by least squares (exact: its CoM is linear
+# and its inertia quadratic in x1, x2). The grid is fixed, so its least-squares solve is a
+# constant: pinv of the rows [1, a, b, a², b², a·b], as LAPACK computes it, kept here bit for
+# bit (recordings replay identically with it; tests/physics check it against np.linalg.pinv).
+# A server thereby never runs an SVD, whose LAPACK code would stay resident (~0.7 MiB).
+GRID = tuple((a, b) for a in (-1.0, 0.0, 1.0) for b in (-1.0, 0.0, 1.0))
+GRID_SOLVE = np.array((
+    (-0.11111111111111115, 0.22222222222222224, -0.1111111111111112,
+     0.22222222222222224, 0.5555555555555557, 0.22222222222222224,
+     -0.11111111111111124, 0.22222222222222215, -0.11111111111111124),
+    (-0.16666666666666682, -0.16666666666666669, -0.16666666666666685,
+     -1.7926136278042485e-16, 4.3866101946571197e-17, 1.2394888708219755e-18,
+     0.1666666666666668, 0.1666666666666669, 0.16666666666666688),
+    (-0.16666666666666674, -2.841246215602717e-17, 0.1666666666666667,
+     -0.16666666666666663, 1.6077490589388233e-17, 0.1666666666666667,
+     -0.16666666666666674, -2.5534684979433567e-17, 0.16666666666666674),
+    (0.16666666666666632, 0.16666666666666652, 0.16666666666666682,
+     -0.3333333333333335, -0.33333333333333337, -0.33333333333333315,
+     0.1666666666666665, 0.1666666666666667, 0.1666666666666669),
+    (0.16666666666666677, -0.3333333333333333, 0.16666666666666644,
+     0.16666666666666669, -0.3333333333333334, 0.1666666666666664,
+     0.166666666666667, -0.3333333333333332, 0.16666666666666657),
+    (0.24999999999999908, -1.1344586431391537e-16, -0.24999999999999897,
+     -8.389280121378032e-16, -9.714451465470136e-17, 1.200148754390375e-15,
+     -0.25000000000000117, -2.2001930232302798e-16, 0.25000000000000094),
+))
+
+
 class Palm:
     """The hand body's own inertial such that palm + fingers = a given rigid composite.
 
@@ -144,13 +172,10 @@ class Palm:
         self.mass = self.total_mass - 2 * FINGER_MASS
         if self.mass <= 0.0:
             raise ValueError(f"an end effector of {mass} kg cannot carry the Hand's fingers")
-        # Coefficients of [1, x1, x2, x1², x2², x1·x2] from exact evaluations.
-        grid = [(a, b) for a in (-1.0, 0.0, 1.0) for b in (-1.0, 0.0, 1.0)]
-        basis = np.array([[1, a, b, a * a, b * b, a * b] for a, b in grid])
-        values = [self.inertial(a, b) for a, b in grid]
-        solve = np.linalg.pinv(basis)
-        self._com_coeffs = solve @ np.array([v[0] for v in values])  # (6, 3)
-        self._inertia_coeffs = solve @ np.array([v[1].ravel() for v in values])  # (6, 9)
+        # Coefficients of [1, x1, x2, x1², x2², x1·x2] from exact evaluations on GRID.
+        values = [self.inertial(a, b) for a, b in GRID]
+        self._com_coeffs = GRID_SOLVE @ np.array([v[0] for v in values])  # (6, 3)
+        self._inertia_coeffs = GRID_SOLVE @ np.array([v[1].ravel() for v in values])  # (6, 9)
 
     def inertial(self, x1: float, x2: float) -> tuple[np.ndarray, np.ndarray]:
         """(CoM in F, inertia about it in F axes) of the palm for finger positions x1, x2."""
