@@ -14,6 +14,8 @@ import asyncio
 import logging
 import socket
 
+from franka_sim.server.binding import bound_socket
+
 log = logging.getLogger(__name__)
 
 
@@ -30,8 +32,7 @@ class LazyPort:
 
     async def start(self, host: str, port: int) -> None:
         """Bind and listen (OSError as binding raises it); serve on the first connection."""
-        sock = socket.create_server((host, port), backlog=self.backlog)  # (SO_REUSEADDR)
-        sock.setblocking(False)
+        sock = bound_socket(host, port, backlog=self.backlog)
         self._sock = sock
         asyncio.get_running_loop().add_reader(sock.fileno(), self._first_connection)
 

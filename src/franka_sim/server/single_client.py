@@ -28,6 +28,7 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Callable
 
 from franka_sim.robot.session import Handshake, Session, SessionError
+from franka_sim.server.binding import bound_socket
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -231,8 +232,8 @@ class SingleClientEndpoint:
 
     async def start(self, host: str, port: int) -> None:
         loop = asyncio.get_running_loop()
-        self.server = await loop.create_server(
-            lambda: ClientConnection(self), host, port, reuse_address=True)
+        self.server = await loop.create_server(lambda: ClientConnection(self),
+                                               sock=bound_socket(host, port))
 
     def send(self, data: bytes) -> None:
         """An asynchronous reply (a Move's final status, a gripper action's) to the client."""

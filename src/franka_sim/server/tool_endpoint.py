@@ -8,10 +8,12 @@ states go to (client IP, the UDP port it announced in Connect) from a socket of 
 from __future__ import annotations
 
 import asyncio
+import socket
 from contextlib import AbstractContextManager
 from typing import Callable
 
 from franka_sim.robot.session import Handshake, Session
+from franka_sim.server.binding import bound_socket
 from franka_sim.server.single_client import SingleClientEndpoint
 
 
@@ -43,7 +45,7 @@ class ToolEndpoint(SingleClientEndpoint):
         await super().start(host, port)
         loop = asyncio.get_running_loop()
         self.udp, _ = await loop.create_datagram_endpoint(
-            asyncio.DatagramProtocol, local_addr=(host, 0))
+            asyncio.DatagramProtocol, sock=bound_socket(host, 0, socket.SOCK_DGRAM))
 
     def send_state(self, data: bytes) -> None:
         if self.state_target is not None and self.udp is not None:

@@ -35,6 +35,7 @@ from typing import Callable
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
 from franka_sim.protocol.robot_command import ROBOT_COMMAND_SIZE
+from franka_sim.server.binding import bound_socket
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -63,15 +64,7 @@ class UdpEndpoint:
 
     def open(self, host: str) -> None:
         """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
-        family, _, _, _, address = socket.getaddrinfo(host, 0, type=socket.SOCK_DGRAM)[0]
-        sock = socket.socket(family, socket.SOCK_DGRAM)
-        try:
-            sock.setblocking(False)
-            sock.bind(address)
-        except OSError:
-            sock.close()
-            raise
-        self.sock = sock
+        self.sock = bound_socket(host, 0, socket.SOCK_DGRAM)
 
     def close(self) -> None:
         sock, self.sock = self.sock, None
