@@ -35,6 +35,7 @@ MODULES = {
                 "web/test_recording_view.py", "web/test_snapshots.py",
                 "web/test_meshes.py"],
     "versions": ["protocol/test_robot_v9.py", "protocol/test_robot_v5.py",
+                 "protocol/test_robot_versions.py",
                  "physics/test_model_library.py", "physics/test_model_library_targets.py",
                  "clients/test_older_libfranka.py",
                  "clients/test_panda_python.py", "clients/test_panda_arm.py",

@@ -15,7 +15,6 @@ import numpy as np
 from franka_sim.config import ArmSpec, Config
 from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
-from franka_sim.model_library import ModelLibrary
 from franka_sim.physics.engine import Physics
 from franka_sim.physics.engine_choice import make_physics
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
@@ -52,7 +51,7 @@ class ArmParts:
         # body is rigid.
         self.tool_kind = tool_kind(config.tool_of(spec))
         self.tool = None if self.tool_kind is None else self.tool_kind.make_device()
-        self.model_library = ModelLibrary(description)  # for libfranka before 0.18
+        self._model_library = None  # made for the first client that asks (model_library())
 
     def make_part(self, physics, tool_state_wanted) -> ArmCycle:
         """Its part of the world cycle, on its body in the world; `tool_state_wanted()`: its
@@ -61,7 +60,16 @@ class ArmParts:
 
     def robot_session(self) -> Session:
         pairing = PAIRINGS[self.robot] if self.config.strict_versions else None
-        return robot_session(self.core, self.model_library.for_client, pairing)
+        return robot_session(self.core, self.model_library, pairing)
+
+    def model_library(self, request) -> bytes | None:
+        """The model library a LoadModelLibrary asks for (libfranka before 0.18 only, so
+        model_library/ and the compiler plumbing it imports load on the first such request)."""
+        if self._model_library is None:
+            from franka_sim.model_library import ModelLibrary
+
+            self._model_library = ModelLibrary(self.description)
+        return self._model_library.for_client(request)
 
     def tool_session(self) -> Session:
         return tool_session(self.tool_kind.service, self.tool)

@@ -14,18 +14,20 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   aiohttp (the control API) does without `ssl` when it cannot be imported, but would build TLS
   contexts at import from a stand-in: it is imported while `ssl` reads as missing
   (`import_without_tls`).
-- The scan for MuJoCo plugins that other packages register (`mujoco.plugins` entry points):
-  `import mujoco` reads every installed package's metadata for them (~13 ms and ~1.8 MiB here,
-  importlib.metadata and the parsers it brings), though no packaged scene uses one. MuJoCo's
-  own bundled plugins still load at import; the scan runs when a scene that is not packaged
-  is loaded (`load_plugin_entry_points`).
+- MuJoCo's plugins: `import mujoco` loads the plugin libraries it bundles (~0.6 MiB resident)
+  and reads every installed package's metadata for plugins others register (`mujoco.plugins`
+  entry points; ~13 ms and ~1.8 MiB, importlib.metadata and the parsers it brings). No
+  packaged scene uses a plugin: both wait until a scene that is not packaged is loaded
+  (`load_plugins`), which then finds them as `import mujoco` would have.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import itertools
 import logging
+import os
 import sys
 import types
 
@@ -43,30 +45,48 @@ def leave_out_renderer() -> None:
         sys.modules.setdefault(name, None)
 
 
-_plugins_deferred = False  # the entry point scan was left out of `import mujoco`
+_plugins_deferred = False  # `import mujoco` left its plugins out
 
 
-def import_mujoco_without_plugin_scan() -> None:
-    """Import MuJoCo without its scan of every package's entry points for plugins (which it
-    skips when importlib.metadata cannot be imported); load_plugin_entry_points runs it."""
+def import_mujoco_without_plugins() -> None:
+    """Import MuJoCo without loading its plugins (load_plugins does). It skips its scan of the
+    entry points when importlib.metadata cannot be imported, and its bundled libraries when
+    their folder is not there: both are made to seem so while it imports. (Should MuJoCo find
+    its plugins otherwise one day, they load at import as before: nothing breaks.)"""
     global _plugins_deferred
     if "mujoco" in sys.modules or "importlib.metadata" in sys.modules:
         return  # imported already, or the scan would cost nothing more
+    spec = importlib.util.find_spec("mujoco")
+    if spec is None or not spec.submodule_search_locations:
+        return  # (not installed: the import below would say so, where it is made)
+    bundled = os.path.join(spec.submodule_search_locations[0], "plugin")
+    isdir = os.path.isdir
     sys.modules["importlib.metadata"] = None
+    os.path.isdir = lambda path: path != bundled and isdir(path)
     try:
         import mujoco  # noqa: F401
     finally:
+        os.path.isdir = isdir
         del sys.modules["importlib.metadata"]
     _plugins_deferred = True
 
 
-def load_plugin_entry_points() -> None:
-    """Load the MuJoCo plugins other packages register, as `import mujoco` does, if its scan was
-    left out (import_mujoco_without_plugin_scan); before a scene that may use one is loaded."""
+def load_plugins() -> None:
+    """Load MuJoCo's plugins as `import mujoco` does (the libraries it bundles, then those
+    other packages register), if its import left them out (import_mujoco_without_plugins);
+    before a scene that may use one is loaded."""
     global _plugins_deferred
     if not _plugins_deferred:
         return
     _plugins_deferred = False
+    import ctypes
+
+    import mujoco
+
+    for folder, _, names in os.walk(mujoco.PLUGINS_DIR):
+        for name in sorted(names):
+            if os.path.splitext(name)[1] in (".so", ".dylib", ".dll"):
+                mujoco.PLUGIN_HANDLES.append(ctypes.CDLL(os.path.join(folder, name)))
     from importlib.metadata import entry_points
 
     for entry in entry_points(group="mujoco.plugins"):

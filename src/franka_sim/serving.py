@@ -22,7 +22,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from franka_sim.footprint import (import_mujoco_without_plugin_scan, leave_out_renderer,
+from franka_sim.footprint import (import_mujoco_without_plugins, leave_out_renderer,
                                   leave_out_tls)
 
 if TYPE_CHECKING:
@@ -148,7 +148,7 @@ def _leave_out(*, viewer: bool, tls: bool) -> None:
         leave_out_renderer()
     if not tls and _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
-    import_mujoco_without_plugin_scan()
+    import_mujoco_without_plugins()
 
 
 def main(blob: str) -> int:
@@ -212,7 +212,6 @@ async def _serve(config: Config, viewer: bool = False) -> None:
 
     from franka_sim.config_rules import ConfigError
     from franka_sim.description.urdf import DescriptionError
-    from franka_sim.faults import FaultSpecError
     from franka_sim.physics.scene import SceneError
     from franka_sim.server.sim import FrankaSim
 
@@ -224,8 +223,6 @@ async def _serve(config: Config, viewer: bool = False) -> None:
         raise _Failed(f"cannot serve {config.urdf}: {exc}") from None
     except SceneError as exc:
         raise _Failed(str(exc)) from None
-    except FaultSpecError as exc:
-        raise _Failed(f"--inject: {exc}") from None
     except OSError as exc:  # the recording's target, or a file the world is built from
         what = f"cannot record to {config.record}" if config.record is not None else \
             "cannot build the world"

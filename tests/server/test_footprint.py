@@ -143,9 +143,9 @@ def test_the_control_api_costs_nothing_until_its_first_connection():
 
 
 def test_mujoco_plugins_other_packages_register_load_with_a_scene_that_is_not_packaged(tmp_path):
-    """The serving process imports MuJoCo without its scan of every package's entry points
-    (its bundled plugins load as ever); a scene from a file runs the scan before it is loaded,
-    a packaged one does not need it."""
+    """The serving process imports MuJoCo without its plugins: neither the libraries it bundles
+    nor its scan of every package's entry points. A scene from a file loads both before it is
+    loaded (once); a packaged one does not need them."""
     info = tmp_path / "site" / "fakeplugin-1.0.dist-info"
     info.mkdir(parents=True)
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fakeplugin\nVersion: 1.0\n")
@@ -159,24 +159,82 @@ def test_mujoco_plugins_other_packages_register_load_with_a_scene_that_is_not_pa
     out = _run(f"""
         import sys
         sys.path.insert(0, {str(tmp_path / "site")!r})
-        from franka_sim.footprint import import_mujoco_without_plugin_scan
-        import_mujoco_without_plugin_scan()
+        from franka_sim.footprint import import_mujoco_without_plugins
+        import_mujoco_without_plugins()
         import mujoco, fakeplugin
         print("metadata" if "importlib.metadata" in sys.modules else "no metadata",
               len(mujoco.PLUGIN_HANDLES) > 0, len(fakeplugin.CALLS))
         from franka_sim.config import Config
         from franka_sim.server.sim import FrankaSim
         FrankaSim(Config(host="127.0.0.1"))
-        print(len(fakeplugin.CALLS))
+        print(len(fakeplugin.CALLS), len(mujoco.PLUGIN_HANDLES))
         FrankaSim(Config(host="127.0.0.1", scene={str(scene)!r}))
+        bundled = len(mujoco.PLUGIN_HANDLES)
         FrankaSim(Config(host="127.0.0.1", scene={str(scene)!r}))
-        print(len(fakeplugin.CALLS))
+        print(len(fakeplugin.CALLS), bundled, len(mujoco.PLUGIN_HANDLES))
     """)
-    assert out.split("\n")[:3] == ["no metadata True 0", "0", "1"]
+    import mujoco
+
+    bundled = len(list((Path(mujoco.__file__).parent / "plugin").glob("*.so")))
+    assert bundled > 0
+    assert out.split("\n")[:3] == ["no metadata False 0", "0 0", f"1 {bundled} {bundled}"]
     plain = _run(f"""
         import sys
         sys.path.insert(0, {str(tmp_path / "site")!r})
         import mujoco, fakeplugin
-        print(len(fakeplugin.CALLS))
+        print(len(fakeplugin.CALLS), len(mujoco.PLUGIN_HANDLES))
     """)
-    assert plain.strip() == "1"  # what `import mujoco` alone does, for comparison
+    assert plain.strip() == f"1 {bundled}"  # what `import mujoco` alone does, for comparison
+
+
+# What a server loads only when it meets what needs it: an older client (its protocol module,
+# its model library's compiler plumbing), a fault spec, a vacuum gripper, jitter's statistics
+# (with fractions and decimal). (The IDNA codec a host that is not ASCII needs: below, as this
+# test's own Python client would load it.)
+ON_FIRST_USE = ("franka_sim.protocol.robot_v9", "franka_sim.protocol.robot_v5",
+                "franka_sim.model_library", "franka_sim.faults.plan", "franka_sim.faults.link",
+                "franka_sim.faults.spec", "franka_sim.robot.vacuum_gripper",
+                "franka_sim.physics.suction", "statistics", "decimal")
+
+
+def test_a_server_serving_a_v10_client_and_its_hand_loads_nothing_it_did_not_meet():
+    from franka_sim.testing import fresh_loopback_address
+
+    host = fresh_loopback_address()
+    out = _run(f"""
+        import asyncio, sys
+        from franka_sim.config import Config
+        from franka_sim.server.sim import FrankaSim
+        from franka_sim.testing import RawClient
+
+        async def main():
+            async with FrankaSim(Config(host={host!r})) as sim:
+                def client():
+                    robot = RawClient({host!r})
+                    robot.recv()
+                    robot.close()
+                await asyncio.to_thread(client)
+                print((await sim.state())["robot_mode"], sim.tool is not None)
+
+        asyncio.run(main())
+        print(sorted(name for name in {ON_FIRST_USE!r} if name in sys.modules))
+    """)
+    assert out.split("\n")[:2] == ["Idle True", "[]"]
+
+
+def test_the_serving_process_keeps_the_libraries_behind_them_unmapped():
+    """The same seen from outside, in the serving process under pylibfranka with a Gripper:
+    the compiled modules that statistics and the IDNA codec bring, and MuJoCo's own plugins."""
+    import pylibfranka
+    from franka_sim.testing import running_sim
+
+    with running_sim() as sim:
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        gripper = pylibfranka.Gripper(sim.host)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        assert gripper.read_once().max_width > 0.07
+        maps = Path(f"/proc/{sim.pid}/maps").read_text()
+        del robot, gripper
+    for library in ("_decimal.", "unicodedata.", "libsensor.so", "libactuator.so",
+                    "libsdf_plugin.so", "libmujoco"):
+        assert (library in maps) == (library == "libmujoco"), library

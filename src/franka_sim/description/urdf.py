@@ -10,7 +10,6 @@ instead of surfacing later as an opaque client-side failure.
 
 from __future__ import annotations
 
-import importlib.resources
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -19,6 +18,8 @@ from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
+
+from franka_sim import PACKAGE_DIR
 
 ARM_DOF = 7
 FLANGE_LINK = "link8"  # libfranka looks the flange frame up by this exact name
@@ -291,11 +292,8 @@ def load_arm_description(urdf_text: str) -> ArmDescription:
 def default_urdf_text(robot: str = "fr3") -> str:
     """The packaged description of a robot kind (fr3, fer): installed package data first, then
     the source checkout."""
-    try:
-        packaged = importlib.resources.files("franka_sim").joinpath("urdf", f"{robot}.urdf")
-        if packaged.is_file():
-            return packaged.read_text(encoding="utf-8")
-    except (ModuleNotFoundError, FileNotFoundError, NotADirectoryError, TypeError):
-        pass
+    packaged = PACKAGE_DIR / "urdf" / f"{robot}.urdf"
+    if packaged.is_file():
+        return packaged.read_text(encoding="utf-8")
     checkout = Path(__file__).resolve().parents[3] / "urdf" / f"{robot}.urdf"
     return checkout.read_text(encoding="utf-8")

@@ -4,12 +4,24 @@ each datagram's fate a pure function of (seed, robot, direction, message_id)
 the world's clock while a plan is set.
 
 spec.py     the spec (`loss=0.01,delay=2ms`) and its parser
+seed.py     the seed's range
 plan.py     each datagram's fate
 link.py     one robot's path: what is held, what goes now
+
+The names below are imported on first use: a server that never injects a fault loads only
+seed.py (to check its --seed).
 """
 
-from franka_sim.faults.plan import COMMANDS, STATES, FaultPlan, check_seed
-from franka_sim.faults.spec import Burst, FaultSpec, FaultSpecError, parse_spec, spec_from_fields
+import importlib
 
-__all__ = ["COMMANDS", "STATES", "Burst", "FaultPlan", "FaultSpec", "FaultSpecError",
-           "check_seed", "parse_spec", "spec_from_fields"]
+_HOMES = {"COMMANDS": "plan", "STATES": "plan", "FaultPlan": "plan", "check_seed": "seed",
+          "ArmLink": "link", "Burst": "spec", "FaultSpec": "spec", "FaultSpecError": "spec",
+          "parse_spec": "spec", "spec_from_fields": "spec"}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)

@@ -12,6 +12,7 @@ Jobs that touch the robot core or the Hand hold the simulator's lock, as a TCP r
 from __future__ import annotations
 
 import asyncio
+import sys
 import threading
 from typing import Any, Callable
 
@@ -33,7 +34,6 @@ from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.hand import NOMINAL_MAX_WIDTH, Hand
 from franka_sim.robot.tool import ToolDevice
-from franka_sim.robot.vacuum_gripper import VacuumGripper
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 
@@ -42,6 +42,13 @@ def _pose(state) -> dict:
     return {"position": state.position.tolist(), "quaternion": state.quaternion.tolist(),
             "linear_velocity": state.linear_velocity.tolist(),
             "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
+
+
+def _vacuum_gripper(tool: ToolDevice | None):
+    """`tool` if it is a vacuum gripper, else None. Its module is only imported where one is
+    made (--tool vacuum): where it is not loaded, no tool is one."""
+    module = sys.modules.get("franka_sim.robot.vacuum_gripper")
+    return tool if module is not None and isinstance(tool, module.VacuumGripper) else None
 
 
 class ArmOps(DeskOps, FaultOps):
@@ -63,7 +70,7 @@ class ArmOps(DeskOps, FaultOps):
         core.status.held = desk_boot != "ready"
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
-        self.pump = tool if isinstance(tool, VacuumGripper) else None
+        self.pump = _vacuum_gripper(tool)
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock

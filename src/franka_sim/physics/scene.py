@@ -7,7 +7,6 @@ can be attached around the arms; the package ships one (scenes/default.xml).
 
 from __future__ import annotations
 
-import importlib.resources
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,8 +14,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from franka_sim import PACKAGE_DIR
+
 from franka_sim.description.urdf import ArmDescription
-from franka_sim.footprint import load_plugin_entry_points
+from franka_sim.footprint import load_plugins
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
 from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.mobile_base import add_mobile_base
@@ -112,7 +113,7 @@ def build_world_spec(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
                 tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent, look=arm.look)
     if scene_xml is not None:
         if not _packaged(scene_xml):
-            load_plugin_entry_points()  # (the serving process left the scan out of its import)
+            load_plugins()  # (the serving process left the scan out of its import)
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)
         else:
@@ -139,9 +140,8 @@ MOUNT_PREFIX = "arm/"  # a scene's site "arm/NAME" is where arm NAME's base stan
 
 def packaged_scenes() -> dict[str, Path]:
     """The scenes the package ships, by name ("default", "dual_arm_table", "mobile_duo")."""
-    folder = importlib.resources.files("franka_sim").joinpath("scenes")
-    return {Path(str(entry)).stem: Path(str(entry)) for entry in folder.iterdir()
-            if entry.name.endswith(".xml")}
+    return {path.stem: path for path in (PACKAGE_DIR / "scenes").iterdir()
+            if path.name.endswith(".xml")}
 
 
 def default_scene_path() -> Path:
@@ -170,7 +170,7 @@ def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, floa
     """Where the scene at `path` stands its arms: (x, y, z, yaw) of each `arm/NAME` site of
     its worldbody, by NAME (the yaw of the site's orientation about the vertical)."""
     if not _packaged(path):
-        load_plugin_entry_points()
+        load_plugins()
     try:
         spec = mujoco.MjSpec.from_file(os.fspath(path))
     except ValueError as exc:

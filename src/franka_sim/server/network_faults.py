@@ -1,5 +1,6 @@
 """The faults of a world's robot UDP paths: one link per robot (each arm, the mobile base),
-wired in only while needed.
+wired in only while needed. The faults' own modules (franka_sim.faults) are imported when
+the first spec is checked, set or reported on: a server that never injects never loads them.
 
 While no arm has a plan, the endpoints and the driver hold None and pay one `if` per datagram
 and per lockstep decision. Setting a plan on any arm attaches every arm's link (a link without
@@ -10,10 +11,13 @@ control API job) or before the server starts, so a cycle never sees half a chang
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from franka_sim.faults.seed import check_seed
 from franka_sim.server.clock import ClockWatcher
-from franka_sim.faults.link import ArmLink
-from franka_sim.faults.plan import FaultPlan, check_seed
-from franka_sim.faults.spec import FaultSpec, spec_from_fields
+
+if TYPE_CHECKING:
+    from franka_sim.faults import ArmLink, FaultSpec
 
 
 class NetworkFaults(ClockWatcher):
@@ -42,9 +46,8 @@ class NetworkFaults(ClockWatcher):
         is set)."""
         self.driver = driver
         self.endpoints = list(endpoints)
-        offset = lambda: self.key_offset  # noqa: E731
-        self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
-        self.seeds = [None] * len(self.links)
+        self.seeds = [None] * len(self.endpoints)
+        self.links = []  # (made with the first plan or report: _linked)
 
     # -- what the clock did (ClockWatcher, cycle thread) -------------------------------------------
     def repeated(self) -> None:
@@ -69,17 +72,21 @@ class NetworkFaults(ClockWatcher):
         fields = dict(fields)
         seed = fields.pop("seed", None)
         seed = None if seed is None else check_seed(seed)
+        from franka_sim.faults.spec import spec_from_fields
+
         return spec_from_fields(fields), seed
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
         """Arm `arm`'s faults from the next datagram on (None: none)."""
-        link = self.links[arm]
+        link = self._linked()[arm]
         if spec is None:
             link.set_plan(None)
             self.seeds[arm] = None
             if self.attached and all(link.plan is None for link in self.links):
                 self._detach()
             return
+        from franka_sim.faults.plan import FaultPlan
+
         seed = self.seed if seed is None else check_seed(seed)
         link.set_plan(FaultPlan(spec, seed, arm))
         self.seeds[arm] = seed
@@ -88,7 +95,7 @@ class NetworkFaults(ClockWatcher):
 
     def report(self, arm: int) -> dict:
         """What is set on arm `arm` and what it did (GET /faults)."""
-        link = self.links[arm]
+        link = self._linked()[arm]
         plan = link.plan
         held_states, held_commands = link.held
         return {
@@ -116,6 +123,15 @@ class NetworkFaults(ClockWatcher):
         return all(links[i].fresh is None or links[i].answered for i in cycle.waits_for)
 
     # -- wiring ------------------------------------------------------------------------------------
+    def _linked(self) -> list[ArmLink]:
+        """Each robot's link, made on first use."""
+        if not self.links:
+            from franka_sim.faults.link import ArmLink
+
+            offset = lambda: self.key_offset  # noqa: E731
+            self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
+        return self.links
+
     def _attach(self) -> None:
         """Every arm's link into its endpoint, this into the driver. The state last sent went
         out whole: each client is taken to answer it."""
@@ -137,3 +153,4 @@ class NetworkFaults(ClockWatcher):
             endpoint.faults = None
             endpoint.late.extend(link.take_held_commands())
         self.attached = False
+

@@ -21,7 +21,6 @@ from franka_sim.config_rules import ConfigError, checked
 from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.faults import parse_spec
 from franka_sim.server.network_faults import NetworkFaults
 from franka_sim.recording.metadata import START_FRESH
 from franka_sim.server.recorder.live import Recordings
@@ -71,7 +70,9 @@ class FrankaSim(EmbeddedOperations):
         self.arms = [robot for robot in self.robots if robot.parts.kind == "arm"]
         self.base = next((robot for robot in self.robots if robot.parts.kind == "base"), None)
         self.network_faults.wire(self.driver, [robot.udp for robot in self.robots])
-        if config.inject:  # FaultSpecError: said now, before anything is served
+        if config.inject:  # (a spec `checked` read already: the faults are imported now)
+            from franka_sim.faults import parse_spec
+
             spec = parse_spec(config.inject)
             for i in range(len(self.robots)):
                 self.network_faults.set(i, spec)
