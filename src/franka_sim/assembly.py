@@ -47,6 +47,7 @@ class ArmParts:
             enforce_motion_limits=config.enforce_motion_limits,
             joint_discontinuity_scale=config.joint_discontinuity_scale, events=events,
         )
+        self.core.status.held = config.desk_boot != "ready"  # (its Desk frees it: arm_desk.py)
         # Its tool: without one (--tool none) nothing listens on the tool's port and the Hand's
         # body is rigid.
         self.tool_kind = tool_kind(config.tool_of(spec))

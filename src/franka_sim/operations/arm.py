@@ -64,10 +64,10 @@ class ArmOps(DeskOps, FaultOps):
                  desk_boot: str = "ready", desk_effects=None) -> None:
         self.core, self.tool, self.driver = core, tool, driver
         # The arm's Desk (operations/arm_desk.py) holds the arm while its brakes are locked or it
-        # is not in Execution (--desk-boot locked: from the start); `desk_effects` applies
-        # what it means for the robot's endpoints (None: nothing to open or close).
+        # is not in Execution (--desk-boot locked: from the start, assembly.py holds it);
+        # `desk_effects` applies what it means for the robot's endpoints (None: nothing to open
+        # or close).
         self.desk_boot, self.desk_effects = desk_boot, desk_effects
-        core.status.held = desk_boot != "ready"
         # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
         self.hand = tool if isinstance(tool, Hand) else None
         self.pump = _vacuum_gripper(tool)

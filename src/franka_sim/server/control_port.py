@@ -11,7 +11,8 @@ from franka_sim.server.lazy_port import LazyPort
 
 
 class ControlPort(LazyPort):
-    """`ops`: the robot's implementation of the control API (operations/arm.py, base.py);
+    """`ops()`: the robot's implementation of the control API (operations/arm.py, base.py),
+    asked for on the first connection;
     `busy(flag)`: the server keeps its clients waiting, or no longer (while loading, a client
     blocked in its first request is not taken for one that stopped answering in lockstep)."""
 
@@ -26,7 +27,7 @@ class ControlPort(LazyPort):
         self.busy(True)
         try:
             control_api = await asyncio.to_thread(_import_control_api)
-            api = control_api.ControlApi(self.ops, token=self.token)
+            api = control_api.ControlApi(self.ops(), token=self.token)
             await api.serve_socket(sock)
         finally:
             self.busy(False)

@@ -16,8 +16,6 @@ import logging
 import threading
 
 from franka_sim.robot.session import Handshake, Session
-from franka_sim.operations.arm import ArmOps
-from franka_sim.operations.base import BaseOps
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.control_port import ControlPort
 from franka_sim.server.cycle_thread import CycleThread
@@ -58,24 +56,42 @@ class RobotServer:
                 # as the robot's: a request's answer follows the cycle it landed on, so a
                 # client's next request lands on a later one (lockstep numbers each alike)
                 defer_replies=driver.after_next_state)
-        connected = lambda: self.fci.active is not None  # noqa: E731
+        self.worker, self.faults, self.taps, self.recordings = worker, faults, taps, recordings
         self.desk_effects = None  # what its Desk leaves it in (server/desk_effects.py)
         if parts.kind == "arm" and (config.desk_port or config.desk_boot != "ready"):
             from franka_sim.server.desk_effects import DeskEffects
 
             self.desk_effects = DeskEffects(self)
-        if parts.kind == "arm":
-            self.control = ArmOps(
-                core=self.core, tool=self.tool, driver=driver, worker=worker, lock=lock,
-                description=parts.description, q0=parts.q0, clock=config.clock.value,
-                client_connected=connected, arm=self.name, arm_index=index, faults=faults,
-                taps=taps, recordings=recordings, desk_boot=config.desk_boot,
-                desk_effects=self.desk_effects and self.desk_effects.apply)
-        else:
-            self.control = BaseOps(self.core, lock, config.clock.value, connected, worker,
-                                   robot_index=index, faults=faults)
+        self._control = None  # its operations, made on first use (`control`)
         self._control_api = None  # its port, while it is open (server/control_port.py)
         self._desk_port = None  # the Desk's (server/desk_port.py), while it is open
+
+    @property
+    def control(self):
+        """Its control operations (operations/arm.py, base.py): what the control API, an
+        embedder and its Desk call. Made (and their modules imported) on first use: a server
+        nobody calls holds none of them."""
+        if self._control is None:
+            self._control = self._make_control()
+        return self._control
+
+    def _make_control(self):
+        parts, config = self.parts, self.config
+        connected = lambda: self.fci.active is not None  # noqa: E731
+        if parts.kind == "arm":
+            from franka_sim.operations.arm import ArmOps
+
+            return ArmOps(
+                core=self.core, tool=self.tool, driver=self.driver, worker=self.worker,
+                lock=self.lock, description=parts.description, q0=parts.q0,
+                clock=config.clock.value, client_connected=connected, arm=self.name,
+                arm_index=self.index, faults=self.faults, taps=self.taps,
+                recordings=self.recordings, desk_boot=config.desk_boot,
+                desk_effects=self.desk_effects and self.desk_effects.apply)
+        from franka_sim.operations.base import BaseOps
+
+        return BaseOps(self.core, self.lock, config.clock.value, connected, self.worker,
+                       robot_index=self.index, faults=self.faults)
 
     def describe(self) -> str:
         """"serving on HOST:PORT (arm NAME; Hand; control API": the log line's own part."""
@@ -141,7 +157,7 @@ class RobotServer:
             raise OSError(exc.errno, f"{where} cannot be served: {exc.strerror or exc}") from exc
 
     async def _start_control_api(self) -> None:
-        api = ControlPort(self.control, token=self.config.control_token,
+        api = ControlPort(lambda: self.control, token=self.config.control_token,
                           busy=self.driver.server_busy)
         await api.start(self.host, self.config.control_port)
         self._control_api = api
