@@ -39,6 +39,7 @@ from pathlib import Path
 from _common import (Load, cpu_percent, cpu_seconds, idle_behaviour, memory_mib, start_server,
                      thread_cpu_seconds, verdict)
 from franka_sim.control import Control
+from franka_sim.server.clock import START_SPACING
 from franka_sim.server.cycle_thread import OS_THREAD_NAME
 from franka_sim.testing.realtime_kernel import as_realtime, cannot_fake
 
@@ -60,9 +61,11 @@ if gripper is not None:
 
 
 def motion(n):
+    """(cycles, success rate, wall s from the Move to the first command's send)."""
+    started = time.perf_counter()
     control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
     state, _ = control.readOnce()
-    q0, t, cycles = np.array(state.q_d), 0.0, 0
+    q0, t, cycles, start = np.array(state.q_d), 0.0, 0, None
     while True:
         state, period = control.readOnce()
         t += period.to_sec()
@@ -71,9 +74,11 @@ def motion(n):
         q[n % 7] += 0.1 * 0.5 * (1 - math.cos(2 * math.pi * min(t / seconds, 1.0)))
         out = pylibfranka.JointPositions(q.tolist())
         out.motion_finished = t >= seconds
+        if start is None:
+            start = time.perf_counter() - started
         control.writeOnce(out)
         if out.motion_finished:
-            return cycles, state.control_command_success_rate
+            return cycles, state.control_command_success_rate, start
 
 
 def step(name):
@@ -82,16 +87,18 @@ def step(name):
 
 
 step("ready")
-wall0, cpu0, cycles, rates = time.perf_counter(), time.process_time(), 0, []
+wall0, cpu0, cycles, rates, starts = time.perf_counter(), time.process_time(), 0, [], 0.0
 for n in range(motions):
-    done, rate = motion(n)
+    done, rate, start = motion(n)
     cycles += done
     rates.append(rate)
+    starts += start
 wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
 step("done")
 if gripper is not None:
     step("idle")  # connected, not moving: the parent measures meanwhile
-print(json.dumps({"cycles": cycles, "wall": wall, "cpu": cpu, "min_rate": min(rates)}), flush=True)
+print(json.dumps({"cycles": cycles, "wall": wall, "cpu": cpu, "min_rate": min(rates),
+                  "starts": starts}), flush=True)
 '''
 
 
@@ -217,6 +224,11 @@ def lockstep(args) -> None:
           f"connection, {n} client cycles ({cycles_run} server cycles)")
     print(f"  simulated s per wall s        {speed:6.2f}   target ≥ {TARGETS['speed']:g}  "
           f"{verdict(speed >= TARGETS['speed'])}")
+    starts = result["starts"]
+    print(f"  of which motion starts (Move → first command) {1e3 * starts / args.motions:.1f} ms "
+          f"each: the clock's START_SPACING, {1e3 * START_SPACING:g} ms per state a client reads "
+          f"before its first command; the motions' loops alone "
+          f"{args.motions * args.seconds / (wall - starts):.2f} simulated s per wall s")
     print(f"  per client cycle, µs          wall {wall * per:6.1f} = server CPU {cpu * per:6.1f}"
           f" + client CPU {result['cpu'] * per:5.1f} + neither {rest * per:6.1f}")
     print(f"  server CPU per client cycle   {cpu * per:6.1f} µs   target ≤ "
