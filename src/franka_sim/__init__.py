@@ -1,10 +1,6 @@
 """franka-sim: a simulated Franka FR3 that libfranka clients cannot tell from the robot."""
 
-from pathlib import Path
 
-# The installed package's folder: its data files (scenes/, urdf/) are read from here, as MuJoCo
-# reads a scene's files by path. (Not importlib.resources: ~1 MiB of imports for this.)
-PACKAGE_DIR = Path(__file__).resolve().parent
 
 def __getattr__(name: str):
     # Lazy so `import franka_sim` stays cheap for the CLI's --help and for tools (and so

@@ -19,7 +19,7 @@ from typing import Mapping
 
 import numpy as np
 
-from franka_sim import PACKAGE_DIR
+from franka_sim.package_files import PACKAGE_DIR
 
 ARM_DOF = 7
 FLANGE_LINK = "link8"  # libfranka looks the flange frame up by this exact name

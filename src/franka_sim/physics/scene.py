@@ -14,7 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from franka_sim import PACKAGE_DIR
+from franka_sim.package_files import PACKAGE_DIR
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.footprint import load_plugins
