@@ -16,8 +16,11 @@ alive() {  # a process that has exited but was not reaped yet (a zombie) is not
 
 pids=()
 while read -r pid host; do
-    # Only a process that still is the server (a pid may have been reused since).
-    if ps -p "$pid" -o args= 2>/dev/null | grep -Eq "franka[-_]sim"; then
+    # Only a process that still is the server (a pid may have been reused since). Its whole
+    # command line (-ww): ps cuts it at $COLUMNS otherwise, and a venv's long path then hides
+    # the name, which would leave the server running.
+    args="$(ps -ww -p "$pid" -o args= 2>/dev/null)" || args=""
+    if [[ "$args" =~ franka[-_]sim ]]; then
         kill -TERM "$pid"
         pids+=("$pid")
         echo "stopping franka-sim on $host (pid $pid)"

@@ -61,7 +61,10 @@ def _runner_env(tmp_path: Path, **inputs: str) -> dict:
     sim = shutil.which("franka-sim") or str(Path(sys.executable).parent / "franka-sim")
     env = {**os.environ, "RUNNER_TEMP": str(tmp_path), "GITHUB_OUTPUT": str(tmp_path / "out"),
            "PATH": f"{Path(sim).parent}{os.pathsep}{os.environ['PATH']}",
-           "FRANKA_SIM_ACTION_INSTALL": "false"}
+           "FRANKA_SIM_ACTION_INSTALL": "false",
+           # A narrow terminal, as a runner may report: ps must not cut the command lines the
+           # scripts read (a venv's path is long).
+           "COLUMNS": "40"}
     env.update({f"FRANKA_SIM_ACTION_{k.upper()}": v for k, v in inputs.items()})
     return env
 
