@@ -246,7 +246,11 @@ def test_setters_succeed_idle_and_are_refused_while_moving(lockstep_sim):
 def test_stop_preempts_a_target_control(lockstep_sim):
     robot = connect(lockstep_sim.host)
     with pytest.raises(franka.ControlException, match="preempted"):
-        with robot.joint_targets(backend="robot") as arm:
+        # A tenth of the default velocity budget: the move takes ~5 s of robot time, so the
+        # stop, which this thread sends once the arm is under way while franka-rs's own thread
+        # drives the lockstep clock as fast as it answers, lands long before the target (~0.5 s
+        # of wall time here; 0.06 s at the default, which a loaded machine overran).
+        with robot.joint_targets(backend="robot", fraction=0.02) as arm:
             arm.move_by([0.3, 0, 0, 0, 0, 0, 0])
             wait_for(arm, lambda s: s.q[0] > 0.02, 20.0)
             robot.stop()
