@@ -194,7 +194,8 @@ def test_mujoco_plugins_other_packages_register_load_with_a_scene_that_is_not_pa
 ON_FIRST_USE = ("franka_sim.protocol.robot_v9", "franka_sim.protocol.robot_v5",
                 "franka_sim.model_library", "franka_sim.faults.plan", "franka_sim.faults.link",
                 "franka_sim.faults.spec", "franka_sim.robot.vacuum_gripper",
-                "franka_sim.physics.suction", "statistics", "decimal")
+                "franka_sim.physics.suction", "statistics", "decimal",
+                "xml.etree.ElementTree")  # (the URDF is read with expat: description/xml_tree.py)
 
 
 def test_a_server_serving_a_v10_client_and_its_hand_loads_nothing_it_did_not_meet():

@@ -11,7 +11,6 @@ instead of surfacing later as an opaque client-side failure.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -19,6 +18,7 @@ from typing import Mapping
 
 import numpy as np
 
+from franka_sim.description.xml_tree import Element, XmlError, parse
 from franka_sim.package_files import PACKAGE_DIR
 
 ARM_DOF = 7
@@ -121,7 +121,7 @@ def _floats(text: str | None, count: int, what: str, default: str | None = None)
     return values
 
 
-def _attr(element: ET.Element, name: str, what: str) -> float:
+def _attr(element: Element, name: str, what: str) -> float:
     value = element.get(name)
     if value is None:
         raise DescriptionError(f"{what}: missing attribute {name!r}")
@@ -139,7 +139,7 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     ])
 
 
-def _origin(parent: ET.Element, what: str) -> np.ndarray:
+def _origin(parent: Element, what: str) -> np.ndarray:
     element = parent.find("origin")
     xyz = _floats(None if element is None else element.get("xyz"), 3, f"{what} origin xyz", "0 0 0")
     rpy = _floats(None if element is None else element.get("rpy"), 3, f"{what} origin rpy", "0 0 0")
@@ -149,7 +149,7 @@ def _origin(parent: ET.Element, what: str) -> np.ndarray:
     return transform
 
 
-def _inertial(link: ET.Element) -> Inertial | None:
+def _inertial(link: Element) -> Inertial | None:
     element = link.find("inertial")
     if element is None:
         return None
@@ -165,7 +165,7 @@ def _inertial(link: ET.Element) -> Inertial | None:
                     _frozen(origin[:3, :3]), _frozen(tensor))
 
 
-def _limits(joint: ET.Element, name: str) -> JointLimits:
+def _limits(joint: Element, name: str) -> JointLimits:
     """The elements libfranka's JointVelocityLimitsConfig insists on for an arm joint."""
     limit, pbvl = joint.find("limit"), joint.find("position_based_velocity_limits")
     if limit is None:
@@ -195,8 +195,8 @@ def _limits(joint: ET.Element, name: str) -> JointLimits:
 def load_arm_description(urdf_text: str) -> ArmDescription:
     """Parse and validate a served-URDF text; raises DescriptionError on anything unusable."""
     try:
-        robot = ET.fromstring(urdf_text)
-    except ET.ParseError as exc:
+        robot = parse(urdf_text)
+    except XmlError as exc:
         raise DescriptionError(f"URDF is not well-formed XML: {exc}") from None
     if robot.tag != "robot":
         raise DescriptionError(f"root element is <{robot.tag}>, expected <robot>")
@@ -207,7 +207,7 @@ def load_arm_description(urdf_text: str) -> ArmDescription:
 
     links = {link.get("name"): link for link in robot.findall("link")}
     joints = robot.findall("joint")
-    parent_joint: dict[str, ET.Element] = {}
+    parent_joint: dict[str, Element] = {}
     for joint in joints:
         jname = joint.get("name")
         parent, child = joint.find("parent"), joint.find("child")
@@ -222,7 +222,7 @@ def load_arm_description(urdf_text: str) -> ArmDescription:
         parent_joint[clink] = joint
 
     # libfranka matches arm joints by substring, so every such joint must be a real arm joint.
-    arm_elements: dict[int, ET.Element] = {}
+    arm_elements: dict[int, Element] = {}
     for index in range(1, ARM_DOF + 1):
         matches = [j for j in joints if f"joint{index}" in (j.get("name") or "")]
         if len(matches) > 1:
@@ -248,7 +248,7 @@ def load_arm_description(urdf_text: str) -> ArmDescription:
         kinds = [(j.get("name"), j.get("type")) for j in moving]
         raise DescriptionError(f"expected exactly {ARM_DOF} revolute joints and nothing else "
                                f"movable, found {kinds}")
-    children: dict[str, list[ET.Element]] = {}
+    children: dict[str, list[Element]] = {}
     for joint in joints:
         children.setdefault(joint.find("parent").get("link"), []).append(joint)
     frames: dict[str, Frame] = {roots[0]: Frame(roots[0], 0, _frozen(np.eye(4)))}
