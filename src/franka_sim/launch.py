@@ -60,13 +60,8 @@ def _serve_overlapped(argv: list[str]) -> None:
         sys.exit(128 - code if code < 0 else code)  # (killed by a signal: as a shell says it)
     message = json.loads(handed)
     blob, args = message["blob"], json.loads(message["blob"])
-    for name, value in message["env"].items():
-        os.environ.pop(name, None)
-        if value is not None:
-            os.environ[name] = value
-    needs_more = args.get("viewer") or args["config"].get("desk_port") or \
-        args["config"].get("web_port")
-    if hide or (lean and needs_more):
+    serving.set_environment(message["env"])
+    if hide or (lean and any(serving.needs(args))):
         serving.become_serving(blob)  # a fresh process, with what the guess left out
     sys.exit(serving.main(blob))
 

@@ -57,11 +57,23 @@ def exec_serving(config: Config, *, rt_priority: int, log_level: str,
         with os.fdopen(_hand_back, "wb") as pipe:
             pipe.write(json.dumps({"blob": blob, "env": env}).encode())
         return
+    set_environment(env)
+    become_serving(blob)
+
+
+def set_environment(env: dict[str, str | None]) -> None:
+    """The secrets' variables as `env` has them (None: unset), for the serving process."""
     for name, value in env.items():
         os.environ.pop(name, None)
         if value is not None:
             os.environ[name] = value
-    become_serving(blob)
+
+
+def needs(args: dict) -> tuple[bool, bool]:
+    """(the renderer, TLS): what serving the parsed flags `args` needs of what footprint.py
+    leaves out (the Desk: TLS; the web view: viser imports `ssl` for a tunnel it never opens)."""
+    config = args["config"]
+    return bool(args.get("viewer")), bool(config.get("desk_port") or config.get("web_port"))
 
 
 def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "info",
@@ -133,8 +145,7 @@ def stop_on_sigterm(also: int | None = None) -> None:
 
 def import_for_serving(*, viewer: bool, tls: bool) -> None:
     """Import what serving needs, leaving out the renderer unless `viewer` and OpenSSL unless
-    `tls` (the Desk: TLS; the web view: viser imports `ssl` for a tunnel it never opens here).
-    A uvloop that does not import is left for main to handle."""
+    `tls` (`needs`). A uvloop that does not import is left for main to handle."""
     _leave_out(viewer=viewer, tls=tls)
     try:
         import uvloop  # noqa: F401
@@ -154,8 +165,8 @@ def _leave_out(*, viewer: bool, tls: bool) -> None:
 def main(blob: str) -> int:
     stop_on_sigterm()
     args = json.loads(blob)
-    _leave_out(viewer=bool(args.get("viewer")),
-               tls=bool(args["config"].get("desk_port") or args["config"].get("web_port")))
+    viewer, tls = needs(args)
+    _leave_out(viewer=viewer, tls=tls)
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args["rt_priority"]:

@@ -14,10 +14,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from franka_sim.package_files import PACKAGE_DIR
-
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.footprint import load_plugins
+from franka_sim.package_files import PACKAGE_DIR
 from franka_sim.physics.arm_model import ROTOR_INERTIA_FR3, add_arm, arm_bits
 from franka_sim.physics.tool import ToolMount
 from franka_sim.physics.mobile_base import add_mobile_base
@@ -112,8 +111,7 @@ def build_world_spec(arms: list[ArmPlacement] | tuple[ArmPlacement, ...], *,
         add_arm(spec, arm.desc, prefix=arm.prefix, base=base, armature=arm.armature,
                 tool=arm.tool, extra_bits=arm_bits(i, len(arms)), parent=parent, look=arm.look)
     if scene_xml is not None:
-        if not _packaged(scene_xml):
-            load_plugins()  # (the serving process left the scan out of its import)
+        _plugins_for(scene_xml)
         if isinstance(scene_xml, str):
             scene = mujoco.MjSpec.from_string(scene_xml)
         else:
@@ -149,9 +147,11 @@ def default_scene_path() -> Path:
     return packaged_scenes()["default"]
 
 
-def _packaged(scene: str | os.PathLike) -> bool:
-    """A packaged scene's file (which uses no plugin), not a user's MJCF text or file."""
-    return not isinstance(scene, str) and Path(scene) in packaged_scenes().values()
+def _plugins_for(scene: str | os.PathLike) -> None:
+    """MuJoCo's plugins loaded before a user's MJCF text or file is read (the serving process
+    left them out of its import: footprint.py); a packaged scene uses none."""
+    if isinstance(scene, str) or Path(scene) not in packaged_scenes().values():
+        load_plugins()
 
 
 def resolve_scene(scene: str | os.PathLike) -> Path:
@@ -169,8 +169,7 @@ def resolve_scene(scene: str | os.PathLike) -> Path:
 def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, float]]:
     """Where the scene at `path` stands its arms: (x, y, z, yaw) of each `arm/NAME` site of
     its worldbody, by NAME (the yaw of the site's orientation about the vertical)."""
-    if not _packaged(path):
-        load_plugins()
+    _plugins_for(path)
     try:
         spec = mujoco.MjSpec.from_file(os.fspath(path))
     except ValueError as exc:

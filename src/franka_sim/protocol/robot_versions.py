@@ -3,7 +3,7 @@
 reader reads that client's bytes with it too.
 
 A version's module is imported when its Dialect is first asked for: only an older client's
-Connect asks, and a server that never meets one keeps them (~1 MiB) out of memory."""
+Connect asks, and a server that never meets one keeps them (~0.2 MiB) out of memory."""
 
 from __future__ import annotations
 

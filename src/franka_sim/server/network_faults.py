@@ -153,4 +153,3 @@ class NetworkFaults(ClockWatcher):
             endpoint.faults = None
             endpoint.late.extend(link.take_held_commands())
         self.attached = False
-
