@@ -285,7 +285,10 @@ class StatePublisher:
 
     def _write_elbow_c(self, elbow_c: tuple[float, float]) -> None:
         """elbow_c and its first two differences, in floats."""
-        (e0, e1), (p0, p1), (v0, v1) = elbow_c, self._elbow_c, self._delbow_c
+        # One pair at a time: Cython 3.1–3.3 crashes on the nested unpacking (compiled_cycle.py).
+        e0, e1 = elbow_c
+        p0, p1 = self._elbow_c
+        v0, v1 = self._delbow_c
         d0, d1 = (e0 - p0) / DT, (e1 - p1) / DT
         elbows = self._elbows_c
         elbows[0], elbows[1], elbows[2], elbows[3] = e0, e1, d0, d1
