@@ -183,7 +183,7 @@ def serve(
         help="Network faults on every robot's UDP path (each arm, the mobile base), both directions unless dir= says one: "
         "loss=P, delay=Dms, jitter=Jms (normal, truncated at 0), burst=N@Ts (N cycles lost "
         "from T s of simulated time; may repeat), reorder=P, dir=states|commands; e.g. "
-        "loss=0.01,delay=2ms,jitter=0.5ms (docs/robustness.md).",
+        "loss=0.02,reorder=0.01 (docs/robustness.md).",
     ),
     seed: int = typer.Option(
         0, envvar="FRANKA_SIM_SEED", min=0, max=2**64 - 1,

@@ -158,3 +158,37 @@ def test_every_arm_of_a_world_meets_its_own_faults_and_both_finish():
     plans = [FaultPlan(parse_spec("loss=0.05,dir=commands"), 3, arm) for arm in (0, 1)]
     assert ([plans[0].fate(COMMANDS, n) for n in range(3000)]
             != [plans[1].fate(COMMANDS, n) for n in range(3000)])
+
+
+def _arm_program(sim, *inject: str) -> dict:
+    """arm_program.py's 0.5 s joint motion of joint 7 by 0.1 rad, against `sim`."""
+    done = subprocess.run([sys.executable, str(ARM_PROGRAM), sim.host,
+                           json.dumps([0, 0, 0, 0, 0, 0, 0.1]), "0.5"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_a_motion_starts_through_a_jittered_link():
+    """Every held state of a motion's start (and each answer to it) meets a fate of its own:
+    with half the answers late, one of them is on time and the motion runs to its target.
+    (Keyed all alike, one late answer held the start for ever.)"""
+    with running_sim("--clock", "lockstep", "--inject", "jitter=0.5ms,dir=commands",
+                     "--seed", "2") as sim:  # (one whose start key's answer is late)
+        outcome = _arm_program(sim)
+        report = Control(sim.host).faults()
+    assert outcome["error"] == ""
+    assert max(abs(a - b) for a, b in zip(outcome["q"], outcome["target"])) < 2e-3
+    assert 0.3 < report["commands"]["delayed"] / report["commands"]["seen"] < 0.7
+
+
+def test_a_link_slower_than_a_cycle_ends_the_motion_held_and_says_why():
+    """A round trip over one cycle leaves no answer on time (the robot drops a late one). A
+    robot that does not abort (no --enforce-comm-constraints) holds the arm, says so once, and
+    still ends the motion when the client finishes: libfranka waits for that, for ever."""
+    with running_sim("--clock", "lockstep", "--inject", "delay=2ms") as sim:
+        outcome = _arm_program(sim)
+        assert sim.wait_for_log("no command on time for 20 cycles")
+        assert sim.wait_for_log("motion finished by a late command")
+    assert outcome["error"] == ""
+    assert abs(outcome["q"][6] - (outcome["target"][6] - 0.1)) < 2e-3  # held where it was

@@ -11,7 +11,7 @@ import pytest
 from support.harness import move_request, reply_status
 from franka_sim.description.mobile_base import (BASE_NAME, MAX_ACCELERATION, MAX_SPEED,
                                                 WHEEL_RADIUS, base_urdf_text)
-from franka_sim.protocol.codec import decode_state, encode_command
+from franka_sim.protocol.codec import decode_command, decode_state, encode_command
 from franka_sim.protocol.enums import (Command, MotionGeneratorMode, MoveMotionGeneratorMode,
                                        MoveStatus, RobotMode)
 from franka_sim.protocol.errors import error_index
@@ -166,3 +166,19 @@ def test_a_silent_client_leaves_the_base_braking():
     base.step(400)
     assert base.state["O_dP_EE_d"][0] == 0.0
     assert base.state["robot_mode"] == RobotMode.kMove  # until the client is heard again
+
+
+def test_a_client_heard_only_late_still_ends_the_base_motion():
+    """Its answers all a cycle late (a slow link): dropped, the base brakes as for a silent
+    client; the finish, sent again each cycle by libfranka, ends the motion all the same."""
+    base = Base()
+    base.drive([(0.2, 0.0, 0.0, 0.0, 0.0, 0.0)] * 50)
+    for k in range(30):
+        answered = int(base.state["message_id"])
+        base.step()
+        command = encode_command(message_id=answered, O_dP_EE_c=[0.2, 0, 0, 0, 0, 0],
+                                 motion_generation_finished=k >= 25)
+        assert not base.cycle.receive(decode_command(command))  # late
+    base.step()
+    assert [reply_status(r)[2] for r in base.replies] == [int(MoveStatus.kSuccess)]
+    assert base.state["robot_mode"] == RobotMode.kIdle

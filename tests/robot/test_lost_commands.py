@@ -12,6 +12,7 @@ it missed, and its state then shows the extrapolated command: the filter anchors
 from __future__ import annotations
 
 import math
+import random
 
 import numpy as np
 import pytest
@@ -203,3 +204,64 @@ def test_after_a_lost_cycle_the_state_shows_the_extrapolated_command():
     assert float(h.state["O_T_EE_c"][12]) == pytest.approx(T[0, 3] + 1e-4, abs=1e-6)
     assert float(h.state["elbow_c"][0]) == pytest.approx(e0 + 1e-4 * 101, abs=1e-6)
     assert float(h.state["delbow_c"][0]) == pytest.approx(0.1, abs=1e-3)
+
+
+def test_a_gap_carries_the_reference_on_within_the_acceleration_limit():
+    """Half the answers late (a jittered link): q_c differenced against an extrapolated q_d can
+    exceed the joint acceleration limit for a smooth client; carried on through each gap
+    unbounded, it once grew gap after gap. Each extrapolated cycle stays within the limit
+    (10 rad/s², the FR3's), enforcement off as by default."""
+    h = Harness()
+    client = JointPositionClient()
+    assert h.move(*client.move) == MoveStatus.kMotionStarted
+    h.cycle(2)
+    id0 = int(h.state["message_id"])
+    draw = random.Random(8)  # (a draw under which the unbounded reference ran away)
+    late = {k for k in range(1100) if draw.random() < 0.5}
+    mailbox: dict[int, list] = {}
+    extrapolated, q_d = [], []
+    for _ in range(1000):
+        state = h.state
+        k = int(state["message_id"]) - id0
+        fields = client.command(k * DT, state, k == 0, False)
+        mailbox.setdefault(k + (k in late), []).append((int(state["message_id"]), fields))
+        for message_id, answer in mailbox.pop(k, []):
+            h.send(message_id=message_id, **answer)
+        h.cycle()
+        if k in late:  # the state now out shows cycle k's command: extrapolated
+            extrapolated.append(float(np.max(np.abs(np.array(h.state["ddq_d"])))))
+        q_d.append(np.array(h.state["q_d"], dtype=float))
+    assert len(extrapolated) > 300 and max(extrapolated) <= 10.0 + 1e-9
+    # and the reference stays on the client's way (it swings joints out 0.4 rad at most)
+    assert float(np.max(np.abs(np.array(q_d) - client.q0))) < 0.45
+
+
+@pytest.mark.parametrize("enforce", [False, True])
+def test_a_client_heard_only_late_ends_its_motion_by_its_finish(enforce, caplog):
+    """Every answer a cycle late: none applies. Enforced, the 20th lost cycle aborts, as on the
+    robot. Not enforced, the arm is held (braked to rest) and one line says why; libfranka
+    then sends its finish again each cycle until the state shows the motion ended, so a late
+    finish ends it (or the client would wait for ever)."""
+    h = Harness(enforce_comm_constraints=enforce)
+    assert h.move(Ctrl.kJointImpedance, Gen.kJointPosition) == MoveStatus.kMotionStarted
+    h.cycle(2)
+    q0 = np.array(h.state["q_d"], dtype=float)
+    for k in range(40):
+        answered = int(h.state["message_id"])
+        h.cycle()  # its window closes unanswered
+        q_c = q0.copy()
+        q_c[6] += 1e-4 * k
+        h.send(message_id=answered, q_c=q_c, motion_generation_finished=k >= 30)
+        if h.state["robot_mode"] != RobotMode.kMove:
+            break
+    h.cycle()
+    statuses = [status for _, _, status in h.statuses()]
+    if enforce:
+        assert statuses == [MoveStatus.kReflexAborted]
+        assert h.state["errors"][ERROR_NAMES.index("communication_constraints_violation")]
+        return
+    assert statuses == [MoveStatus.kSuccess] and h.state["robot_mode"] == RobotMode.kIdle
+    assert np.allclose(np.array(h.state["q_d"], dtype=float), q0, atol=1e-9)  # never moved
+    said = [r.getMessage() for r in caplog.records]
+    assert sum("no command on time for 20 cycles" in line for line in said) == 1
+    assert sum("motion finished by a late command" in line for line in said) == 1

@@ -216,3 +216,28 @@ def test_a_new_client_finds_nothing_held_for_the_last():
     assert link.held == (1, 1)
     link.new_client(("127.0.0.1", 5001))
     assert link.held == (0, 0) and link.fresh is None
+
+
+# -- a lockstep motion's hold --------------------------------------------------------------------
+def test_each_held_state_of_a_motion_start_meets_a_fate_of_its_own():
+    """The world held for a client's first command sends its state again under new ids, all
+    keyed as the motion's first state (their number is the client's timing): each takes its
+    place in the hold too, so one fate does not befall every answer until the first command
+    gets through, and the cycles after it keep the keys they had."""
+    from franka_sim.server.network_faults import NetworkFaults
+
+    faults = NetworkFaults(seed=7)
+    faults.repeated(), faults.repeated()  # a client lingered before the motion
+    faults.motion_started(100)
+    for message_id in (101, 102, 103):
+        faults.held(message_id)
+    assert [faults.key(n) for n in (100, 101, 102, 103, 104)] == \
+        [(95, 0), (98, 1), (98, 2), (98, 3), (99, 0)]
+    plan = FaultPlan(parse_spec("jitter=0.5ms,dir=commands"), 2, 0)
+    held = [plan.fate(COMMANDS, 98, j) for j in range(1, 41)]
+    assert len(set(held)) > 1 and (0, False) in held  # some answer goes through
+    assert plan.fate(COMMANDS, 98) == plan.fate(COMMANDS, 98, 0)  # the usual key unchanged
+    # A burst reaches a held state as it reaches the cycle that many after the first state.
+    burst = FaultPlan(parse_spec("burst=3@100ms"), 7, 0)
+    assert [burst.fate(STATES, 98, j) is None for j in range(5)] == \
+        [False, False, True, True, True]

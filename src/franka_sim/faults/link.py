@@ -31,12 +31,12 @@ def _no_counts() -> dict[str, dict[str, int]]:
 
 
 class ArmLink:
-    def __init__(self, arm: int, key_offset=lambda: 0) -> None:
+    def __init__(self, arm: int, key=lambda message_id: (message_id, 0)) -> None:
         self.arm = arm
-        # () -> the cycles lockstep's idle clock only repeated (wall time decided them) before
-        # the last motion started: a fate is keyed on message_id less these, so a rehearsal
-        # hits the same cycles of its motions however long its client lingered between requests.
-        self.key_offset = key_offset
+        # message_id -> a fate's (key, held) (server/network_faults.py): message_id less the
+        # cycles lockstep's clock only repeated or held (wall time decided them), so a rehearsal
+        # hits the same cycles of its motions however long its client lingered.
+        self.key = key
         self.plan: FaultPlan | None = None
         self.client = None  # the address the held datagrams belong to
         self.now = -1  # message_id of the last state sent: the cycle whose window is open
@@ -90,7 +90,7 @@ class ArmLink:
         else:
             counts = self.counts["states"]
             counts["seen"] += 1
-            fate = plan.fate(STATES, message_id - self.key_offset())
+            fate = plan.fate(STATES, *self.key(message_id))
             if fate is None:
                 counts["dropped"] += 1
             else:
@@ -144,7 +144,7 @@ class ArmLink:
         else:
             counts = self.counts["commands"]
             counts["seen"] += 1
-            fate = plan.fate(COMMANDS, message_id - self.key_offset())
+            fate = plan.fate(COMMANDS, *self.key(message_id))
             if fate is None:
                 counts["dropped"] += 1
             elif fate[0]:

@@ -20,6 +20,7 @@ from franka_sim.faults.spec import FaultSpec
 STATES, COMMANDS = 0, 1
 DIRECTION_NAMES = ("states", "commands")
 _KEY = struct.Struct("<QIBQ")
+_HELD_KEY = struct.Struct("<QIBQQ")  # a held cycle's: its place in the hold too
 _PERSON = b"franka-sim-fault"  # (16 bytes: BLAKE2b's personalisation)
 _TO_UNIT = 2.0 ** -53
 
@@ -43,18 +44,21 @@ class FaultPlan:
         # (statistics, with the fractions and decimal it imports, ~0.4 MiB: only for jitter)
         self._normal = _standard_normal() if spec.jitter else None
 
-    def fate(self, direction: int, message_id: int) -> tuple[int, bool] | None:
+    def fate(self, direction: int, message_id: int, held: int = 0) -> tuple[int, bool] | None:
         """None: lost. Else (cycles, reordered): held for that many cycles (0: goes now), and
-        whether it also trades places with the next datagram."""
+        whether it also trades places with the next datagram. `held`: the datagram belongs to
+        the j-th state of a lockstep motion's hold (its answer too), `message_id` being the
+        key of the motion's first state: fates of their own, and a burst reaches it as it
+        reaches the j-th cycle after that state."""
         if direction not in self._directions:
             return 0, False
         for start, end in self._bursts:
-            if start <= message_id < end:
+            if start <= message_id + held < end:
                 return None
         if not self._random:
             return (self._delay_us + 999) // 1000, False
         spec = self.spec
-        u_loss, u_latency, u_reorder = self.uniforms(direction, message_id)
+        u_loss, u_latency, u_reorder = self.uniforms(direction, message_id, held)
         if u_loss < spec.loss:
             return None
         latency_us = self._delay_us
@@ -63,9 +67,13 @@ class FaultPlan:
             latency_us = max(0, latency_us + round(spec.jitter * 1000 * z))
         return (latency_us + 999) // 1000, u_reorder < spec.reorder
 
-    def uniforms(self, direction: int, message_id: int) -> tuple[float, float, float]:
+    def uniforms(self, direction: int, message_id: int,
+                 held: int = 0) -> tuple[float, float, float]:
         """Three numbers in (0, 1) for this datagram, the same on every run and machine."""
-        key = _KEY.pack(self.seed, self.arm, direction, message_id & MAX_SEED)
+        if held:
+            key = _HELD_KEY.pack(self.seed, self.arm, direction, message_id & MAX_SEED, held)
+        else:
+            key = _KEY.pack(self.seed, self.arm, direction, message_id & MAX_SEED)
         digest = hashlib.blake2b(key, digest_size=24, person=_PERSON).digest()
         words = struct.unpack("<3Q", digest)
         return tuple(((word >> 11) + 0.5) * _TO_UNIT for word in words)

@@ -101,9 +101,15 @@ class BaseCore(FciRobot):
         if command is None:
             if motion.braking:
                 if self.window.consecutive_lost == MAX_EXTRAPOLATED_CYCLES:
-                    log.warning("base client silent for %d cycles: braking to rest",
-                                MAX_EXTRAPOLATED_CYCLES)
+                    log.warning("base: " + self.window.silence(
+                        "braking to rest", "until the client is heard again"))
                 self._target = (0.0, 0.0, 0.0)
+                late = self.window.late
+                if late is not None and late["motion_generation_finished"]:
+                    # Heard only late (the arm's reason, robot/arm_core.py): the finish ends it.
+                    log.warning("base: motion finished by a late command")
+                    self.status.answer_move(motion.command_id, MoveStatus.kSuccess)
+                    self._end_motion(RobotMode.kIdle)
             return
         twist = tuple(float(v) for v in command["O_dP_EE_c"])
         motion.last_command, motion.twist_c = command, twist

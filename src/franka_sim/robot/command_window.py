@@ -13,6 +13,10 @@ starts with the first command the motion receives: libfranka never answers the s
 the modes flip (it is how it learns the motion started), so counting the cycles before its
 first command would report every libfranka client as lossy. Consecutive losses still count
 from the start, so a client that never sends is aborted all the same.
+
+A late answer is kept aside for the cycle (`late`), its values never applied: a client whose
+every answer is late (a round trip over one cycle, as a network delay makes it) is still heard,
+which a server that does not abort it needs to know (its finish, robot/arm_core.py).
 """
 
 from __future__ import annotations
@@ -35,6 +39,9 @@ class CommandWindow:
         self.answered_total = 0
         self.invented_total = 0
         self.late_total = 0
+        self._late = None
+        self.late = None  # the newest late answer in the cycle last closed (dropped), or None
+        self.late_in_row = 0  # closed cycles in a row with no answer on time but a late one
 
     def opened(self, message_id: int) -> None:
         self.open_id = message_id
@@ -46,6 +53,8 @@ class CommandWindow:
             return False  # overtaken by a newer command already received
         if self.open_id is not None and message_id < self.open_id:
             self.late_total += 1  # its cycle is gone (extrapolated): dropped
+            if self._late is None or message_id > self._late[0]:
+                self._late = (message_id, command)
             return False
         if self.open_id is not None and message_id > self.open_id:
             self.invented_total += 1  # never published: applied, but it answers nothing
@@ -72,6 +81,9 @@ class CommandWindow:
             self.lost_total += 1
             self.consecutive_lost += 1
         command, self._latest = self._latest, None
+        self.late = None if self._late is None else self._late[1]
+        self._late = None
+        self.late_in_row = 0 if on_time or self.late is None else self.late_in_row + 1
         self.open_id = None
         return command
 
@@ -79,6 +91,16 @@ class CommandWindow:
     def holds_command(self) -> bool:
         """A command arrived that the window's close has still to apply."""
         return self._latest is not None
+
+    def silence(self, what: str, holding: str) -> str:
+        """The one line a robot logs when its motion's client missed `consecutive_lost` cycles
+        in a row: silent (`holding`: what the robot does until it is heard again), or heard
+        only late."""
+        if not self.late_in_row:
+            return f"client silent for {self.consecutive_lost} cycles: {what}, {holding}"
+        return (f"no command on time for {self.consecutive_lost} cycles: each came after its "
+                f"cycle closed (a round trip over one cycle, as a network delay makes it) and "
+                f"was dropped: {what}; a late command's finish still ends the motion")
 
     @property
     def success_rate(self) -> float:

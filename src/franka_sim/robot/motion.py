@@ -96,10 +96,11 @@ def parse_move(request) -> MoveSpec:
 class JointReference:
     """Desired joint signals of a joint-space generator, with the FCI's gap filling."""
 
-    def __init__(self, q_start: np.ndarray) -> None:
+    def __init__(self, q_start: np.ndarray, max_acceleration: np.ndarray | float = np.inf) -> None:
         self.q_d = np.array(q_start, dtype=float)
         self.dq_d = np.zeros(7)
         self.ddq_d = np.zeros(7)
+        self.max_acceleration = max_acceleration  # rad/s², per joint: what a gap carries on
 
     def follow_position(self, q_c: np.ndarray) -> None:
         """q_d = q_c, its first two differences (fresh arrays: a drive command keeps them)."""
@@ -114,7 +115,13 @@ class JointReference:
         self.q_d = self.q_d + dq * DT
 
     def extrapolate(self) -> None:
-        """A missed cycle: continue at the acceleration frozen when the gap began."""
+        """A missed cycle: continue at the acceleration frozen when the gap began, within the
+        robot's joint acceleration limit. q_c differenced against an extrapolated q_d (the
+        cycle after a gap) can exceed it for a client whose own stream is smooth (one whose
+        answers land a cycle off: a jittered network); carried on unbounded, gap after gap, the
+        reference grew without end (10⁹ rad/s² within 30 cycles)."""
+        limit = self.max_acceleration
+        self.ddq_d = np.clip(self.ddq_d, -limit, limit)
         self.dq_d = self.dq_d + self.ddq_d * DT
         self.q_d = self.q_d + self.dq_d * DT
 
@@ -205,12 +212,13 @@ class Motion:
     """
 
     def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
-                 O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None) -> None:
+                 O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None,
+                 max_acceleration: np.ndarray | float = np.inf) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
         self.first_state: int | None = None  # message_id of that cycle
-        self.reference = JointReference(q_start)
+        self.reference = JointReference(q_start, max_acceleration)
         self.cartesian = (
             CartesianTarget(O_T_EE_start) if spec.generator in CARTESIAN_GENERATORS else None
         )
@@ -253,6 +261,10 @@ class Motion:
             self.tau_J_d = np.array(command["tau_J_d"], dtype=float)
         self.finished = bool(command[self._finished_flag])
 
+    def asks_to_finish(self, command) -> bool:
+        """Whether `command` carries this Move's finish flag (its values aside)."""
+        return bool(command[self._finished_flag])
+
     def _follow_async(self, command) -> None:
         self.async_target.target = np.array(command["q_c"], dtype=float)
         self.async_target.advance()
@@ -288,7 +300,7 @@ class Motion:
             if not self.braking:
                 self.braking = True
                 if measured is not None:  # the stop starts from the arm as measured, any mode
-                    self.reference = JointReference(measured.q)
+                    self.reference = JointReference(measured.q, self.reference.max_acceleration)
                     self.reference.dq_d = np.array(measured.dq, dtype=float)
             self.reference.brake()
         elif self.spec.generator in JOINT_GENERATORS:

@@ -76,12 +76,12 @@ class ClockWatcher:
     def repeated(self) -> None:
         """A lockstep idle cycle only repeated a state, a client connected."""
 
-    def motion_started(self) -> None:
-        """The state on which a motion's modes flipped was released."""
+    def motion_started(self, message_id: int) -> None:
+        """The state on which a motion's modes flipped was released (its message_id)."""
 
-    def held(self) -> None:
+    def held(self, message_id: int) -> None:
         """A motion's start was held for its client's first command (a repeat whose number the
-        client's timing decides)."""
+        client's timing decides), under this message_id."""
 
     def window_ran_out(self) -> None:
         """A lockstep cycle went without the answer it waited for."""
@@ -225,13 +225,13 @@ class Clock:
                 held = cycle.hold()
                 if held is not None:
                     self._held += 1
-                    self.watcher.held()
+                    self.watcher.held(held.message_id)
                     return held
         self._frozen = False
         released = cycle.release()
         self._held = 0
         if cycle.first_motion_state:
-            self.watcher.motion_started()
+            self.watcher.motion_started(released.message_id)
         return released
 
     def _round_up_gap(self) -> None:

@@ -39,6 +39,11 @@ class NetworkFaults(ClockWatcher):
         # same fates in every rehearsal, and idle states after it still get fates of their own).
         self.repeats = 0
         self.key_offset = 0  # `repeats` when the last motion started: faults key on the rest
+        # Lockstep: the last motion's hold (its first state's message_id, the last held one's,
+        # and the first state's key). Every held state would have that key; each gets its place
+        # in the hold as well, or one fate would befall every answer until the first command
+        # came through, and a lost or late one would hold the motion for ever.
+        self._hold = (-1, -1, 0)
         self.windows_run_out = 0  # lockstep cycles released without the answer they waited for
 
     def wire(self, driver, endpoints) -> None:
@@ -56,12 +61,23 @@ class NetworkFaults(ClockWatcher):
     def skipped(self, cycles: int) -> None:  # what the repeats of an idle gap were rounded up by
         self.repeats += cycles
 
-    def motion_started(self) -> None:
+    def motion_started(self, message_id: int) -> None:
         self.key_offset = self.repeats
+        self._hold = (message_id, message_id, message_id - self.key_offset)
 
-    def held(self) -> None:  # within the motion: its later cycles keep their keys
+    def held(self, message_id: int) -> None:  # within the motion: its later cycles keep their keys
         self.repeats += 1
         self.key_offset += 1
+        self._hold = (self._hold[0], message_id, self._hold[2])
+
+    def key(self, message_id: int) -> tuple[int, int]:
+        """A datagram's fate key (faults/plan.py): (message_id less key_offset, 0), or for a
+        held state of the last motion's start and the answers to it, (the start's key, its
+        place in the hold)."""
+        start, last, key = self._hold
+        if start < message_id <= last:
+            return key, message_id - start
+        return message_id - self.key_offset, 0
 
     def window_ran_out(self) -> None:
         self.windows_run_out += 1
@@ -128,8 +144,7 @@ class NetworkFaults(ClockWatcher):
         if not self.links:
             from franka_sim.faults.link import ArmLink
 
-            offset = lambda: self.key_offset  # noqa: E731
-            self.links = [ArmLink(i, offset) for i in range(len(self.endpoints))]
+            self.links = [ArmLink(i, self.key) for i in range(len(self.endpoints))]
         return self.links
 
     def _attach(self) -> None:
