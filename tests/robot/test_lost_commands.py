@@ -265,3 +265,25 @@ def test_a_client_heard_only_late_ends_its_motion_by_its_finish(enforce, caplog)
     said = [r.getMessage() for r in caplog.records]
     assert sum("no command on time for 20 cycles" in line for line in said) == 1
     assert sum("motion finished by a late command" in line for line in said) == 1
+
+
+def test_a_gap_carries_the_cartesian_signals_on_within_their_limits():
+    """The Cartesian pose's twist and the elbow continue through a gap at their last rate of
+    change, within the robot's envelope (FR3: 9 m/s², 17 rad/s², the elbow's 10 rad/s²)."""
+    from franka_sim.robot.cartesian import CartesianTarget
+    from franka_sim.robot.checks.figures import FR3
+    from franka_sim.robot.motion import ElbowCommand
+
+    limits = np.repeat([FR3.translation.acceleration, FR3.rotation.acceleration], 3)
+    target = CartesianTarget(np.eye(4), limits)
+    for x in (0.0, 0.0, 0.01):  # a 1 cm jump in one cycle: 10 m/s after 0, 10⁴ m/s²
+        pose = np.eye(4)
+        pose[0, 3] = x
+        target.set_pose(pose)
+    before = target.twist.copy()
+    target.extrapolate()
+    assert (target.twist[0] - before[0]) / DT == pytest.approx(FR3.translation.acceleration)
+    elbow = ElbowCommand(0.0, -1.0, max_acceleration=FR3.elbow.acceleration)
+    elbow.follow(0.01, -1.0)  # 10 rad/s in one cycle
+    elbow.extrapolate(False)
+    assert elbow.position == pytest.approx(0.01 + (10.0 + FR3.elbow.acceleration * DT) * DT)

@@ -69,8 +69,11 @@ class CartesianTarget:
     worked out from the last three poses when one occurs, not on every cycle.
     """
 
-    def __init__(self, O_T_EE_start: np.ndarray) -> None:
+    def __init__(self, O_T_EE_start: np.ndarray,
+                 max_twist_rate: np.ndarray | float = np.inf) -> None:
         self.pose = np.array(O_T_EE_start, dtype=float)
+        # m/s², rad/s² (6,): what a gap carries on, as the joint reference's (motion.py)
+        self.max_twist_rate = max_twist_rate
         self._twist = np.zeros(6)
         self._twist_rate = np.zeros(6)
         # The poses since the twist above was last brought up to date (it is the first one's),
@@ -108,6 +111,8 @@ class CartesianTarget:
 
     def extrapolate(self) -> None:
         self._settle()
+        limit = self.max_twist_rate
+        self._twist_rate = np.clip(self._twist_rate, -limit, limit)
         self._twist = self._twist + self._twist_rate * DT
         self._integrate()
 

@@ -11,7 +11,9 @@ there until the client is heard again.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +31,9 @@ from franka_sim.protocol.enums import (
 )
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.spatial import pose_error
+
+if TYPE_CHECKING:
+    from franka_sim.robot.checks.figures import MotionFigures
 
 MAX_EXTRAPOLATED_CYCLES = 20
 # How fast the robot's own stop slows a joint: the FR3's joint acceleration limit (every joint,
@@ -184,11 +189,13 @@ class ElbowCommand:
     what libfranka's filter and rate limiter anchor the next command on, so a missed cycle must
     leave it where the stream was heading, not where the client last was."""
 
-    __slots__ = ("position", "flag", "_velocity", "_acceleration")
+    __slots__ = ("position", "flag", "_velocity", "_acceleration", "max_acceleration")
 
-    def __init__(self, position: float, flag: float, velocity: float = 0.0) -> None:
+    def __init__(self, position: float, flag: float, velocity: float = 0.0,
+                 max_acceleration: float = math.inf) -> None:
         self.position, self.flag = position, flag
         self._velocity, self._acceleration = velocity, 0.0
+        self.max_acceleration = max_acceleration  # rad/s²: what a gap carries on (as q_d's)
 
     def follow(self, position: float, flag: float) -> None:
         velocity = (position - self.position) / DT
@@ -199,6 +206,8 @@ class ElbowCommand:
         if stand_still:
             self._velocity = self._acceleration = 0.0
             return
+        limit = self.max_acceleration
+        self._acceleration = min(max(self._acceleration, -limit), limit)
         self._velocity += self._acceleration * DT
         self.position += self._velocity * DT
 
@@ -213,14 +222,19 @@ class Motion:
 
     def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
                  O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None,
-                 max_acceleration: np.ndarray | float = np.inf) -> None:
+                 figures: MotionFigures | None = None) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
         self.first_state: int | None = None  # message_id of that cycle
-        self.reference = JointReference(q_start, max_acceleration)
+        # The robot's limits bound what a gap carries on (figures: None, unbounded).
+        self._elbow_acceleration = np.inf if figures is None else figures.elbow.acceleration
+        self.reference = JointReference(
+            q_start, np.inf if figures is None else figures.joint_acceleration)
         self.cartesian = (
-            CartesianTarget(O_T_EE_start) if spec.generator in CARTESIAN_GENERATORS else None
+            CartesianTarget(O_T_EE_start, np.inf if figures is None else np.repeat(
+                [figures.translation.acceleration, figures.rotation.acceleration], 3))
+            if spec.generator in CARTESIAN_GENERATORS else None
         )
         self.F_T_EE = np.eye(4) if F_T_EE is None else F_T_EE
         self.kinematics: tuple[np.ndarray, np.ndarray] | None = None
@@ -285,7 +299,8 @@ class Motion:
         else:
             position, flag = command["elbow_c"].tolist()
             if self.elbow is None:
-                self.elbow = ElbowCommand(position, flag)
+                self.elbow = ElbowCommand(position, flag,
+                                          max_acceleration=self._elbow_acceleration)
             else:
                 self.elbow.follow(position, flag)
         self._solve()
