@@ -12,7 +12,6 @@ Jobs that touch the robot core or the Hand hold the simulator's lock, as a TCP r
 from __future__ import annotations
 
 import asyncio
-import sys
 import threading
 from typing import Any, Callable
 
@@ -44,13 +43,6 @@ def _pose(state) -> dict:
             "angular_velocity": state.angular_velocity.tolist(), "free": state.free}
 
 
-def _vacuum_gripper(tool: ToolDevice | None):
-    """`tool` if it is a vacuum gripper, else None. Its module is only imported where one is
-    made (--tool vacuum): where it is not loaded, no tool is one."""
-    module = sys.modules.get("franka_sim.robot.vacuum_gripper")
-    return tool if module is not None and isinstance(tool, module.VacuumGripper) else None
-
-
 class ArmOps(DeskOps, FaultOps):
     """The control operations on one simulated arm, its Hand (None: none) and its world (whose
     bodies every arm's API sees alike). Arm `arm_index` is robot `arm_index` of the world."""
@@ -68,9 +60,11 @@ class ArmOps(DeskOps, FaultOps):
         # `desk_effects` applies what it means for the robot's endpoints (None: nothing to open
         # or close).
         self.desk_boot, self.desk_effects = desk_boot, desk_effects
-        # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it.
-        self.hand = tool if isinstance(tool, Hand) else None
-        self.pump = _vacuum_gripper(tool)
+        # The Hand's opening is what `gripper_width` (state, reset) speaks of: None without it;
+        # the vacuum gripper's state, `vacuum_gripper`. Told apart by the tool's kind.
+        kind = None if tool is None else tool.kind
+        self.hand: Hand | None = tool if kind == "hand" else None
+        self.pump = tool if kind == "vacuum" else None
         self.worker, self.lock, self.description = worker, lock, description
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
@@ -211,12 +205,12 @@ class ArmOps(DeskOps, FaultOps):
                 "gripper_width": None if self.hand is None else self.hand.width}
 
     async def home_gripper(self) -> dict:
-        if not isinstance(self.tool, Hand):
+        if self.hand is None:
             raise NotFound("no Franka Hand on this arm (--tool hand puts one there)")
 
         def home(world, arm) -> dict:
             with self.lock:
-                if not self.tool.home():
+                if not self.hand.home():
                     raise Conflict("the Hand is busy: an action is under way")
             self.driver.keep_running()
             return {"homing": True}

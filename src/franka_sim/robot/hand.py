@@ -52,6 +52,8 @@ class Hand:
     """The Hand: its calibration, the running action, the grasp, and what the fingers do next
     (a tool device: robot/tool.py)."""
 
+    kind = "hand"
+
     def __init__(self, *, state_period: int = STATE_PERIOD,
                  max_width: float = NOMINAL_MAX_WIDTH) -> None:
         self.state_period = state_period

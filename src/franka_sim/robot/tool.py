@@ -14,6 +14,8 @@ from typing import Protocol
 
 
 class ToolDevice(Protocol):
+    kind: str  # its tool's name (`--tool`, franka_sim/tools/): what the control API reports on
+
     @property
     def idle(self) -> bool:
         """No action runs (one a client may watch and stop: lockstep runs it on the wall

@@ -57,6 +57,8 @@ class _Action:
 class VacuumGripper:
     """The pump: its setpoint, the running action, and what it reports (a tool device)."""
 
+    kind = "vacuum"
+
     def __init__(self, *, state_period: int = STATE_PERIOD) -> None:
         self.state_period = state_period
         self.cycle = 0
