@@ -188,11 +188,12 @@ class ArmCore(FciRobot):
             self._silent = True
         if command is not None and motion.finished:
             self._finish(motion)
-        elif (self._silent and self.window.late is not None
+        elif ((self._silent or motion.spec.use_async) and self.window.late is not None
               and motion.asks_to_finish(self.window.late) and not motion.still_moving()):
             # Heard, but only late: libfranka sends its finish again each cycle until the
             # state shows the motion ended, and would wait for ever for a robot that does not
-            # abort. Its values stay dropped; the arm held (braked to rest) ends the motion.
+            # abort. Its values stay dropped; the arm held (braked to rest, or an async
+            # generator arrived) ends the motion.
             log.warning("motion finished by a late command (the arm held where it was)")
             self._finish(motion)
 

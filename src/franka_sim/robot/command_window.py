@@ -98,9 +98,10 @@ class CommandWindow:
         only late."""
         if not self.late_in_row:
             return f"client silent for {self.consecutive_lost} cycles: {what}, {holding}"
-        return (f"no command on time for {self.consecutive_lost} cycles: each came after its "
-                f"cycle closed (a round trip over one cycle, as a network delay makes it) and "
-                f"was dropped: {what}; a late command's finish still ends the motion")
+        return (f"no command on time for {self.consecutive_lost} cycles, the last "
+                f"{self.late_in_row} answered after their cycle closed (a round trip over one "
+                f"cycle, as a network delay makes it) and dropped: {what}; a late command's "
+                f"finish still ends the motion")
 
     @property
     def success_rate(self) -> float:
