@@ -72,7 +72,7 @@ class CartesianTarget:
     def __init__(self, O_T_EE_start: np.ndarray,
                  max_twist_rate: np.ndarray | float = np.inf) -> None:
         self.pose = np.array(O_T_EE_start, dtype=float)
-        # m/s², rad/s² (6,): what a gap carries on, as the joint reference's (motion.py)
+        # m/s², rad/s² per axis (6,): what a gap carries on, as the joint reference's (motion.py)
         self.max_twist_rate = max_twist_rate
         self._twist = np.zeros(6)
         self._twist_rate = np.zeros(6)
