@@ -47,11 +47,12 @@ class Base:
     def move(self, generator=CARTESIAN_VELOCITY, controller=0):
         return self.request(Command.Move, move_request(controller, generator))
 
-    def send(self, twist, finished=False) -> bool:
+    def send(self, twist, finished=False, message_id=None) -> bool:
+        """A command answering the last state (or the one `message_id` names)."""
+        mid = int(self.state["message_id"]) if message_id is None else message_id
         command = np.frombuffer(encode_command(
-            message_id=int(self.state["message_id"]), O_dP_EE_c=list(twist),
+            message_id=mid, O_dP_EE_c=list(twist),
             motion_generation_finished=finished), dtype=np.uint8)
-        from franka_sim.protocol.codec import decode_command
         return self.cycle.receive(decode_command(command.tobytes()))
 
     def drive(self, twists) -> None:
@@ -176,9 +177,8 @@ def test_a_client_heard_only_late_still_ends_the_base_motion():
     for k in range(30):
         answered = int(base.state["message_id"])
         base.step()
-        command = encode_command(message_id=answered, O_dP_EE_c=[0.2, 0, 0, 0, 0, 0],
-                                 motion_generation_finished=k >= 25)
-        assert not base.cycle.receive(decode_command(command))  # late
+        assert not base.send((0.2, 0.0, 0.0, 0.0, 0.0, 0.0), finished=k >= 25,
+                             message_id=answered)  # late
     base.step()
     assert [reply_status(r)[2] for r in base.replies] == [int(MoveStatus.kSuccess)]
     assert base.state["robot_mode"] == RobotMode.kIdle

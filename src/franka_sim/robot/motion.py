@@ -221,18 +221,17 @@ class Motion:
     """
 
     def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
-                 O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None,
-                 figures: MotionFigures | None = None) -> None:
+                 O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None, *,
+                 figures: MotionFigures) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
         self.first_state: int | None = None  # message_id of that cycle
-        # The robot's limits bound what a gap carries on (figures: None, unbounded).
-        self._elbow_acceleration = np.inf if figures is None else figures.elbow.acceleration
-        self.reference = JointReference(
-            q_start, np.inf if figures is None else figures.joint_acceleration)
+        # The robot's limits (its kind's figures) bound what a gap carries on.
+        self._elbow_acceleration = figures.elbow.acceleration
+        self.reference = JointReference(q_start, figures.joint_acceleration)
         self.cartesian = (
-            CartesianTarget(O_T_EE_start, np.inf if figures is None else np.repeat(
+            CartesianTarget(O_T_EE_start, np.repeat(
                 [figures.translation.acceleration, figures.rotation.acceleration], 3))
             if spec.generator in CARTESIAN_GENERATORS else None
         )
