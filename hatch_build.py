@@ -9,6 +9,7 @@ reference says so in its log at start.
 The compiler is $CC (e.g. CC="python -m ziglang cc"), else the one Python was built with.
 FRANKA_SIM_KERNELS=numpy skips the compilation. An editable install compiles in place, beside
 the source (src/franka_sim/kernels/), as the editable package is imported from there.
+The hook also puts the arm descriptions (urdf/) into a wheel, whether or not it compiles.
 """
 
 from __future__ import annotations
@@ -69,6 +70,9 @@ class CustomBuildHook(BuildHookInterface):
         if self.target_name != "wheel":
             return
         root = Path(self.root)
+        if version != "editable":
+            # Beside the modules; an editable install reads them from the checkout.
+            build_data["force_include"][str(root / "urdf")] = "franka_sim/urdf"
         name = MODULE + sysconfig.get_config_var("EXT_SUFFIX")
         if version == "editable":
             target = root / SOURCES.parent / name

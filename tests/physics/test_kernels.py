@@ -280,6 +280,9 @@ def test_the_reference_replays_a_recording_identical(name):
     assert done.returncode == 0 and done.stdout.startswith("identical"), done.stdout + done.stderr
 
 
+DESCRIPTIONS = {"franka_sim/urdf/fr3.urdf", "franka_sim/urdf/fer.urdf"}
+
+
 def _wheel(tmp_path: Path, env: dict) -> tuple[zipfile.ZipFile, str]:
     done = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps",
                            "--no-build-isolation", "-v", "-w", str(tmp_path), str(REPO)],
@@ -297,7 +300,9 @@ def test_pip_builds_the_kernels_where_there_is_a_compiler_and_a_pure_wheel_where
     built = [n for n in wheel.namelist() if n.startswith("franka_sim/kernels/_compiled.")
              and not n.endswith(".c")]
     assert len(built) == 1 and "-cp3" in Path(wheel.filename).name
+    assert DESCRIPTIONS <= set(wheel.namelist())
     wheel, log = _wheel(tmp_path / "none", {**env, "CC": str(tmp_path / "no-such-cc")})
     assert Path(wheel.filename).name.endswith("-py3-none-any.whl")
     assert not [n for n in wheel.namelist() if n.endswith((".so", ".pyd"))]
     assert "the compiled kernels are not built (no C compiler" in log
+    assert DESCRIPTIONS <= set(wheel.namelist())  # the arms' descriptions go in either way
