@@ -30,6 +30,10 @@ BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", b'{"body": "hand", "force": [NaN, 0, 0]}', 400, "NaN is not a JSON"),
     ("POST", "/push", b'{"body": "hand", "force": [1e999, 0, 0]}', 400, "force must be finite"),
     ("POST", "/push", {**PUSH, "torque": [0, 0, None]}, 400, "torque must be 3 numbers"),
+    # (past these the step fails, and the server with it, or the arm is torn past its limits)
+    ("POST", "/push", {**PUSH, "force": [0, 0, 1e6]}, 400, "force 1e+06 N is over the 1000 N"),
+    ("POST", "/push", {**PUSH, "force": [800, 800, 0]}, 400, "force 1131.37 N is over"),
+    ("POST", "/push", {**PUSH, "torque": [0, 150, 0]}, 400, "torque 150 Nm is over the 100 Nm"),
     ("POST", "/push", {**PUSH, "duration": -0.5}, 400, "duration must be positive"),
     ("POST", "/push", {**PUSH, "duration": 0}, 400, "duration must be positive"),
     ("POST", "/push", {**PUSH, "duration": "1s"}, 400, "duration must be a number"),
@@ -39,6 +43,7 @@ BAD = [  # (method, path, body, status, what the error says)
     ("PUT", "/bodies/link9", {"position": [0, 0, 1]}, 404, "no body named 'link9'"),
     ("PUT", "/bodies/link3", {"position": [0, 0, 1]}, 409, "'link3' is not a free body"),
     ("PUT", CUBE, {"position": [0, 0]}, 400, "position must have 3 numbers"),
+    ("PUT", CUBE, {"position": [1e20, 0, 0.1]}, 400, "position 1e+20 m is over the 100 m"),
     ("PUT", CUBE, {"quaternion": [1, 0, 0, 0]}, 400, "missing field(s) 'position'"),
     ("PUT", CUBE, {"position": [0.4, 0, 0.3], "quaternion": [0, 0, 0, 0]}, 400,
      "quaternion must not be zero"),

@@ -10,6 +10,7 @@ import pytest
 
 from franka_sim.config import READY_POSE
 from franka_sim.control import Conflict, Control, NotFound
+from franka_sim.operations.arm import MAX_PUSH_FORCE, MAX_PUSH_TORQUE
 from support.clients import connect, pose
 
 CUBE_START = [0.45, 0.0, 0.025]  # scenes/default.xml
@@ -127,6 +128,16 @@ def test_a_push_reads_as_the_force_the_robot_exerts_and_ends_after_its_duration(
     state = current_state(robot, control)
     assert not any(state.O_F_ext_hat_K) and not any(state.tau_ext_hat_filtered)
     del robot
+
+
+def test_the_strongest_push_taken_leaves_a_simulator_that_serves(control):
+    for direction in ([0.0, 0.0, 1.0], [-0.6, 0.0, -0.8]):  # (~1 MN broke the step)
+        control.reset()
+        control.push("hand", force=[MAX_PUSH_FORCE * x for x in direction],
+                     torque=[0.0, 0.0, MAX_PUSH_TORQUE], duration=0.5)
+        wait_cycles(control, 1000)
+        assert control.health()["ready"] and control.state()["robot_mode"] == "Idle"
+    control.reset()
 
 
 def test_a_push_during_a_motion_trips_the_collision_reflex_and_reset_clears_it(control,

@@ -25,7 +25,7 @@ from franka_sim.operations.faults import FaultOps
 from franka_sim.operations.ports import Jobs, Pacer
 from franka_sim.control.table import Kind
 from franka_sim.operations.values import (body_name, mode_name, number, numbers,
-                                          refuse_if_failed)
+                                          refuse_if_failed, within)
 from franka_sim.physics.bodies import NotFree, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
@@ -35,6 +35,12 @@ from franka_sim.robot.hand import NOMINAL_MAX_WIDTH, Hand
 from franka_sim.robot.tool import ToolDevice
 
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
+# The largest push and placement the world stays physical under: under 1000 N at the hand
+# the arm's joint limits hold (tens of kN tear it past them, ~1 MN breaks the step); 100 Nm
+# turns a link or the cube; 100 m from the base is far beyond any scene.
+MAX_PUSH_FORCE = 1000.0
+MAX_PUSH_TORQUE = 100.0
+MAX_PLACE = 100.0
 
 
 def _pose(state) -> dict:
@@ -278,7 +284,7 @@ class ArmOps(DeskOps, FaultOps):
 
     async def set_pose(self, name: str, position, quaternion=None) -> dict:
         name = body_name(name)
-        position = numbers("position", position, 3)
+        position = within("position", numbers("position", position, 3), MAX_PLACE, "m")
         if quaternion is not None:
             quaternion = numbers("quaternion", quaternion, 4)
             if np.linalg.norm(quaternion) < 1e-9:
@@ -302,8 +308,9 @@ class ArmOps(DeskOps, FaultOps):
         """A wrench at the body's centre of mass, base frame, for `duration` s of simulated
         time (rounded to whole cycles, at least one)."""
         body = body_name(body)
-        force = numbers("force", force, 3)
-        torque = np.zeros(3) if torque is None else numbers("torque", torque, 3)
+        force = within("force", numbers("force", force, 3), MAX_PUSH_FORCE, "N")
+        torque = np.zeros(3) if torque is None else within(
+            "torque", numbers("torque", torque, 3), MAX_PUSH_TORQUE, "Nm")
         duration = number("duration", duration)
         if duration <= 0.0:
             raise BadRequest(f"duration must be positive, not {duration}")

@@ -33,6 +33,16 @@ def numbers(name: str, value: Any, n: int) -> np.ndarray:
     return array
 
 
+def within(name: str, array: np.ndarray, bound: float, unit: str) -> np.ndarray:
+    """`array` if its norm is at most `bound`, else BadRequest: past it the physics no longer
+    stays stable (a body flung to where MuJoCo gives up on the world, an arm torn out of its
+    joint limits)."""
+    if np.linalg.norm(array) > bound:
+        raise BadRequest(f"{name} {np.linalg.norm(array):.6g} {unit} is over the "
+                         f"{bound:g} {unit} the simulator accepts")
+    return array
+
+
 def number(name: str, value: Any) -> float:
     """`value` as one finite number, or BadRequest."""
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
