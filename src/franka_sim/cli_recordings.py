@@ -38,7 +38,8 @@ def replay(
     until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
 ) -> None:
     """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
-    `identical (N cycles)`, or the first cycle that differs and its fields (exit 1)."""
+    `identical (N cycles, M tool states)`, or the first cycle that differs and its fields
+    (exit 1)."""
     from franka_sim.recording.metadata import Incompatible
     from franka_sim.playback.replay import replay as run_replay
 

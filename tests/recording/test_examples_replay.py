@@ -30,6 +30,7 @@ import pytest
 from franka_sim.playback.replay import replay
 from franka_sim.recording.reader import open_recording
 from franka_sim.testing import running_sim
+from support.replayed import identical_line
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 HELD_UP = "communication_constraints_violation"
@@ -105,4 +106,4 @@ def test_the_recorded_program_replays_identical(program, clock, tmp_path):
     recording = open_recording(path)  # replayed in this process: `franka-sim replay` runs the
     cycles = len(recording.states())  # same (its CLI path: test_record_replay.py)
     assert cycles > 0
-    assert replay(recording).line() == f"identical ({cycles} cycles)"
+    assert replay(recording).line() == identical_line(recording)

@@ -11,9 +11,11 @@ import pytest
 from mcap.reader import make_reader
 
 from franka_sim.protocol.codec import COMMAND_DTYPE
+from franka_sim.protocol.gripper_messages import GripperState
 from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.channels import COMMAND_PREFIX
 from franka_sim.recording.reader import open_recording
+from support.replayed import identical_line
 
 RUNS = ["lockstep_run", "realtime_run"]
 
@@ -68,8 +70,7 @@ def test_replay_is_identical(run, request, tmp_path):
     tmp.mkdir()
     done = franka_sim("replay", str(path), env={**os.environ, "TMPDIR": str(tmp)})
     assert done.returncode == 0, done.stdout + done.stderr
-    n = len(open_recording(path).states())
-    assert done.stdout.strip() == f"identical ({n} cycles)"
+    assert done.stdout.strip() == identical_line(open_recording(path))
     assert list(tmp.iterdir()) == []  # the replay's own files are gone with it
 
 
@@ -79,11 +80,12 @@ def test_replay_until_compares_up_to_that_cycle(lockstep_run):
     until = int(ids[len(ids) // 2])
     done = franka_sim("replay", str(path), "--until", str(until))
     assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == f"identical ({int(np.sum(ids <= until))} cycles)"
+    assert done.stdout.strip() == identical_line(open_recording(path), until)
 
 
-def _with_one_command_changed(source, target) -> int:
-    """Copy `source` with one mid-motion command's q_c changed; the cycle it answered."""
+def _with_one_message_changed(source, target, topic: str, nth: int, change) -> bytes:
+    """Copy `source` with the `nth` message on `topic` replaced by `change(data)`; the new
+    bytes."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -94,7 +96,7 @@ def _with_one_command_changed(source, target) -> int:
         for m in reader.iter_metadata():
             writer.add_metadata(m.name, m.metadata)
         schemas, channels, changed = {}, {}, None
-        commands = 0
+        seen = 0
         for schema, channel, message in reader.iter_messages(log_time_order=False):
             if schema.id not in schemas:
                 schemas[schema.id] = writer.register_schema(schema.name, schema.encoding,
@@ -103,17 +105,25 @@ def _with_one_command_changed(source, target) -> int:
                 channels[channel.id] = writer.register_channel(
                     channel.topic, channel.message_encoding, schemas[schema.id])
             data = message.data
-            if channel.topic == "/fr3/command":
-                commands += 1
-                if commands == 200:
-                    command = np.frombuffer(data[COMMAND_PREFIX.size:], COMMAND_DTYPE)[0].copy()
-                    command["q_c"][0] += 1e-4
-                    data = data[:COMMAND_PREFIX.size] + command.tobytes()
-                    changed = COMMAND_PREFIX.unpack_from(data)[0]
+            if channel.topic == topic:
+                seen += 1
+                if seen == nth:
+                    data = changed = change(data)
             writer.add_message(channels[channel.id], message.log_time, data,
                                message.publish_time, message.sequence)
         writer.finish()
+    assert changed is not None, f"fewer than {nth} messages on {topic}"
     return changed
+
+
+def _with_one_command_changed(source, target) -> int:
+    """Copy `source` with one mid-motion command's q_c changed; the cycle it answered."""
+    def change(data: bytes) -> bytes:
+        command = np.frombuffer(data[COMMAND_PREFIX.size:], COMMAND_DTYPE)[0].copy()
+        command["q_c"][0] += 1e-4
+        return data[:COMMAND_PREFIX.size] + command.tobytes()
+    changed = _with_one_message_changed(source, target, "/fr3/command", 200, change)
+    return COMMAND_PREFIX.unpack_from(changed)[0]
 
 
 def test_one_command_changed_names_the_first_divergent_cycle_and_field(lockstep_run, tmp_path):
@@ -125,3 +135,17 @@ def test_one_command_changed_names_the_first_divergent_cycle_and_field(lockstep_
     # The command answered cycle `changed`; the next cycle's state shows it first (q_d).
     assert line.startswith(f"diverged at cycle {changed + 1}: "), line
     assert "q_d" in line.split(": ", 1)[1].split(", "), line
+
+
+def test_a_hand_state_changed_names_its_cycle_and_field(lockstep_run, tmp_path):
+    path, _ = lockstep_run
+    def change(data: bytes) -> bytes:
+        state = GripperState.parse(data)
+        state.width += 1e-6
+        return GripperState.build(state)
+    changed = _with_one_message_changed(path, tmp_path / "changed.mcap", "/fr3/gripper_state",
+                                        2, change)
+    done = franka_sim("replay", str(tmp_path / "changed.mcap"))
+    assert done.returncode == 1
+    assert done.stdout.strip() == (f"diverged at cycle {GripperState.parse(changed).message_id}:"
+                                   " width (gripper_state of robot fr3)")

@@ -8,8 +8,9 @@ recorded: after the release of cycle n, before or after that cycle's completion.
 between are released and completed as the server does (robot/world_cycle.py): stepped, or, where
 the recording says the server left the world as it was (lockstep's idle time, a motion's start
 held for its client's first command), repeated. Each state the server sent is compared with the
-replayed one. Cycles whose states were not sent (no client yet, lockstep's settling) are
-released all the same.
+replayed one, and so is each tool state it sent (the Hand's, the vacuum gripper's: by
+message_id, as lockstep's settling sends only its last cycle's). Cycles whose states were not
+sent (no client yet, lockstep's settling) are released all the same.
 
 A recording started on a running server (the control API's `/recording`) begins with the reset
 it started from, at cycle n: the fresh simulator's clock is moved to n and that reset is
@@ -23,6 +24,7 @@ from __future__ import annotations
 import bisect
 import tempfile
 import threading
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +34,9 @@ from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ArmOps
 from franka_sim.control.table import BY_NAME, Effect
 from franka_sim.protocol.codec import STATE_DTYPE
+from franka_sim.protocol.gripper_messages import GripperState
+from franka_sim.protocol.vacuum_gripper_messages import VacuumGripperState
+from franka_sim.recording.channels import TOOL_STATE_KEYS
 from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
 from franka_sim.recording.reader import Recording, command_of, tcp_data
 from franka_sim.robot.session import SessionError
@@ -39,7 +44,8 @@ from franka_sim.robot.session import SessionError
 
 @dataclass
 class Outcome:
-    cycles: int = 0  # recorded states compared
+    cycles: int = 0  # cycles whose recorded states (every robot's) were compared
+    tool_states: int = 0  # recorded tool states (the Hand's, the vacuum gripper's) compared
     divergence: int | None = None  # the first cycle that differs
     fields: list[str] = field(default_factory=list)  # what differs there
     note: str = ""
@@ -50,7 +56,8 @@ class Outcome:
 
     def line(self) -> str:
         if self.identical:
-            return f"identical ({self.cycles} cycles)"
+            tools = f", {self.tool_states} tool states" if self.tool_states else ""
+            return f"identical ({self.cycles} cycles{tools})"
         return f"diverged at cycle {self.divergence}: {', '.join(self.fields)}" + (
             f" ({self.note})" if self.note else "")
 
@@ -64,6 +71,14 @@ def differing_fields(recorded: bytes, replayed: bytes | None) -> list[str]:
 
 
 _REPLAYED = ("robot_state", "command", "tcp", "control")  # the events replay applies
+_TOOL_STATES = {"gripper_state": GripperState, "vacuum_gripper_state": VacuumGripperState}
+assert set(_TOOL_STATES) == set(TOOL_STATE_KEYS.values())
+
+
+def differing_tool_fields(key: str, recorded: bytes, replayed: bytes) -> list[str]:
+    layout = _TOOL_STATES[key]
+    a, b = layout.parse(recorded), layout.parse(replayed)
+    return [name for name in a if not name.startswith("_") and a[name] != b[name]] or [key]
 
 
 class _Diverged(Exception):
@@ -79,6 +94,11 @@ class Replayer:
         self.world_parts = parts = WorldParts(self.config)
         self.physics = parts.make_physics()  # the world and each robot's body in it
         self.listening = [False] * len(parts.robots)  # a Hand client took its state stream
+        # Each robot's tool states, by message_id, not yet compared: replayed (the server sent
+        # only some: lockstep's settling sends the last cycle's alone), and recorded ahead of
+        # the replay (a tool state goes once its cycle is completed).
+        self.replayed_tools = [deque() for _ in parts.robots]
+        self.recorded_tools = [deque() for _ in parts.robots]
         self.cycle = parts.make_cycle(
             self.physics, [lambda i=i: self.listening[i] for i in range(len(parts.robots))])
         self.released = None  # the cycle released and not completed, if any
@@ -109,8 +129,13 @@ class Replayer:
             if (here, done) > (n, completed):
                 raise _Diverged(f"an event recorded at cycle {n} comes after cycle {here}")
             if not done:
-                cycle.complete(self.released)
+                replies = cycle.complete(self.released)
                 self.released = None
+                for robot, robot_replies in enumerate(replies.robots):
+                    for _, tool_state in robot_replies.tools:
+                        if tool_state is not None:
+                            self.replayed_tools[robot].append(
+                                (int.from_bytes(tool_state[:4], "little"), tool_state))
             elif here + 1 in self._skips:
                 cycle.skip(self._skips[here + 1])
             elif self._repeated(here + 1):
@@ -140,13 +165,15 @@ class Replayer:
 
     def run(self, until: int | None = None) -> Outcome:
         self.start_where_recorded()
-        outcome = Outcome()
+        outcome, compared = Outcome(), None
         try:
-            for entry in self.recording.entries:
+            entries = self.recording.entries
+            for k, entry in enumerate(entries):
                 key, robot = entry.key, entry.robot
                 if key == "robot_state":
                     n = int.from_bytes(entry.data[:8], "little")  # its message_id
-                    if until is not None and n > until:
+                    if until is not None and n > until:  # (a tool state up to it may follow)
+                        self._record_tools(entries[k:], until)
                         break
                     self.advance(n, False)
                     replayed = self.released.robots[robot].state
@@ -156,7 +183,8 @@ class Replayer:
                         if len(self.recording.robots) > 1:
                             outcome.note = f"robot {self.recording.robots[robot]}"
                         return outcome
-                    outcome.cycles += 1
+                    if n != compared:
+                        outcome.cycles, compared = outcome.cycles + 1, n
                 elif key == "command":
                     n, completed, on_time, command = command_of(entry)
                     self.advance(n, completed)
@@ -169,10 +197,56 @@ class Replayer:
                     self._tcp(robot, entry.json())
                 elif key == "control":
                     self._control(robot, entry.json())
+                elif key in _TOOL_STATES:
+                    self._record_tools((entry,), until)
+                if self._tools_differ(outcome):
+                    return outcome
+            self._last_tool_states(outcome)
         except _Diverged as exc:
             outcome.divergence = self.cycle.message_id
             outcome.fields, outcome.note = ["event order"], str(exc)
         return outcome
+
+    def _record_tools(self, entries, until: int | None) -> None:
+        for entry in entries:
+            if entry.key in _TOOL_STATES:
+                n = int.from_bytes(entry.data[:4], "little")
+                if until is None or n <= until:
+                    self.recorded_tools[entry.robot].append((n, entry.key, entry.data))
+
+    def _tools_differ(self, outcome: Outcome) -> bool:
+        """Compare each recorded tool state with the replayed one of its message_id, once the
+        replay has sent it."""
+        for robot, (recorded, replayed) in enumerate(zip(self.recorded_tools,
+                                                         self.replayed_tools)):
+            while recorded and replayed:
+                n, key, data = recorded[0]
+                if replayed[0][0] != n:
+                    replayed.popleft()  # a tool state the server did not send
+                    continue
+                recorded.popleft()
+                again = replayed.popleft()[1]
+                if data != again:
+                    outcome.divergence, outcome.fields = n, differing_tool_fields(key, data, again)
+                    outcome.note = f"{key} of robot {self.recording.robots[robot]}"
+                    return True
+                outcome.tool_states += 1
+        return False
+
+    def _last_tool_states(self, outcome: Outcome) -> None:
+        """After the last event: run on to the cycles of the tool states recorded last, then
+        any recorded tool state the replay did not send is a divergence."""
+        last = max((recorded[-1][0] for recorded in self.recorded_tools if recorded), default=None)
+        if last is not None and (self.cycle.message_id, self.released is None) < (last, True):
+            self.advance(last, True)
+        if self._tools_differ(outcome):
+            return
+        for robot, recorded in enumerate(self.recorded_tools):
+            if recorded:
+                n, key, _ = recorded[0]
+                outcome.divergence, outcome.fields = n, [f"{key} (not sent in the replay)"]
+                outcome.note = f"robot {self.recording.robots[robot]}"
+                return
 
     def _tcp(self, robot: int, event: dict) -> None:
         self.advance(event["cycle"], event["completed"])
