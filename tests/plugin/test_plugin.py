@@ -30,6 +30,10 @@ def _run_project(tmp_path: Path, *args: str, clock: str = "lockstep"):
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
     env.update(FRANKA_SIM_RECORD=str(record), FRANKA_SIM_EXPECTED_CLOCK=clock,
                XDG_DATA_HOME=str(tmp_path / "data"))  # where a Desk keeps its certificate
+    # Left exported from a `franka-sim serve` of the user's own: the tests' servers ignore them
+    # (else every one would fail to start, or serve another world).
+    env.update(FRANKA_SIM_MOBILE_BASE="127.0.0.2", FRANKA_SIM_INJECT="loss=0.5",
+               FRANKA_SIM_CLOCK="lockstep" if clock == "realtime" else "realtime")
     # Installed, the package's pytest11 entry point loads the plugin; from a source tree whose
     # installed metadata predates it, load it by name.
     installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))

@@ -38,8 +38,8 @@ class SimSettings:
     robot: str = "fr3"  # the arm: "fr3", or "fer" (the Panda)
 
     def flags(self) -> list[str]:
-        """`franka-sim serve` flags, each setting explicit so an exported FRANKA_SIM_* does not
-        change what the tests asked for."""
+        """`franka-sim serve` flags, each setting explicit (and the server started without the
+        exported FRANKA_SIM_* settings: `unset_settings`)."""
         flags = ["--clock", self.clock, "--robot", self.robot,
                  "--control-port", str(CONTROL_PORT),
                  "--enforce-motion-limits" if self.enforce_motion_limits
@@ -53,6 +53,20 @@ class SimSettings:
         flags += ["--desk-boot", self.desk_boot,
                   "--desk-port", str(DESK_PORT if self.desk_boot != "ready" else 0)]
         return flags
+
+
+# What an exported FRANKA_SIM_* may still say to a test's simulator: the token its control API
+# asks for, how much it logs, the look of the meshes, how its kernels and model libraries are
+# built. Every other one (a scene, faults, a tool, arms, an address) would change the world the
+# tests asked for, so it is taken out of the server's environment.
+KEPT_VARIABLES = ("FRANKA_SIM_CONTROL_TOKEN", "FRANKA_SIM_LOG_LEVEL", "FRANKA_SIM_MESHES",
+                  "FRANKA_SIM_KERNELS", "FRANKA_SIM_MODEL_LIBRARIES")
+
+
+def unset_settings(environment) -> dict:
+    """The environment's FRANKA_SIM_* settings a test's server must not read, as None (unset)."""
+    return {name: None for name in environment
+            if name.startswith("FRANKA_SIM_") and name not in KEPT_VARIABLES}
 
 
 def worker_address(worker: str | None, pid: int, n: int) -> str:
@@ -111,7 +125,7 @@ class ServerPool:
         for _ in range(_ADDRESS_ATTEMPTS):
             host = worker_address(self.worker, self.pid, self._started)
             self._started += 1
-            server = ServerProcess(host, *settings.flags())
+            server = ServerProcess(host, *settings.flags(), env=unset_settings(os.environ))
             try:
                 server.wait_ready(_START_TIMEOUT)
             except RuntimeError:

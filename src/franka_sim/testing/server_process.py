@@ -53,7 +53,8 @@ class ServerProcess:
         self.proc = subprocess.Popen(
             command or [sys.executable, "-m", "franka_sim", "serve", "--host", host, *args],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-            env={**os.environ, **(env or {})}, preexec_fn=_normal_scheduling,
+            env={k: v for k, v in {**os.environ, **(env or {})}.items() if v is not None},
+            preexec_fn=_normal_scheduling,
         )
         self.pid = self.proc.pid
         self._fd = self.proc.stderr.fileno()
