@@ -176,7 +176,13 @@ def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:
 
 
 def _absolute(path, base: Path) -> str | None:
-    return None if path is None else str((Path(base) / Path(path)).resolve())
+    """A scene file relative to `base`, made absolute; a bare name with no such file is a
+    packaged scene's (`serve --scene` says so if it is neither)."""
+    if path is None:
+        return None
+    file = (Path(base) / Path(path)).resolve()
+    bare = isinstance(path, str) and Path(path).name == path and not Path(path).suffix
+    return path if bare and not file.exists() else str(file)
 
 
 class _Recording:

@@ -76,12 +76,13 @@ def test_after_a_motion_left_running_the_world_is_back(franka_sim):
 
 
 @pytest.mark.parametrize("k", range(2))
-@pytest.mark.franka_sim(gripper=False)
+@pytest.mark.franka_sim(gripper=False, scene="dual_arm_table")  # (a packaged scene's name)
 def test_without_a_hand_port_1338_refuses(franka_sim, k):
     record(franka_sim, "no-gripper")
     with pytest.raises(ConnectionRefusedError):
         socket.create_connection((franka_sim.host, 1338), timeout=2)
     assert franka_sim.control.state()["robot_mode"] == "Idle"
+    assert "scene/box" in {body["name"] for body in franka_sim.control.bodies()}
 
 
 @pytest.mark.franka_sim(enforce_motion_limits=True)
