@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import ipaddress
 
-from franka_sim.config import DESK_BOOTS, ROBOTS, Config
+from franka_sim.config import DESK_BOOTS, ROBOTS, ClockMode, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -24,6 +24,11 @@ class ConfigError(ValueError):
 def checked(config: Config) -> Config:
     """`config`, its fault spec normalised and its scene resolved; ConfigError if it breaks a
     rule."""
+    if not isinstance(config.clock, ClockMode):  # (an embedder's "lockstep")
+        if config.clock not in {mode.value for mode in ClockMode}:
+            raise ConfigError("--clock", f"{config.clock!r} is not a clock (one of "
+                              f"{', '.join(mode.value for mode in ClockMode)})")
+        config = dataclasses.replace(config, clock=ClockMode(config.clock))
     if config.control_port in RESERVED_PORTS:
         raise ConfigError("--control-port", (
             f"{config.control_port} is the FCI's, the Hand's or the vacuum gripper's port "

@@ -7,7 +7,10 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 from franka_sim import FrankaSim
+from franka_sim.config_rules import ConfigError
 from franka_sim.testing import fresh_loopback_address
 
 CLIENT = textwrap.dedent("""
@@ -40,3 +43,34 @@ def test_async_with_serves_a_real_client_and_shuts_down_cleanly():
     again = subprocess.run(
         [sys.executable, "-c", f"import socket; s=socket.socket(); s.bind(('{host}', 1337))"])
     assert again.returncode == 0
+
+
+def test_the_clock_by_its_name_and_a_misspelt_setting():
+    host = fresh_loopback_address()
+    with pytest.raises(TypeError, match="no setting 'clok'"):
+        FrankaSim(host=host, clok="lockstep")
+    with pytest.raises(ConfigError, match="'lockstop' is not a clock"):
+        FrankaSim(host=host, clock="lockstop")
+
+    async def app():
+        async with FrankaSim(host=host, clock="lockstep") as sim:
+            return (await sim.health())["clock"]
+
+    assert asyncio.run(app()) == "lockstep"
+
+
+def test_a_stopped_simulator_says_so_instead_of_waiting():
+    host = fresh_loopback_address()
+
+    async def app():
+        sim = FrankaSim(host=host)
+        with pytest.raises(RuntimeError, match="not serving"):
+            await sim.state()  # before it starts
+        async with sim:
+            assert (await sim.state())["robot_mode"] == "Idle"
+        with pytest.raises(RuntimeError, match="not serving"):
+            await sim.state()
+        with pytest.raises(RuntimeError, match="serves once"):
+            await sim.start()
+
+    asyncio.run(asyncio.wait_for(app(), 60))

@@ -26,6 +26,7 @@ def _delegate(operation: Operation):
     name = operation.name
 
     async def method(self, *args, **kwargs):
+        self.check_serving()
         result = getattr(self.control, name)(*args, **kwargs)
         return await result if inspect.isawaitable(result) else result  # (health: no job)
 
@@ -40,6 +41,9 @@ class EmbeddedOperations:
     """Mixed into FrankaSim, whose `control` is its first arm's ArmOps."""
 
     control = None
+
+    def check_serving(self) -> None:
+        """Raise if nothing steps the world now: an operation would wait for ever."""
 
 
 for _operation in OPERATIONS:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import threading
+from dataclasses import fields
 
 from franka_sim import kernels
 from franka_sim.assembly import WorldParts
@@ -39,7 +40,11 @@ class FrankaSim(EmbeddedOperations):
 
     def __init__(self, config: Config | None = None, **overrides) -> None:
         config = config or Config()
+        settings = {f.name for f in fields(Config)}
         for key, value in overrides.items():
+            if key not in settings:
+                raise TypeError(f"FrankaSim() has no setting {key!r} (franka_sim.config.Config's "
+                                f"fields: {', '.join(sorted(settings))})")
             setattr(config, key, value)
         self.config = config = checked(config)  # ConfigError: said now, nothing served
         # What a recording hears, from everyone who has something to record (inert until a
@@ -81,11 +86,15 @@ class FrankaSim(EmbeddedOperations):
             config.record, start=START_FRESH)
         self.web = None  # web/live.py LiveView while --web serves it
         self._started = False
+        self._served = False  # it started once: its threads and sockets are not made again
         self.failed = asyncio.Event()  # set once the world stopped simulating (`failure`)
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> "FrankaSim":
         """Serve every arm, or none: an endpoint that cannot open closes all that did."""
+        if self._served:
+            raise RuntimeError("a FrankaSim serves once: make a new one to serve again")
+        self._served = True
         await self.worker.start(on_failure=lambda reason: self.failed.set())
         config = self.config
         started = []
@@ -116,6 +125,11 @@ class FrankaSim(EmbeddedOperations):
                      robot.describe(),
                      config.clock.value, self.scene)
         return self
+
+    def check_serving(self) -> None:
+        if not self._started:
+            raise RuntimeError("the simulator is not serving: call its operations inside "
+                               "`async with FrankaSim(...)` (or between start() and stop())")
 
     async def stop(self) -> None:
         if not self._started:
