@@ -69,6 +69,8 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
         keep &= t >= start
     if end is not None:
         keep &= t <= end
+    if not len(t):
+        raise PlotError("no arm state recorded: nothing to plot")
     if not keep.any():
         raise PlotError("no state in the window --from/--to")
     states, t = states[keep], t[keep]

@@ -39,8 +39,15 @@ class RecordingTimeline:
         poses = [(e.json()["cycle"], np.array(e.json()["qpos"])) for e in recording.of("bodies")]
         self._poses = [(c, q) for c, q in poses if len(q) == self.model.nq]
         self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
-        self.first = int(min(ids[0] for ids in self.ids if len(ids)))
-        self.last = int(max(ids[-1] for ids in self.ids if len(ids)))
+        # Its span: the arms' states, else (a run of the Hand alone) the world's poses.
+        spans = [ids for ids in self.ids if len(ids)] or (
+            [self._pose_cycles] if len(self._pose_cycles) else [])
+        if not spans:
+            from franka_sim.recording.metadata import Incompatible
+
+            raise Incompatible("nothing to show: no arm state and no pose of the world recorded")
+        self.first = int(min(ids[0] for ids in spans))
+        self.last = int(max(ids[-1] for ids in spans))
 
     @property
     def duration(self) -> float:
