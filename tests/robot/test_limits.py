@@ -175,3 +175,18 @@ def test_the_restated_figures_are_those_of_the_datasheet():
     cartesian = {row[0]: tuple(_numbers(" ".join(row[1:])))
                  for row in _table(text, "| Quantity | Velocity")}
     assert cartesian == CARTESIAN
+
+
+def test_every_abort_is_logged_and_a_tolerated_violation_thinned(caplog):
+    from franka_sim.robot.checks.violation import Violation, ViolationLog
+
+    jerk = Violation("joint_motion_generator_acceleration_discontinuity", "joint 4", 6000.0,
+                     5000.0, quantity="jerk", unit="rad/s³")
+    for enforced, lines in ((True, 12), (False, 2)):  # (thinned: the 1st and the 10th)
+        caplog.clear()
+        violations = ViolationLog()
+        with caplog.at_level("WARNING"):
+            for _ in range(12):
+                violations.report([jerk], enforced)
+        assert len(caplog.records) == lines
+    assert caplog.records[0].getMessage().endswith("(not enforced; 1 so far)")

@@ -51,7 +51,8 @@ def error_names(violations: list[Violation]) -> list[str]:
 
 
 class ViolationLog:
-    """One warning line per violation, thinned out per error name (see thinned_log)."""
+    """One warning line per violation, thinned out per error name (see thinned_log); each one
+    that aborts a motion has its line (a reflex the client sees, as rare as its motions)."""
 
     def __init__(self) -> None:
         self._counts: dict[str, int] = {}
@@ -60,6 +61,7 @@ class ViolationLog:
         for v in violations:
             n = self._counts.get(v.name, 0) + 1
             self._counts[v.name] = n
-            if worth_logging(n):
-                action = "aborting" if enforced and v.aborts else "not enforced"
+            aborting = enforced and v.aborts
+            if aborting or worth_logging(n):
+                action = "aborting" if aborting else "not enforced"
                 log.warning("%s (%s; %d so far)", v.describe(), action, n)
