@@ -380,11 +380,14 @@ def test_recovery_waits_for_the_arm_to_come_to_rest():
                             (Command.AutomaticErrorRecovery, 10, AER.kSuccess)]
 
 
-def test_a_client_gone_mid_motion_under_enforcement_leaves_the_reflex():
+def test_a_client_gone_mid_motion_under_enforcement_leaves_the_reflex(caplog):
     h = _running_velocity_motion(enforce_comm_constraints=True)
     h.send(dq_c=np.zeros(7))
     h.cycle()
-    h.core.client_gone()
+    with caplog.at_level("WARNING"):
+        h.core.client_gone()
+    assert [r.getMessage() for r in caplog.records] == [
+        "the client left during its motion: communication_constraints_violation"]
     h.cycle()
     assert h.state["robot_mode"] == RobotMode.kReflex
     assert h.state["errors"][COMM] and h.state["reflex_reason"][COMM]

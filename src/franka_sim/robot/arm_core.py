@@ -278,6 +278,8 @@ class ArmCore(FciRobot):
         motion = self.motion
         if motion is not None:
             if self.enforce_comm_constraints and motion.running:
+                log.warning("the client left during its motion: "
+                            "communication_constraints_violation")
                 self._reflex(["communication_constraints_violation"])
             elif motion.running:
                 motion.orphaned = True
