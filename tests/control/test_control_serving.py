@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import http.client
 import os
 import subprocess
 import sys
@@ -27,6 +28,14 @@ def test_a_token_is_required_on_every_resource_and_never_shown_on_the_command_li
                 assert refused.value.status == 401
         assert "wrong bearer token" in sim.log_matching("refused (401)")[-1]
         assert Control(sim.host, token="s3cret").health()["ready"] is True
+        # The scheme's name in any case (RFC 9110); another scheme is said to be one.
+        for header, status in (("bearer s3cret", 200), ("BEARER  s3cret", 200),
+                               ("Basic s3cret", 401), ("s3cret", 401)):
+            connection = http.client.HTTPConnection(sim.host, 1340, timeout=10)
+            connection.request("GET", "/health", headers={"Authorization": header})
+            assert connection.getresponse().status == status, header
+            connection.close()
+        assert "not a bearer token" in sim.log_matching("refused (401)")[-1]
         assert b"s3cret" not in Path(f"/proc/{sim.pid}/cmdline").read_bytes()
 
 

@@ -70,7 +70,7 @@ class ControlApi:
 
     def __init__(self, ops, token: str | None = None) -> None:
         self.ops = ops
-        self._expected = None if token is None else f"Bearer {token}".encode()
+        self._expected = None if token is None else token.encode()
         self._runner: web.AppRunner | None = None
         self._said_failed = False  # "stopped simulating" refusals are logged once
         app = web.Application(middlewares=[self._refusals], client_max_size=MAX_BODY)
@@ -106,11 +106,15 @@ class ControlApi:
         """The token, then the handler; whatever is refused becomes `{"error": ...}`."""
         try:
             if self._expected is not None:
-                given = request.headers.get("Authorization", "").encode()
-                if not hmac.compare_digest(given, self._expected):
+                given = request.headers.get("Authorization", "")
+                scheme, _, credentials = given.strip().partition(" ")
+                if scheme.lower() != "bearer":  # (a scheme's name is case-insensitive)
                     raise Unauthorized("a bearer token is required (Authorization: Bearer "
                                        "<token>, the server's --control-token)"
-                                       if not given else "wrong bearer token")
+                                       if not given else "not a bearer token (Authorization: "
+                                       "Bearer <token>)")
+                if not hmac.compare_digest(credentials.strip().encode(), self._expected):
+                    raise Unauthorized("wrong bearer token")
             return await handler(request)
         except ControlError as refusal:
             status, message = refusal.status or 500, refusal.message
