@@ -15,6 +15,7 @@ import numpy as np
 from franka_sim.config import ArmSpec, Config
 from franka_sim.description.mobile_base import base_urdf_text
 from franka_sim.description.urdf import ArmDescription, default_urdf_text, load_arm_description
+from franka_sim.log_names import name_work
 from franka_sim.physics.engine import Physics
 from franka_sim.physics.engine_choice import make_physics
 from franka_sim.physics.scene import (ArmPlacement, SceneError, check_world, default_scene_path,
@@ -93,6 +94,10 @@ class BaseParts:
 
     def robot_session(self) -> Session:
         return robot_session(self.core)
+
+
+# What a robot's part of the world cycle does for it (its log lines are about it).
+PART_WORK = ("receive", "drive", "publish", "repeat", "skip", "complete")
 
 
 class WorldParts:
@@ -189,4 +194,8 @@ class WorldParts:
         `tool_state_wanted[i]`: whether robot i's tool client takes its state datagrams."""
         parts = [robot.make_part(physics.robots[i], tool_state_wanted[i])
                  for i, robot in enumerate(self.robots)]
+        if len(parts) > 1:  # each robot's log lines name it (log_names.py)
+            for robot, part in zip(self.robots, parts):
+                name_work(part, robot.name, PART_WORK)
+                name_work(part.core, robot.name, ("release_cycle",))  # (a held start's)
         return WorldCycle(parts, physics.world.step, self.events)

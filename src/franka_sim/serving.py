@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from franka_sim.footprint import (import_mujoco_without_plugins, leave_out_renderer,
                                   leave_out_tls)
+from franka_sim.log_names import RobotName
 
 if TYPE_CHECKING:
     from franka_sim.config import Config
@@ -168,7 +169,9 @@ def main(blob: str) -> int:
     viewer, tls = needs(args)
     _leave_out(viewer=viewer, tls=tls)
     logging.basicConfig(level=args["log_level"].upper(),
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+                        format="%(asctime)s %(levelname)s %(name)s: %(robot)s%(message)s")
+    for handler in logging.getLogger().handlers:
+        handler.addFilter(RobotName())  # (a line about one robot of several names it)
     if args["rt_priority"]:
         _realtime_scheduling(args["rt_priority"])
     uvloop = _import_uvloop(blob)

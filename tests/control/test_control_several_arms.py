@@ -9,9 +9,10 @@ import sys
 import time
 
 import numpy as np
+import pytest
 
 from franka_sim.config import READY_POSE
-from franka_sim.control import Control
+from franka_sim.control import BadRequest, Control
 from clients.test_several_arms import PROGRAM, two_arms
 
 
@@ -35,6 +36,13 @@ def test_reset_acts_on_its_arm_only_and_bodies_are_shared():
         assert names == {b["name"] for b in Control(left).bodies()}
         assert Control(left).health()["arm"] == "left"
         assert Control(right).health()["arm"] == "right"
+        # Each line about one arm names it: its client, its requests, its cycles.
+        assert server.log_matching(": right: FCI client") and not server.log_matching(
+            ": left: FCI client")
+        with pytest.raises(BadRequest):
+            Control(left).set_pose("scene/cube", [0.3, 0.0])
+        assert server.log_matching(": left: control API: PUT /bodies/scene/cube refused (400)")
+        assert not server.log_matching(": right: control API")
 
 
 def test_a_push_on_one_arm_is_felt_by_that_arm_only():

@@ -15,6 +15,7 @@ import errno
 import logging
 import threading
 
+from franka_sim.log_names import about
 from franka_sim.robot.session import Handshake, Session
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.control_port import ControlPort
@@ -37,8 +38,9 @@ class RobotServer:
     (server/recorder/live.py; None: this world cannot be recorded that way)."""
 
     def __init__(self, parts, index: int, *, config, driver: CycleDriver, worker: CycleThread,
-                 lock: threading.Lock, faults, taps, recordings) -> None:
+                 lock: threading.Lock, faults, taps, recordings, named: bool = False) -> None:
         self.parts, self.index, self.config = parts, index, config
+        self.log_name = parts.name if named else None  # a robot of several: lines name it
         self.name, self.host, self.label = parts.name, parts.host, parts.label
         self.driver, self.lock = driver, lock
         self.core, self.tool, self.tool_kind = parts.core, parts.tool, parts.tool_kind
@@ -112,7 +114,12 @@ class RobotServer:
     # -- lifecycle -------------------------------------------------------------------------------
     async def start(self) -> None:
         """Open every endpoint on the robot's address, or none (AddressInUse / OSError naming
-        the robot and the port)."""
+        the robot and the port). What they do later runs under the robot's name (log_names.py:
+        the loop's callbacks keep the context they were registered in)."""
+        with about(self.log_name):
+            await self._start()
+
+    async def _start(self) -> None:
         config, host = self.config, self.host
         opened = []
         effects = self.desk_effects

@@ -70,7 +70,7 @@ class FrankaSim(EmbeddedOperations):
         self.robots = [
             RobotServer(robot_parts, i, config=config, driver=self.driver, worker=self.worker,
                         lock=self.lock, faults=self.network_faults, taps=self.taps,
-                        recordings=recordings)
+                        recordings=recordings, named=len(parts.robots) > 1)
             for i, robot_parts in enumerate(parts.robots)]
         self.arms = [robot for robot in self.robots if robot.parts.kind == "arm"]
         self.base = next((robot for robot in self.robots if robot.parts.kind == "base"), None)
