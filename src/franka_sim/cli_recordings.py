@@ -93,13 +93,16 @@ def render(
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
-    import os
-
-    if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
-        os.environ["MUJOCO_GL"] = "egl"  # before anything below imports mujoco
-    from franka_sim.physics.scene import SceneError
-    from franka_sim.playback.render import RenderError
+    from franka_sim.playback.render import RenderError, check_output, import_mujoco_with_gl
     from franka_sim.playback.render import render as make_video
+
+    try:
+        check_output(output)
+        import_mujoco_with_gl()  # (before anything below imports mujoco)
+    except RenderError as exc:
+        typer.echo(f"franka-sim: {exc}", err=True)
+        raise typer.Exit(1) from None
+    from franka_sim.physics.scene import SceneError
 
     loaded = _open(recording)
     try:

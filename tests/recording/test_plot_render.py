@@ -78,11 +78,14 @@ def test_render_writes_the_expected_number_of_frames(lockstep_run, tmp_path):
     (["plot", "{rec}", "-o", "{tmp}/x.png", "--joints", "one"], "joint numbers 1-7"),
     (["plot", "{rec}", "-o", "{tmp}/x.png", "--fields", "q,qq"], "RobotState has no field 'qq'"),
     (["render", "{rec}", "-o", "{tmp}/x.mp4", "--camera", "nope"], "no such camera"),
+    (["render", "{rec}", "-o", "{tmp}/x.gif"], "a video is .mp4, .mkv, .mov, .avi"),
+    (["render", "{rec}", "-o", "{tmp}/no/x.mp4"], "cannot write {tmp}/no/x.mp4: no directory"),
 ])
 def test_unknown_names_say_so_in_one_line(lockstep_run, tmp_path, args, message):
     path, _ = lockstep_run
     done = franka_sim(*[a.format(rec=path, tmp=tmp_path) for a in args])
     assert done.returncode == 1
+    message = message.format(tmp=tmp_path)
     assert message in done.stderr and done.stderr.count("\n") == 1, done.stderr
 
 

@@ -19,10 +19,38 @@ from franka_sim.recording.metadata import replay_config
 from franka_sim.recording.reader import Recording
 
 WIDTH, HEIGHT = 640, 480
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".avi")  # what ffmpeg writes with H.264
 
 
 class RenderError(Exception):
     """One line: what is missing to render."""
+
+
+def _no_gl(exc: Exception) -> RenderError:
+    return RenderError(f"no offscreen OpenGL (MUJOCO_GL={os.environ.get('MUJOCO_GL')}: "
+                       f"{exc}); install libegl1 (or libosmesa6 with MUJOCO_GL=osmesa)")
+
+
+def import_mujoco_with_gl():
+    """mujoco, with the offscreen GL that MUJOCO_GL names (egl if unset): with osmesa, its
+    import is where a missing libOSMesa shows."""
+    if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
+        os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
+    try:
+        import mujoco
+    except Exception as exc:  # noqa: BLE001 - PyOpenGL without its library fails oddly
+        raise _no_gl(exc) from None
+    return mujoco
+
+
+def check_output(output: Path) -> None:
+    """RenderError unless a video can be written at `output` (before any frame is drawn)."""
+    if output.suffix.lower() not in VIDEO_SUFFIXES:
+        raise RenderError(f"cannot write {output}: a video is {', '.join(VIDEO_SUFFIXES)}")
+    if not output.parent.is_dir():
+        raise RenderError(f"cannot write {output}: no directory {output.parent}")
+    if not os.access(output.parent, os.W_OK):
+        raise RenderError(f"cannot write {output}: {output.parent} is not writable")
 
 
 def frame_cycles(first: int, last: int, fps: float) -> np.ndarray:
@@ -39,10 +67,7 @@ class Frames:
 
     def __init__(self, recording: Recording, *, fps: float = 30.0, camera: str | None = None,
                  segmentation: bool = False, meshes: Path | None = None) -> None:
-        if os.environ.get("MUJOCO_GL", "disable") == "disable":  # (the server's: no GL)
-            os.environ["MUJOCO_GL"] = "egl"  # before mujoco is imported in this process
-        import mujoco
-
+        mujoco = import_mujoco_with_gl()
         from franka_sim.assembly import WorldParts
 
         states = recording.states()
@@ -58,9 +83,7 @@ class Frames:
         try:
             self._renderer = mujoco.Renderer(self.model, HEIGHT, WIDTH)
         except Exception as exc:  # noqa: BLE001 - no GL context: say which way to get one
-            raise RenderError(f"no offscreen OpenGL (MUJOCO_GL={os.environ['MUJOCO_GL']}: "
-                              f"{exc}); install libegl1 (or libosmesa6 with "
-                              "MUJOCO_GL=osmesa)") from None
+            raise _no_gl(exc) from None
         if segmentation:
             self._renderer.enable_segmentation_rendering()
         self._states = states
@@ -96,15 +119,19 @@ def render(recording: Recording, output: Path, *, fps: float = 30.0,
     except ImportError:
         raise RenderError("rendering needs imageio-ffmpeg: pip install 'franka-sim[render]'") \
             from None
+    check_output(output)
     frames = Frames(recording, fps=fps, camera=camera, meshes=meshes)
     writer = imageio_ffmpeg.write_frames(str(output), (WIDTH, HEIGHT), fps=fps,
                                          macro_block_size=1, quality=6)
-    writer.send(None)
     try:
+        writer.send(None)
         for frame in frames:
             writer.send(frame)
-    finally:
         writer.close()
+    except (OSError, RuntimeError) as exc:  # ffmpeg refused or died: its own words
+        raise RenderError(f"cannot write {output}: {str(exc).strip().splitlines()[-1]}") \
+            from None
+    finally:
         frames.close()
     return len(frames.cycles)
 
