@@ -32,7 +32,9 @@ def arm_program(name: str, host: str, barrier: threading.Barrier) -> None:
     from franky import Affine, CartesianMotion, Gripper, RealtimeConfig, Robot
 
     robot = Robot(host, realtime_config=RealtimeConfig.Ignore)
-    robot.relative_dynamics_factor = 0.2
+    # At 0.2 the joint accelerations these Cartesian motions need reach ~15 rad/s² at joint 2,
+    # past the FR3's 10 (a reflex under --enforce-motion-limits); at 0.1 they stay inside.
+    robot.relative_dynamics_factor = 0.1
     gripper = Gripper(host)
     down = robot.current_pose.end_effector_pose.quaternion  # the start pose's: pointing down
     what, width, height = OBJECT[name]

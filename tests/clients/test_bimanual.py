@@ -24,11 +24,11 @@ CUBE_SIZE = 0.05
 
 
 @contextmanager
-def two_arms():
+def two_arms(*flags: str):
     """(left, right) Control clients of a fresh lockstep dual_arm_table world."""
     left, right = fresh_loopback_address(), fresh_loopback_address()
     server = ServerProcess(left, "--arm", f"left={left}", "--arm", f"right={right}",
-                           "--scene", "dual_arm_table", "--clock", "lockstep").wait_ready()
+                           "--scene", "dual_arm_table", "--clock", "lockstep", *flags).wait_ready()
     try:
         assert server.wait_for_log(f"serving on {right}:"), "\n".join(server.lines)
         yield Control(left), Control(right)
@@ -76,7 +76,9 @@ def test_handover_example_puts_the_cube_in_the_right_hand():
 @pytest.mark.skipif(importlib.util.find_spec("franky") is None,
                     reason="franky-control is not installed")
 def test_franky_example_moves_each_object_out_and_each_arm_above_it():
-    with two_arms() as (left, right):
+    # As the robot would hold it: every limit enforced (the example's dynamics factor is one
+    # whose Cartesian motions the arm's joints can follow).
+    with two_arms("--enforce-motion-limits", "--enforce-comm-constraints") as (left, right):
         out = _run("bimanual_franky", left.host, right.host)
         assert "left: set the cube down at x = 0.55 m" in out
         assert "right: set the box down at x = 0.55 m" in out
