@@ -40,9 +40,14 @@ def replay(
     """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
     `identical (N cycles, M tool states)`, or the first cycle that differs and its fields
     (exit 1)."""
+    import logging
+
     from franka_sim.recording.metadata import Incompatible
     from franka_sim.playback.replay import replay as run_replay
 
+    # The replayed run's warnings are the recorded run's (its /log channel has them): said
+    # again after the verdict, they would read as the replay's own.
+    logging.getLogger("franka_sim").setLevel(logging.ERROR)
     loaded = _open(recording)
     try:
         outcome = run_replay(loaded, until)

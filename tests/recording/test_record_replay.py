@@ -71,6 +71,7 @@ def test_replay_is_identical(run, request, tmp_path):
     done = franka_sim("replay", str(path), env={**os.environ, "TMPDIR": str(tmp)})
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.strip() == identical_line(open_recording(path))
+    assert done.stderr == ""  # (the run's warnings, its reflex's, are the recording's, not said)
     assert list(tmp.iterdir()) == []  # the replay's own files are gone with it
 
 
