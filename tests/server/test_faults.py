@@ -204,9 +204,12 @@ def test_a_reordered_command_follows_the_next_one_or_goes_two_cycles_on():
 def test_a_reordered_state_goes_after_the_next_one():
     link = _link("reorder=1,dir=states")
     assert link.states_out(10, _state(10)) == []
+    counts = dict(link.counts["states"])
     link.set_plan(None)
     assert link.states_out(11, _state(11)) == [_state(11), _state(10)]
     assert link.fresh == 11
+    # Counted as a reordered command is: reordered, not delayed.
+    assert counts == {"seen": 1, "dropped": 0, "delayed": 0, "reordered": 1}
 
 
 def test_a_new_client_finds_nothing_held_for_the_last():

@@ -95,11 +95,12 @@ class ArmLink:
                 counts["dropped"] += 1
             else:
                 cycles, reordered = fate
+                if cycles:  # (counted as a command's are: a reordered one is not delayed)
+                    counts["delayed"] += 1
                 if reordered:
                     counts["reordered"] += 1
                     cycles += 1  # it leaves after the next cycle's state
                 if cycles:
-                    counts["delayed"] += 1
                     self._states.append((message_id + cycles, message_id, data))
                 else:
                     out.append((message_id, data))
