@@ -111,3 +111,18 @@ def test_arms_touch_each_other():
         names = [model.body(model.geom_bodyid[g]).name for g in contact.geom]
         pairs.add(tuple(sorted(n.split("/")[0] for n in names)))
     assert ("a", "b") in pairs and ("a", "a") not in pairs and ("b", "b") not in pairs
+
+
+def test_a_mujoco_warning_is_a_log_line_not_bare_text(caplog, capfd):
+    import mujoco
+
+    from franka_sim.assembly import WorldParts
+    from franka_sim.config import Config
+
+    world = WorldParts(Config()).make_physics().world
+    world.data.qpos[-7] = 1e20  # the cube flung past what MuJoCo integrates: it resets
+    with caplog.at_level("WARNING"):
+        mujoco.mj_step(world.model, world.data)
+    [line] = [r.getMessage() for r in caplog.records]
+    assert line.startswith("MuJoCo: Nan, Inf or huge value in QPOS")
+    assert "WARNING: Nan" not in capfd.readouterr().err
