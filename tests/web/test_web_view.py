@@ -156,3 +156,24 @@ def plot_has_lines(browser, title: str) -> bool:
             orange = (np.abs(image - (0xFF, 0x7F, 0x0E)).max(axis=2) < 40).sum()
             return blue + orange > 100
     return False
+
+
+def test_a_watcher_who_comes_after_the_client_left_sees_the_arm_as_it_is():
+    """The clock paused with nobody connected: the page shows the state the robot publishes
+    (what the last client was told, what the next will read first), not an empty panel."""
+    with running_sim("--web", str(WEB_PORT), "--clock", "lockstep") as server:
+        client = Client(server.host)
+        try:
+            turned = list(READY_POSE)
+            turned[1] += 0.3
+            client.move(turned)
+        finally:
+            client.close()
+        control = Control(server.host)
+        wait_for(lambda: not control.health()["client_connected"], 30, "the client to leave")
+        with headless_chromium() as browser:
+            browser.get(f"http://{server.host}:{WEB_PORT}/")
+            shown = wait_for(lambda: shows_state(browser, server.host), 60,
+                             "the readouts to say what /state says")
+            assert abs(shown_q(browser)[1] - turned[1]) < 1e-3
+            assert shown["robot mode"] == "Idle"

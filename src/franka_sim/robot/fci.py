@@ -161,6 +161,11 @@ class FciRobot:
         motion's window opens for them."""
         self.message_id += cycles
 
+    def published(self) -> bytes:
+        """The state last published, under its own message_id: what a client connecting now
+        would read first (the web view's, while the clock is paused)."""
+        return self.publisher.restamp(self.message_id)
+
     def republish(self) -> bytes:
         """The last state again as the next cycle's, nothing stepped or estimated: a cycle of
         a world left as it was (lockstep's idle time, or a motion awaiting its client's first

@@ -126,6 +126,11 @@ class FrankaSim(EmbeddedOperations):
                      config.clock.value, self.scene)
         return self
 
+    def _snapshot_now(self, _physics, tap) -> None:
+        """Cycle thread: the web view's snapshot of the world as it is, each robot's state as
+        published (whether or not a client was there to be sent it)."""
+        tap.take_now(tuple(robot.core.published() for robot in self.robots))
+
     def check_serving(self) -> None:
         if not self._started:
             raise RuntimeError("the simulator is not serving: call its operations inside "
@@ -172,7 +177,7 @@ class FrankaSim(EmbeddedOperations):
         view = LiveView(
             self.config.arm_specs()[0].host, self.config.web_port, world.model, world.data,
             arms, attach=lambda tap: setattr(driver, "snapshots", tap),
-            refresh=lambda tap: worker.submit(tap.take_now, (), lambda _result: None, loop))
+            refresh=lambda tap: worker.submit(self._snapshot_now, (tap,), lambda _r: None, loop))
         await asyncio.to_thread(view.start)
         self.web = view
 

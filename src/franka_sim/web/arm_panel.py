@@ -69,8 +69,7 @@ class ArmPanel:
         self._gui = gui
         self._folder = gui.add_folder(f"arm {name}")
         with self._folder:
-            self.mode = gui.add_text("robot mode", "no state sent yet (no client)",
-                                     disabled=True)
+            self.mode = gui.add_text("robot mode", "no state yet", disabled=True)
             self.errors = gui.add_text("errors", "-", disabled=True)
             self.reflex = gui.add_text("last reflex", "none", disabled=True)
             self.success = gui.add_text("success rate", "-", disabled=True)

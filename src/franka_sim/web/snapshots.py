@@ -43,9 +43,7 @@ class SnapshotTap:
         self.due = now + PERIOD
         self.taken += 1
 
-    def take_now(self, _physics=None) -> None:
-        """A snapshot of the positions alone (no state sent since): as a cycle-thread job, for
-        a watcher who arrives while the clock is paused."""
-        previous = self.latest
-        states = previous.states if previous is not None else ()
+    def take_now(self, states: tuple) -> None:
+        """A snapshot now, with each robot's published state (`states`): as a cycle-thread job,
+        for a watcher who arrives while the clock is paused and sends nothing."""
         self.take(states, time.monotonic())
