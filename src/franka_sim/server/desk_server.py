@@ -32,7 +32,8 @@ class DeskServer:
     def __init__(self, robot, effects) -> None:
         self.robot, self.effects = robot, effects
         self.desk = robot.control.desk_state
-        self.service = DeskService(self.desk, users_of(robot.config), f"Desk of {robot.label}")
+        # (log lines say "Desk"; in a world of several arms the line's robot name says whose)
+        self.service = DeskService(self.desk, users_of(robot.config), "Desk")
         self._changed = asyncio.Event()
         self.desk.watchers.append(self._changed.set)
         self._sockets: set[web.WebSocketResponse] = set()
@@ -75,18 +76,17 @@ class DeskServer:
         if answer.request is not None:
             answer = await self._wait(call, answer)
         if answer.status == 200 and call.method != "GET":
-            log.info("Desk of %s: %s %s by %s", self.robot.label, call.method, call.path,
+            log.info("Desk: %s %s by %s", call.method, call.path,
                      call.user or "someone logging in")
             try:
                 await self.effects.apply()
             except OSError as exc:  # the FCI's or the tool's port taken meanwhile
-                log.error("Desk of %s: %s %s could not be applied: %s", self.robot.label,
-                          call.method, call.path, exc.strerror or exc)
+                log.error("Desk: %s %s could not be applied: %s", call.method, call.path,
+                          exc.strerror or exc)
                 answer = Answer(status=500, body={
                     "code": "InternalError", "error": f"could not be applied: {exc}"})
             except ControlError as refusal:  # the robot refused it (the Hand busy homing)
-                log.info("Desk of %s: %s %s refused: %s", self.robot.label, call.method,
-                         call.path, refusal.message)
+                log.info("Desk: %s %s refused: %s", call.method, call.path, refusal.message)
                 answer = Answer(status=refusal.status, body={
                     "code": type(refusal).__name__, "error": refusal.message})
         return _response(answer)
