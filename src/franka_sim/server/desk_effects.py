@@ -31,7 +31,7 @@ class DeskEffects:
             else:
                 await robot.fci.stop()
             self.fci_open = desk.fci_active
-            log.info("%s: FCI %s", robot.label, "active" if self.fci_open else
+            log.info("FCI %s", "active" if self.fci_open else
                      "inactive (port %d refuses connections)" % robot.config.robot_port)
         tool = robot.tool_endpoint
         if tool is not None and desk.end_effector_powered != self.tool_open:
@@ -40,7 +40,7 @@ class DeskEffects:
             else:
                 await tool.stop()
             self.tool_open = desk.end_effector_powered
-            log.info("%s: end effector %s", robot.label,
+            log.info("end effector %s",
                      "powered" if self.tool_open else "unpowered (its service does not answer)")
         if robot.core.status.held == desk.arm_ready:
             await robot.control.desk_arm()
@@ -49,4 +49,4 @@ class DeskEffects:
             try:
                 await robot.control.home_gripper()
             except NotFound as refusal:  # the arm carries another tool (the vacuum gripper)
-                log.warning("%s: the Desk's gripper homing: %s", robot.label, refusal)
+                log.warning("the Desk's gripper homing: %s", refusal)
