@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import threading
 import types
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -139,3 +140,37 @@ def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
         "0.500 s: Move",
         "0.000 s: Idle; errors: none"]
     assert panel.plots is not None and len(panel.plots[0].value[0]) >= 2  # (made, with data)
+
+
+def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_scrubbing():
+    import tempfile
+
+    from franka_sim.assembly import WorldParts
+    from franka_sim.recording.metadata import replay_config
+    from franka_sim.recording.reader import open_recording
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.recording_view import RecordingTimeline
+
+    recording = open_recording(Path(__file__).resolve().parents[1] / "data" / "older_libfranka"
+                               / "0.13.6" / "generate_joint_position_motion.mcap")
+    with tempfile.TemporaryDirectory() as workdir:
+        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
+    timeline = RecordingTimeline(recording, physics)
+    ids = timeline.ids[0]
+    modes = recording.states()["robot_mode"]
+    changed = [0, *np.flatnonzero(modes[1:] != modes[:-1]) + 1]
+    recorded = [f"{(ids[j] - ids[0]) / 1000:.3f} s" for j in changed]  # when the mode changed
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    end = timeline.duration
+
+    def show(seconds: float) -> None:
+        panel.show_recorded(timeline.at(seconds), timeline.rows(0, seconds),
+                            timeline.events(0, seconds))
+
+    for seconds in (1.0, 12.5, 3.0, 0.0, end):  # scrubbed back and forth, as a user does
+        show(seconds)
+    assert [line.split(":")[0] for line in reversed(panel.events.value.splitlines())] == \
+        recorded[-6:]
+    t = panel.plots[0].value[0]  # the q plot's times: the recorded window before the end
+    assert t[-1] == pytest.approx(end) and t[0] == pytest.approx(max(0.0, end - 10.0), abs=0.01)
+    assert np.all(np.diff(t) > 0)

@@ -41,6 +41,30 @@ def numbers(values) -> str:
     return " ".join(f"{float(v):.{DIGITS}f}" for v in values)
 
 
+def status_of(state) -> tuple[str, str, str]:
+    """(robot mode, errors, reflex reasons) of a decoded state, by name."""
+    return (mode_name(int(state["robot_mode"])), error_names(state["errors"]),
+            error_names(state["reflex_reason"]))
+
+
+def event_line(before: tuple | None, status: tuple, t: float) -> str:
+    """The events readout's line for a change from `before` to `status` at `t` s."""
+    mode, errors, reflex = status
+    line = f"{t:.3f} s: {mode}"
+    if before is None or errors != before[1]:
+        line += f"; errors: {errors}"
+    if reflex != "none" and (before is None or reflex != before[2]):
+        line += f"; reflex: {reflex}"
+    return line
+
+
+def row_of(state, t: float) -> tuple:
+    """A plots' row: (t, q, q_d, tau_J, tau_J_d, the force at K, the success rate)."""
+    return (t, state["q"].copy(), state["q_d"].copy(), state["tau_J"].copy(),
+            state["tau_J_d"].copy(), state["O_F_ext_hat_K"][:3].copy(),
+            float(state["control_command_success_rate"]))
+
+
 _PLOTS = (("q vs q_d (rad)", ("q", "q_d")), ("tau_J vs tau_J_d (Nm)", ("tau_J", "tau_J_d")),
           ("external force at K (N)", ("Fx", "Fy", "Fz")),
           ("command success rate", ("success rate",)))
@@ -84,35 +108,54 @@ class ArmPanel:
 
     def show(self, snapshot) -> None:
         """Readouts from the snapshot's state of this arm; the plots every PLOT_PERIOD."""
-        states = snapshot.states
-        data = states[self.index] if self.index < len(states) else None
-        if data is None or data is self._last_state:
+        read = self._read(snapshot)
+        if read is None:
             return
-        self._last_state = data
-        s = decode_state(data)
-        if self._t0 is None:
-            self._t0 = snapshot.time
-        t = snapshot.time - self._t0
+        s, t, status = read
         if self._rows and t < self._rows[-1][0]:  # a timeline scrubbed back: start again
             self._rows.clear()
             self._last_plot = -PLOT_PERIOD
-        mode, errors = mode_name(int(s["robot_mode"])), error_names(s["errors"])
-        reflex = error_names(s["reflex_reason"])
-        self.mode.value, self.errors.value = mode, errors
-        if reflex != "none":
-            self.reflex.value = reflex
-        self._note((mode, errors, reflex), t)
-        self.success.value = f"{float(s['control_command_success_rate']):.3f}"
-        self.q.value = numbers(s["q"])
-        self.wrench.value = numbers(s["O_F_ext_hat_K"])
+        self._note(status, t)
         rows = self._rows
-        rows.append((t, s["q"].copy(), s["q_d"].copy(), s["tau_J"].copy(), s["tau_J_d"].copy(),
-                     s["O_F_ext_hat_K"][:3].copy(), float(s["control_command_success_rate"])))
+        rows.append(row_of(s, t))
         while rows and rows[0][0] < t - WINDOW:
             rows.popleft()
         if abs(snapshot.time - self._last_plot) >= PLOT_PERIOD:
             self._last_plot = snapshot.time
             self._plot()
+
+    def show_recorded(self, snapshot, rows: list, events: list[str]) -> None:
+        """A recording's moment: the readouts as `show` gives them, the plots' rows and the
+        events up to it as recorded (`rows`, `events`), not as shown before: a scrubbed
+        timeline shows its moments in any order."""
+        if self._read(snapshot) is None:
+            return
+        self._rows = deque(rows)
+        self._events = deque(events, maxlen=EVENTS)
+        self.events.value = "\n".join(reversed(self._events))  # newest first
+        self._plot()
+
+    def _read(self, snapshot):
+        """(state, t, status) of this arm's state in the snapshot, its readouts set; None if
+        it holds none, or the one shown last."""
+        states = snapshot.states
+        data = states[self.index] if self.index < len(states) else None
+        if data is None or data is self._last_state:
+            return None
+        self._last_state = data
+        s = decode_state(data)
+        if self._t0 is None:
+            self._t0 = snapshot.time
+        t = snapshot.time - self._t0
+        status = status_of(s)
+        mode, errors, reflex = status
+        self.mode.value, self.errors.value = mode, errors
+        if reflex != "none":
+            self.reflex.value = reflex
+        self.success.value = f"{float(s['control_command_success_rate']):.3f}"
+        self.q.value = numbers(s["q"])
+        self.wrench.value = numbers(s["O_F_ext_hat_K"])
+        return s, t, status
 
     def _note(self, status: tuple, t: float) -> None:
         """A line in `events` each time the mode, the errors or the reflex's reasons change (as
@@ -120,13 +163,7 @@ class ArmPanel:
         if status == self._status:
             return
         before, self._status = self._status, status
-        mode, errors, reflex = status
-        line = f"{t:.3f} s: {mode}"
-        if before is None or errors != before[1]:
-            line += f"; errors: {errors}"
-        if reflex != "none" and (before is None or reflex != before[2]):
-            line += f"; reflex: {reflex}"
-        self._events.append(line)
+        self._events.append(event_line(before, status, t))
         self.events.value = "\n".join(reversed(self._events))  # newest first
 
     def _plot(self) -> None:

@@ -15,13 +15,15 @@ import threading
 
 import numpy as np
 
-from franka_sim.web.arm_panel import ArmPanel
+from franka_sim.web.arm_panel import (EVENTS, WINDOW, ArmPanel, event_line, row_of,
+                                      status_of)
 from franka_sim.web.live import TITLE, quiet_libraries, stop_quietly
 from franka_sim.web.snapshots import Snapshot
 from franka_sim.web.world_view import WorldView
 
 FRAME_PERIOD = 1 / 30  # s between two frames while playing
 SPEEDS = ("0.25", "0.5", "1", "2", "4")
+PLOT_POINTS = 1000  # most rows a plot gets of its window (10 s of states is 10000)
 
 
 class RecordingTimeline:
@@ -48,6 +50,40 @@ class RecordingTimeline:
             raise Incompatible("nothing to show: no arm state and no pose of the world recorded")
         self.first = int(min(ids[0] for ids in spans))
         self.last = int(max(ids[-1] for ids in spans))
+        self._changes = [self._status_changes(states, ids)
+                         for states, ids in zip(self.states, self.ids)]
+
+    def _status_changes(self, states, ids) -> tuple[np.ndarray, list[str]]:
+        """The cycles where an arm's mode, errors or reflex reasons change, and the events
+        readout's line for each."""
+        if not len(ids):
+            return np.zeros(0, np.int64), []
+        n = len(ids)
+        key = np.concatenate([states[name].reshape(n, -1).astype(np.int64)
+                              for name in ("robot_mode", "errors", "reflex_reason")], axis=1)
+        changed = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+        lines, before = [], None
+        for j in changed:
+            status = status_of(states[j])
+            lines.append(event_line(before, status, (ids[j] - self.first) / 1000.0))
+            before = status
+        return ids[changed], lines
+
+    def rows(self, arm: int, seconds: float) -> list:
+        """Arm `arm`'s plots' rows over the WINDOW up to `seconds`, as recorded (at most
+        PLOT_POINTS, evenly taken)."""
+        states, ids = self.states[arm], self.ids[arm]
+        cycle = self.first + int(round(seconds * 1000.0))
+        hi = int(ids.searchsorted(cycle, side="right"))
+        lo = int(ids.searchsorted(cycle - int(WINDOW * 1000), side="left"))
+        step = max(1, (hi - lo) // PLOT_POINTS)
+        return [row_of(states[j], (ids[j] - self.first) / 1000.0) for j in range(lo, hi, step)]
+
+    def events(self, arm: int, seconds: float) -> list[str]:
+        """Arm `arm`'s last EVENTS changes up to `seconds`, as recorded."""
+        cycles, lines = self._changes[arm]
+        k = int(cycles.searchsorted(self.first + int(round(seconds * 1000.0)), side="right"))
+        return lines[max(0, k - EVENTS):k]
 
     @property
     def duration(self) -> float:
@@ -106,8 +142,9 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
         with lock, server.atomic():
             snapshot = timeline.at(seconds)
             world.show(snapshot)
-            for panel in panels:
-                panel.show(snapshot)
+            for i, panel in enumerate(panels):
+                panel.show_recorded(snapshot, timeline.rows(i, seconds),
+                                    timeline.events(i, seconds))
 
     slider.on_update(lambda _event: show(slider.value))
     play.on_click(lambda _event: playing.clear() if playing.is_set() else playing.set())
