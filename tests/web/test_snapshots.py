@@ -165,7 +165,7 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
 
     def show(seconds: float) -> None:
         panel.show_recorded(timeline.at(seconds), timeline.rows(0, seconds),
-                            timeline.events(0, seconds))
+                            *timeline.events(0, seconds))
 
     for seconds in (1.0, 12.5, 3.0, 0.0, end):  # scrubbed back and forth, as a user does
         show(seconds)
@@ -174,3 +174,27 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
     t = panel.plots[0].value[0]  # the q plot's times: the recorded window before the end
     assert t[-1] == pytest.approx(end) and t[0] == pytest.approx(max(0.0, end - 10.0), abs=0.01)
     assert np.all(np.diff(t) > 0)
+
+
+def test_a_recordings_last_reflex_is_the_one_before_the_moment_shown(tmp_path):
+    import tempfile
+
+    from franka_sim.assembly import WorldParts
+    from franka_sim.recording.metadata import replay_config
+    from franka_sim.recording.reader import open_recording
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.recording_view import RecordingTimeline
+    from recording.conftest import record_session  # (a motion, then a reflex, then recovery)
+
+    record_session(tmp_path / "run.mcap", "lockstep")
+    recording = open_recording(tmp_path / "run.mcap")
+    with tempfile.TemporaryDirectory() as workdir:
+        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
+    timeline = RecordingTimeline(recording, physics)
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    for seconds in (timeline.duration, 0.0):  # the end, then scrubbed back to the start
+        panel.show_recorded(timeline.at(seconds), timeline.rows(0, seconds),
+                            *timeline.events(0, seconds))
+        if seconds:
+            assert "discontinuity" in panel.reflex.value
+    assert panel.reflex.value == "none" and panel.mode.value == "Idle"

@@ -56,8 +56,6 @@ class BaseMotion:
 class BaseCore(FciRobot):
     """The base's part of the FCI lifecycle (robot/fci.py): its Moves, its drive, its state."""
 
-    label = "base "
-
     def __init__(self, urdf: bytes, first_message_id: int = 1,
                  events: RobotEvents = NO_ROBOT_EVENTS) -> None:
         super().__init__(urdf, first_message_id, events)

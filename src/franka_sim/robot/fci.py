@@ -57,9 +57,8 @@ class FciRobot:
     """The shared lifecycle; a robot kind subclasses it (see the module docstring).
 
     `urdf`: what GetRobotModel answers; `events`: who hears the commands it takes and the
-    cycles it loses (robot/events.py); `label`: the robot in log lines ("", "base ")."""
-
-    label = ""
+    cycles it loses (robot/events.py). Its log lines name no robot: in a world of several,
+    which one is said by log_names.py."""
 
     def __init__(self, urdf: bytes, first_message_id: int = 1,
                  events: RobotEvents = NO_ROBOT_EVENTS) -> None:
@@ -190,13 +189,13 @@ class FciRobot:
         if motion is None or not motion.running:
             self._stray_commands += 1
             if worth_logging(self._stray_commands):
-                log.info("%sRobotCommand for message_id %d ignored: no motion is running "
-                         "(%d so far)", self.label, message_id, self._stray_commands)
+                log.info("RobotCommand for message_id %d ignored: no motion is running "
+                         "(%d so far)", message_id, self._stray_commands)
             return False
         bad, beyond = command_fields_out(command, COMMAND_RANGE)
         if bad:
-            log.warning("%sRobotCommand for message_id %d dropped: non-finite %s",
-                        self.label, message_id, ", ".join(bad))
+            log.warning("RobotCommand for message_id %d dropped: non-finite %s",
+                        message_id, ", ".join(bad))
             return False
         if beyond:
             # Limits only logged apply what comes: a value no FR3 comes near is taken at the
@@ -204,8 +203,8 @@ class FciRobot:
             # finite. (Enforced, the checks refuse it as any other value out of the limits.)
             self._beyond += 1
             if worth_logging(self._beyond):
-                log.warning("%sRobotCommand for message_id %d: %s beyond ±%g taken as ±%g "
-                            "(%d so far)", self.label, message_id, ", ".join(beyond),
+                log.warning("RobotCommand for message_id %d: %s beyond ±%g taken as ±%g "
+                            "(%d so far)", message_id, ", ".join(beyond),
                             COMMAND_RANGE, COMMAND_RANGE, self._beyond)
             command = clipped_command(command, COMMAND_RANGE)
         on_time = self.window.take(message_id, command)
@@ -235,7 +234,7 @@ class FciRobot:
         try:
             motion = self._admit(command_id, request)
         except MoveRejected as exc:
-            log.warning("%sMove rejected (%s): %s", self.label, exc.status.name, exc)
+            log.warning("Move rejected (%s): %s", exc.status.name, exc)
             return [build_response(Command.Move, command_id, exc.status)]
         self.motion = motion
         self.window = CommandWindow()
@@ -254,7 +253,7 @@ class FciRobot:
     def _setter(self, command: Command, request) -> GetterSetterStatus:
         if self.robot_mode is RobotMode.kMove:
             # Parameters are latched when a motion starts; the robot refuses changes mid-motion.
-            log.info("%s%s refused: a motion is running", self.label, command.name)
+            log.info("%s refused: a motion is running", command.name)
             return GetterSetterStatus.kCommandNotPossibleRejected
         return self._set(command, request)
 

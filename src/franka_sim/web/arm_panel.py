@@ -112,24 +112,22 @@ class ArmPanel:
         if read is None:
             return
         s, t, status = read
-        if self._rows and t < self._rows[-1][0]:  # a timeline scrubbed back: start again
-            self._rows.clear()
-            self._last_plot = -PLOT_PERIOD
         self._note(status, t)
         rows = self._rows
         rows.append(row_of(s, t))
         while rows and rows[0][0] < t - WINDOW:
             rows.popleft()
-        if abs(snapshot.time - self._last_plot) >= PLOT_PERIOD:
+        if snapshot.time - self._last_plot >= PLOT_PERIOD:
             self._last_plot = snapshot.time
             self._plot()
 
-    def show_recorded(self, snapshot, rows: list, events: list[str]) -> None:
-        """A recording's moment: the readouts as `show` gives them, the plots' rows and the
-        events up to it as recorded (`rows`, `events`), not as shown before: a scrubbed
-        timeline shows its moments in any order."""
+    def show_recorded(self, snapshot, rows: list, events: list[str], reflex: str) -> None:
+        """A recording's moment: the readouts as `show` gives them, the plots' rows, the events
+        and the last reflex up to it as recorded (`rows`, `events`, `reflex`), not as shown
+        before: a scrubbed timeline shows its moments in any order."""
         if self._read(snapshot) is None:
             return
+        self.reflex.value = reflex
         self._rows = deque(rows)
         self._events = deque(events, maxlen=EVENTS)
         self.events.value = "\n".join(reversed(self._events))  # newest first

@@ -53,21 +53,23 @@ class RecordingTimeline:
         self._changes = [self._status_changes(states, ids)
                          for states, ids in zip(self.states, self.ids)]
 
-    def _status_changes(self, states, ids) -> tuple[np.ndarray, list[str]]:
-        """The cycles where an arm's mode, errors or reflex reasons change, and the events
-        readout's line for each."""
+    def _status_changes(self, states, ids) -> tuple[np.ndarray, list[str], list[str]]:
+        """The cycles where an arm's mode, errors or reflex reasons change, the events
+        readout's line for each, and the last reflex's reasons as of each."""
         if not len(ids):
-            return np.zeros(0, np.int64), []
+            return np.zeros(0, np.int64), [], []
         n = len(ids)
         key = np.concatenate([states[name].reshape(n, -1).astype(np.int64)
                               for name in ("robot_mode", "errors", "reflex_reason")], axis=1)
         changed = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
-        lines, before = [], None
+        lines, reflexes, before, reflex = [], [], None, "none"
         for j in changed:
             status = status_of(states[j])
             lines.append(event_line(before, status, (ids[j] - self.first) / 1000.0))
+            reflex = status[2] if status[2] != "none" else reflex
+            reflexes.append(reflex)
             before = status
-        return ids[changed], lines
+        return ids[changed], lines, reflexes
 
     def rows(self, arm: int, seconds: float) -> list:
         """Arm `arm`'s plots' rows over the WINDOW up to `seconds`, as recorded (at most
@@ -79,11 +81,12 @@ class RecordingTimeline:
         step = max(1, (hi - lo) // PLOT_POINTS)
         return [row_of(states[j], (ids[j] - self.first) / 1000.0) for j in range(lo, hi, step)]
 
-    def events(self, arm: int, seconds: float) -> list[str]:
-        """Arm `arm`'s last EVENTS changes up to `seconds`, as recorded."""
-        cycles, lines = self._changes[arm]
+    def events(self, arm: int, seconds: float) -> tuple[list[str], str]:
+        """Arm `arm`'s last EVENTS changes up to `seconds`, and its last reflex's reasons then
+        ("none": none yet), as recorded."""
+        cycles, lines, reflexes = self._changes[arm]
         k = int(cycles.searchsorted(self.first + int(round(seconds * 1000.0)), side="right"))
-        return lines[max(0, k - EVENTS):k]
+        return lines[max(0, k - EVENTS):k], reflexes[k - 1] if k else "none"
 
     @property
     def duration(self) -> float:
@@ -144,7 +147,7 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
             world.show(snapshot)
             for i, panel in enumerate(panels):
                 panel.show_recorded(snapshot, timeline.rows(i, seconds),
-                                    timeline.events(i, seconds))
+                                    *timeline.events(i, seconds))
 
     slider.on_update(lambda _event: show(slider.value))
     play.on_click(lambda _event: playing.clear() if playing.is_set() else playing.set())
