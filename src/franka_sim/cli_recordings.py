@@ -98,11 +98,10 @@ def render(
 ) -> None:
     """Make a video of a recording without a screen (MuJoCo offscreen through EGL or OSMesa;
     needs franka-sim\\[render])."""
-    from franka_sim.playback.render import RenderError, check_output, import_mujoco_with_gl
+    from franka_sim.playback.render import RenderError, import_mujoco_with_gl
     from franka_sim.playback.render import render as make_video
 
     try:
-        check_output(output)
         import_mujoco_with_gl()  # (before anything below imports mujoco)
     except RenderError as exc:
         typer.echo(f"franka-sim: {exc}", err=True)
