@@ -78,6 +78,9 @@ def test_bad_requests_are_answered_4xx_or_dropped_and_serving_goes_on():
         log = server.sync()
         assert not any("Traceback" in line for line in log), "\n".join(log)
         assert len(server.log_matching("web view: opening handshake failed")) >= 2
+        # the mistyped page has its line, naming it; the pages served have none
+        assert len(server.log_matching("web view: /../../etc/passwd: 404")) == 1, "\n".join(log)
+        assert not server.log_matching("connection rejected (200")
         assert server.proc.poll() is None
 
 

@@ -137,7 +137,8 @@ def stop_quietly(server) -> None:
 
 def quiet_libraries() -> None:
     """A malformed request to the web port is the browser's problem, not the robot's: one
-    line each (websockets logs a traceback per bad handshake by default)."""
+    line each (websockets logs a traceback per bad handshake by default), and one line per
+    page or file the port does not have (a mistyped address), none per file it served."""
     class OneLine(logging.Filter):
         def filter(self, record: logging.LogRecord) -> bool:
             if record.exc_info:
@@ -145,8 +146,25 @@ def quiet_libraries() -> None:
                 record.msg = f"web view: {record.getMessage()} ({type(exc).__name__}: {exc})"
                 record.args, record.exc_info, record.exc_text = (), None, None
                 record.levelno, record.levelname = logging.INFO, "INFO"  # not the robot's error
-            return True
+                return True
+            if record.levelno >= logging.WARNING:
+                return True
+            return _refused_request(record)
 
     for name in ("websockets.server", "websockets"):
         logging.getLogger(name).addFilter(OneLine())
-    logging.getLogger("websockets").setLevel(logging.WARNING)  # (each listen, each 404)
+    logging.getLogger("websockets").setLevel(logging.WARNING)  # (each listen, each open)
+    logging.getLogger("websockets.server").setLevel(logging.INFO)  # (its refusals: above)
+
+
+def _refused_request(record: logging.LogRecord) -> bool:
+    """websockets' "connection rejected" line of a page the port does not have, as "web view:
+    PATH: 404 NOT FOUND"; its other lines are dropped (viser's files go out as handshakes
+    rejected with 200; a failed handshake has its own line, above; listening, each watcher's
+    connection)."""
+    if record.msg != "connection rejected (%d %s)" or record.args[0] != 404:
+        return False
+    request = getattr(getattr(record, "websocket", None), "request", None)
+    path = getattr(request, "path", "?")
+    record.msg, record.args = "web view: %s: %d %s", (path, *record.args)
+    return True
