@@ -61,4 +61,12 @@ def test_scrubbing_the_timeline_shows_the_recorded_state_there(viewed):
         assert expected_q(moment) != expected_q(0.0)  # (the arm moved meanwhile)
         after = screenshot(browser)
         assert np.abs(before.astype(int) - after.astype(int)).max(axis=2).__gt__(40).sum() > 200
+        # a time past the recording's end: the box goes back to the end, which it shows
+        end = round(float(duration[-1] - duration[0]) / 1000, 3)
+        box.send_keys(Keys.CONTROL, "a")
+        box.send_keys(str(end + 100), Keys.ENTER)
+        wait_for(lambda: box.get_attribute("value") == f"{end:g}", 30,
+                 f"the box back at the end, {end} s")
+        wait_for(lambda: readouts(browser).get("q (rad)") == expected_q(end), 30,
+                 "the last state recorded")
         assert console_errors(browser) == []

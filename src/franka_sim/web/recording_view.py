@@ -149,7 +149,14 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
                 panel.show_recorded(snapshot, timeline.rows(i, seconds),
                                     *timeline.events(i, seconds))
 
-    slider.on_update(lambda _event: show(slider.value))
+    def scrubbed(_event) -> None:
+        seconds = min(max(float(slider.value), 0.0), timeline.duration)
+        if seconds != slider.value:  # a time typed into the box outside the recording
+            slider.value = seconds  # (the box says where it is; its on_update shows it)
+            return
+        show(seconds)
+
+    slider.on_update(scrubbed)
     play.on_click(lambda _event: playing.clear() if playing.is_set() else playing.set())
 
     @server.on_client_connect
