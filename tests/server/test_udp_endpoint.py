@@ -127,7 +127,7 @@ def test_nothing_is_taken_from_elsewhere_before_a_state_was_sent_or_after_the_cl
     endpoint.disconnect()
     endpoint.datagram_received(encode_command(message_id=5), GATEWAY)
     endpoint.datagram_received(encode_command(message_id=5), PEER)
-    assert taken == [] and endpoint.dropped_foreign == 3
+    assert taken == [] and endpoint.dropped_foreign == 2 and endpoint.dropped_departed == 1
     assert endpoint.source is None and endpoint.sources_moved == 0
 
 
@@ -178,3 +178,18 @@ def test_the_clients_own_datagram_goes_straight_to_decoding():
     endpoint._from_elsewhere = lambda *_: pytest.fail("consulted for the client's own datagram")
     endpoint.datagram_received(encode_command(message_id=7, q_c=np.zeros(7)), PEER)
     assert _taken_ids(taken) == [7]
+
+
+def test_what_the_client_sent_before_it_saw_its_connection_close_is_dropped_without_a_warning(
+        caplog):
+    endpoint, taken, _ = _endpoint()
+    _sent_states(endpoint, 5)
+    endpoint.disconnect()  # (the Desk cut it off, or it left mid-motion)
+    with caplog.at_level(logging.INFO, logger="franka_sim.server.udp_endpoint"):
+        endpoint.datagram_received(encode_command(message_id=5), PEER)
+    assert taken == [] and endpoint.dropped_departed == 1 and endpoint.dropped_foreign == 0
+    assert caplog.text == ""
+    endpoint.connect(*GATEWAY)  # the next client: the last one's address is a stranger's
+    with caplog.at_level(logging.INFO, logger="franka_sim.server.udp_endpoint"):
+        endpoint.datagram_received(b"garbage", PEER)
+    assert endpoint.dropped_foreign == 1 and "not the connected client" in caplog.text

@@ -58,6 +58,11 @@ class UdpEndpoint:
         self.sources_moved = 0
         self.dropped_foreign = 0
         self.dropped_malformed = 0
+        # The address the last client's commands came from, until the next connects: what it
+        # sent before it saw its connection close (the Desk cut it off, it left mid-motion)
+        # is dropped and counted apart, without a warning: it is no stranger.
+        self._departed: tuple[str, int] | None = None
+        self.dropped_departed = 0
         self.taps = taps  # the robot's recording taps: every state sent, every datagram dropped
         self.faults = None  # faults.link.ArmLink while faults are injected (cycle thread only)
         self.late: list = []  # commands faults held when they were cleared: the next read's
@@ -86,8 +91,10 @@ class UdpEndpoint:
         self._moves = 0
         self._written, self._read = written, read
         self.source = self.target = (peer_ip, udp_port)
+        self._departed = None
 
     def disconnect(self) -> None:
+        self._departed = self.source
         self.source = self.target = None
         self._first_sent = self._last_sent = None
         self._written = self._read = None
@@ -171,6 +178,13 @@ class UdpEndpoint:
         moves `source` and is taken; anything else is dropped (None)."""
         command = self._answer(data)
         target = self.target
+        if target is None and addr[:2] == self._departed:
+            self.dropped_departed += 1
+            if self.taps is not None:
+                self.taps.rejected("from the client that left", addr, data)
+            log.debug("dropped UDP datagram from the client that left (%d so far)",
+                      self.dropped_departed)
+            return None
         if command is None or target is None:
             self.dropped_foreign += 1
             if self.taps is not None:
