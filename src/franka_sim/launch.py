@@ -24,7 +24,6 @@ import sys
 _NEEDS_RENDERER = ("--viewer",)
 _NEEDS_TLS = ("--desk-port", "--web")
 _NEEDS_TLS_ENV = ("FRANKA_SIM_DESK_PORT", "FRANKA_SIM_WEB_PORT")
-_SECRETS = ("--control-token", "--desk-user")
 
 
 def main() -> None:
@@ -49,7 +48,7 @@ def _serve_overlapped(argv: list[str]) -> None:
     from franka_sim import serving
 
     serving.stop_on_sigterm(also=child)
-    hide = _named(argv, _SECRETS)
+    hide = _named(argv, serving.SECRET_OPTIONS)
     lean = _lean(argv) and not hide
     if lean:
         serving.import_for_serving(viewer=False, tls=False)

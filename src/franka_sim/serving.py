@@ -36,6 +36,7 @@ log = logging.getLogger("franka_sim")
 # shows to every user of the machine).
 _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 _DESK_USERS = "FRANKA_SIM_DESK_USERS"  # (their passwords too)
+SECRET_OPTIONS = ("--control-token", "--desk-user")  # whose values `ps` must not show
 
 
 _hand_back: int | None = None  # the pipe to the serving process, in the CLI's child (launch)
@@ -97,7 +98,24 @@ def become_serving(blob: str) -> None:
     # A SIGTERM that comes before the new program handles it waits for it, pending (a mask
     # survives exec), rather than being lost: see stop_on_sigterm.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
-    os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob])
+    os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob,
+                              *shown_command(sys.argv)])
+
+
+def shown_command(argv: list[str]) -> list[str]:
+    """The words after the serving argument, which `ps` and `pgrep -f "franka-sim serve"` see:
+    the command the user gave (`argv`, a serving process's own: kept), its secrets masked.
+    The serving process reads only the argument."""
+    if argv[2:3] == ["franka-sim"]:  # (a serving process starting again: as it was shown)
+        return argv[2:]
+    shown, masking = ["franka-sim"], False
+    for arg in argv[1:]:
+        option, is_pair, _ = arg.partition("=")
+        if masking or (is_pair and option in SECRET_OPTIONS):
+            arg = f"{option}=***" if is_pair and not masking else "***"
+        masking = arg in SECRET_OPTIONS
+        shown.append(arg)
+    return shown
 
 
 def _config(settings: dict) -> Config:

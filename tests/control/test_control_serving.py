@@ -36,7 +36,10 @@ def test_a_token_is_required_on_every_resource_and_never_shown_on_the_command_li
             assert connection.getresponse().status == status, header
             connection.close()
         assert "not a bearer token" in sim.log_matching("refused (401)")[-1]
-        assert b"s3cret" not in Path(f"/proc/{sim.pid}/cmdline").read_bytes()
+        cmdline = Path(f"/proc/{sim.pid}/cmdline").read_bytes()
+        assert b"s3cret" not in cmdline
+        # what `ps` shows is still the command given (`pgrep -f "franka-sim serve"` finds it)
+        assert b"\0franka-sim\0serve\0" in cmdline and b"--control-token\0***" in cmdline
 
 
 def test_port_and_token_from_the_environment():

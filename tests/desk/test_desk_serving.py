@@ -62,7 +62,7 @@ def test_ones_own_certificate_is_served(tmp_path):
         assert ssl.get_server_certificate((sim.host, PORT)) == cert.read_text()
         assert not (tmp_path / "data" / "franka-sim").exists()
         cmdline = Path(f"/proc/{sim.proc.pid}/cmdline").read_bytes()
-        assert b"very-secret" not in cmdline
+        assert b"very-secret" not in cmdline and b"--desk-user\0***" in cmdline
         maps = Path(f"/proc/{sim.proc.pid}/maps").read_text()
         assert "_ssl." in maps  # the Desk keeps TLS; without it the process has none
 
