@@ -7,8 +7,8 @@ error, and hands the parsed flags back through a pipe), while this process, the 
 started (its pid, its signals, its exit code), imports what serving needs meanwhile and then
 serves them (franka_sim.serving). A server never holds typer's modules (serving.py says why).
 
-What the imports leave out (MuJoCo's renderer, OpenSSL: franka_sim.footprint) depends on
-the flags, so it is guessed from the command line; a guess the flags contradict costs one
+What the imports leave out (MuJoCo's renderer always, OpenSSL where no flag needs it:
+franka_sim.footprint) depends on the flags, so it is guessed from the command line; a guess the flags contradict costs one
 exec, not a wrong server. A command line holding a secret (the control API's token, the
 Desk's passwords) is not kept either: the server execs itself (same pid) with them in its
 environment, where `ps` does not show them.
@@ -21,7 +21,6 @@ import os
 import sys
 
 # The flags that need what the imports would leave out, as options or their variables.
-_NEEDS_RENDERER = ("--viewer",)
 _NEEDS_TLS = ("--desk-port", "--web")
 _NEEDS_TLS_ENV = ("FRANKA_SIM_DESK_PORT", "FRANKA_SIM_WEB_PORT")
 
@@ -51,7 +50,7 @@ def _serve_overlapped(argv: list[str]) -> None:
     hide = _named(argv, serving.SECRET_OPTIONS)
     lean = _lean(argv) and not hide
     if lean:
-        serving.import_for_serving(viewer=False, tls=False)
+        serving.import_for_serving(tls=False)
     handed = _read_all(read_end)
     _, status = os.waitpid(child, 0)
     if not handed:  # help, or a flag refused: the CLI said so and how it exited
@@ -60,14 +59,14 @@ def _serve_overlapped(argv: list[str]) -> None:
     message = json.loads(handed)
     blob, args = message["blob"], json.loads(message["blob"])
     serving.set_environment(message["env"])
-    if hide or (lean and any(serving.needs(args))):
+    if hide or (lean and serving.needs_tls(args)):
         serving.become_serving(blob)  # a fresh process, with what the guess left out
     sys.exit(serving.main(blob))
 
 
 def _lean(argv: list[str]) -> bool:
-    """True when the command line names nothing that needs the renderer or TLS."""
-    return not _named(argv, _NEEDS_RENDERER + _NEEDS_TLS) and \
+    """True when the command line names nothing that needs TLS."""
+    return not _named(argv, _NEEDS_TLS) and \
         not any(os.environ.get(name, "0") not in ("", "0") for name in _NEEDS_TLS_ENV)
 
 

@@ -71,11 +71,12 @@ def set_environment(env: dict[str, str | None]) -> None:
             os.environ[name] = value
 
 
-def needs(args: dict) -> tuple[bool, bool]:
-    """(the renderer, TLS): what serving the parsed flags `args` needs of what footprint.py
-    leaves out (the Desk: TLS; the web view: viser imports `ssl` for a tunnel it never opens)."""
+def needs_tls(args: dict) -> bool:
+    """Whether serving the parsed flags `args` needs OpenSSL, which footprint.py leaves out
+    (the Desk; the web view: viser imports `ssl` for a tunnel it never opens). MuJoCo's
+    renderer is always left out: the viewer draws in a process of its own (server/viewer.py)."""
     config = args["config"]
-    return bool(args.get("viewer")), bool(config.get("desk_port") or config.get("web_port"))
+    return bool(config.get("desk_port") or config.get("web_port"))
 
 
 def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "info",
@@ -162,10 +163,10 @@ def stop_on_sigterm(also: int | None = None) -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
-def import_for_serving(*, viewer: bool, tls: bool) -> None:
-    """Import what serving needs, leaving out the renderer unless `viewer` and OpenSSL unless
-    `tls` (`needs`). A uvloop that does not import is left for main to handle."""
-    _leave_out(viewer=viewer, tls=tls)
+def import_for_serving(*, tls: bool) -> None:
+    """Import what serving needs, leaving out the renderer, and OpenSSL unless `tls`
+    (`needs_tls`). A uvloop that does not import is left for main to handle."""
+    _leave_out(tls=tls)
     try:
         import uvloop  # noqa: F401
     except Exception:  # noqa: BLE001 - main says why and starts again with OpenSSL
@@ -173,9 +174,8 @@ def import_for_serving(*, viewer: bool, tls: bool) -> None:
     import franka_sim.server.sim  # noqa: F401
 
 
-def _leave_out(*, viewer: bool, tls: bool) -> None:
-    if not viewer:
-        leave_out_renderer()
+def _leave_out(*, tls: bool) -> None:
+    leave_out_renderer()
     if not tls and _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
     import_mujoco_without_plugins()
@@ -184,8 +184,7 @@ def _leave_out(*, viewer: bool, tls: bool) -> None:
 def main(blob: str) -> int:
     stop_on_sigterm()
     args = json.loads(blob)
-    viewer, tls = needs(args)
-    _leave_out(viewer=viewer, tls=tls)
+    _leave_out(tls=needs_tls(args))
     logging.basicConfig(level=args["log_level"].upper(),
                         format="%(asctime)s %(levelname)s %(name)s: %(robot)s%(message)s")
     for handler in logging.getLogger().handlers:
@@ -308,12 +307,14 @@ async def _stop_within(sim, seconds: float) -> None:
 
 
 async def _open_viewer(sim):
+    import asyncio
+
     from franka_sim.server.viewer import LiveViewer
 
     world = await sim.worker.call(lambda physics: physics.world)
     viewer = LiveViewer(world.model, world.data)
     try:
-        viewer.start()
+        await asyncio.to_thread(viewer.start)  # (the robot serves while the window opens)
     except RuntimeError as exc:
         await sim.stop()
         raise _Failed(str(exc)) from None

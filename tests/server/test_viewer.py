@@ -1,12 +1,14 @@
 """`serve --viewer` on a real display (Xvfb): the window opens on the running world, shows the
 arm move under a pylibfranka motion, and the server stops cleanly with it open; a display that
-cannot be opened ends the server with one line saying why."""
+cannot be opened ends the server with one line saying why; a display lost while the window is
+up ends the viewer, not the robot."""
 
 from __future__ import annotations
 
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -14,7 +16,7 @@ from franka_sim.config import READY_POSE
 from franka_sim.control import Control
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 from support.clients import connect, move_to
-from support.xserver import opengl_display, wait_for_screen
+from support.xserver import SERVERS, opengl_display, wait_for_screen
 
 
 def test_the_viewer_shows_the_arm_move_and_stops_cleanly():
@@ -22,6 +24,10 @@ def test_the_viewer_shows_the_arm_move_and_stops_cleanly():
         server = ServerProcess(fresh_loopback_address(), "--viewer", "--clock", "lockstep",
                                env={"DISPLAY": display}).wait_ready()
         try:
+            assert server.wait_for_log("the viewer shows the world", timeout=60)
+            viewer = [child for task in Path(f"/proc/{server.pid}/task").iterdir()
+                      for child in (task / "children").read_text().split()]
+            assert len(viewer) == 1  # the window's own process
             before = wait_for_screen(display, server=server)  # the window, drawn
             robot = connect(server.host)
             target = np.array(READY_POSE) + [0.6, 0, 0, 0, 0, 0, 0]
@@ -34,6 +40,7 @@ def test_the_viewer_shows_the_arm_move_and_stops_cleanly():
             took = server.stop()
         assert server.proc.returncode == 0, "\n".join(server.lines)
         assert took < 10
+        assert not Path(f"/proc/{viewer[0]}").exists()  # it closed with the server
 
 
 def test_a_display_that_does_not_answer_ends_the_server_saying_so():
@@ -43,3 +50,23 @@ def test_a_display_that_does_not_answer_ends_the_server_saying_so():
     assert done.returncode == 1
     assert done.stderr.strip().splitlines()[-1] == (
         "franka-sim: the viewer cannot open: X11: Failed to open display :4242")
+
+
+def test_a_lost_display_ends_the_viewer_and_the_robot_serves_on():
+    with opengl_display() as display:
+        server = ServerProcess(fresh_loopback_address(), "--viewer", "--clock", "lockstep",
+                               env={"DISPLAY": display}).wait_ready()
+        try:
+            assert server.wait_for_log("the viewer shows the world", timeout=60)
+            wait_for_screen(display, server=server)
+            SERVERS[display].kill()  # the X server gone, as with a dropped `ssh -X`
+            SERVERS[display].wait(10)
+            ended = server.wait_for_log("the viewer ended", timeout=30)
+            assert ended and "serving goes on" in ended[0], "\n".join(server.lines)
+            robot = connect(server.host)
+            target = np.array(READY_POSE) + [0, 0, 0, 0, 0, 0, 0.5]
+            np.testing.assert_allclose(move_to(robot, target, seconds=0.5), target, atol=1e-2)
+            assert Control(server.host).health()["ready"]
+        finally:
+            server.stop()
+        assert server.proc.returncode == 0, "\n".join(server.lines)

@@ -11,6 +11,8 @@ import time
 
 import pytest
 
+SERVERS: dict[str, subprocess.Popen] = {}  # each running Xvfb by its DISPLAY (a test may kill it)
+
 
 @contextlib.contextmanager
 def xvfb(size: str = "1024x768x24"):
@@ -29,9 +31,11 @@ def xvfb(size: str = "1024x768x24"):
     if not number:
         proc.kill()
         raise RuntimeError(f"Xvfb did not start: {proc.communicate(timeout=10)[1]}")
+    SERVERS[f":{number}"] = proc
     try:
         yield f":{number}"
     finally:
+        del SERVERS[f":{number}"]
         proc.terminate()
         proc.wait(10)
 

@@ -1,9 +1,15 @@
-"""`franka-sim serve --viewer`: MuJoCo's passive viewer on the running world.
+"""`franka-sim serve --viewer`: MuJoCo's passive viewer on the running world, in a process of
+its own.
 
-The viewer renders from its own MjData on its own thread: ~30 times a second it copies the
-world's qpos (a torn copy only shows for one frame; the cycle thread never waits for it, takes
-no lock for it and is never called back), recomputes the kinematics of its copy and hands it to
-the viewer. So rendering cannot delay a cycle; it only takes its share of the CPU.
+Xlib ends the process whose display connection breaks (the X server stopped, `xkill`, a dropped
+`ssh -X`); a viewer inside the server took the robot down with it. So the window belongs to a
+child (`python -m franka_sim.server.viewer MODEL FD`): it loads the world's compiled model, and
+~30 times a second the server's `fsim-viewer` thread sends it the world's qpos over a socket
+pair (a torn copy only shows for one frame; the cycle thread never waits for it, takes no lock
+for it and is never called back). The child recomputes the kinematics of its own MjData and
+draws. A frame the child has not taken yet is dropped, never queued. Its window closed or its
+display gone, the child ends and the server says so on one line and serves on; the server
+gone, its socket closes and the child ends too.
 """
 
 from __future__ import annotations
@@ -11,6 +17,11 @@ from __future__ import annotations
 import logging
 import os
 import re
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 
@@ -20,6 +31,8 @@ log = logging.getLogger(__name__)
 # good part of a core, which a lockstep client on a two-core machine then waits for)
 FRAME_PERIOD = 1 / 30
 OPEN_WITHIN = 30.0  # s a window may take to appear (software GL on a loaded machine)
+CLOSE_WITHIN = 5.0  # s the child gets to close its window before it is killed
+READY, REFUSED = b"ready", b"refused "  # what the child says once, before any frame
 
 
 class NoDisplay(RuntimeError):
@@ -33,73 +46,153 @@ def check_display() -> None:
 
 
 class LiveViewer:
+    """The server's side: starts the child, feeds it the world's qpos, notices its end."""
+
     def __init__(self, model, data) -> None:
         self.model, self.source = model, data
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="fsim-viewer", daemon=True)
-        self._ready = threading.Event()
-        self.error: Exception | None = None
-        self._gui_failure: BaseException | None = None
+        self._thread = threading.Thread(target=self._feed, name="fsim-viewer", daemon=True)
+        self._child: subprocess.Popen | None = None
+        self._sock: socket.socket | None = None
+        self._stderr = None
 
     def start(self, timeout: float = OPEN_WITHIN) -> None:
-        """Open the window, or raise RuntimeError saying why not.
+        """Open the window, or raise RuntimeError saying why not."""
+        import mujoco
 
-        MuJoCo's launch_passive hands its handle back only once its GUI thread has made the
-        window; should that thread fail (no GLX on the display, GLFW refusing), it never does
-        and the caller would wait forever. So the GUI thread's exception is caught on its way
-        out, and a window that has not come within `timeout` counts as one that cannot open."""
-        _catch_gui_failures(self)
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        fd, path = tempfile.mkstemp(prefix="franka-sim-viewer-", suffix=".mjb")
+        os.close(fd)
+        self._stderr = tempfile.TemporaryFile()
+        try:
+            mujoco.mj_saveModel(self.model, path, None)
+            self._child = subprocess.Popen(
+                [sys.executable, "-m", "franka_sim.server.viewer", path, str(theirs.fileno())],
+                pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL, stderr=self._stderr)
+            theirs.close()
+            ours.settimeout(timeout)
+            try:
+                said = ours.recv(4096)
+            except TimeoutError:
+                self._end_child()
+                raise RuntimeError(f"the viewer cannot open: no window within {timeout:.0f} s")
+        finally:
+            os.unlink(path)
+        if said != READY:
+            reason = said[len(REFUSED):].decode(errors="replace") if said.startswith(REFUSED) \
+                else self._last_words() or "its process ended"
+            self._end_child()
+            raise RuntimeError(f"the viewer cannot open: {reason}")
+        ours.setblocking(False)
+        self._sock = ours
         self._thread.start()
-        deadline = time.monotonic() + timeout
-        while not self._ready.wait(0.05):
-            if self._gui_failure is not None:
-                exc = self._gui_failure
-                self.error = RuntimeError(f"the viewer cannot open: {type(exc).__name__}: {exc}")
-                break
-            if time.monotonic() > deadline:
-                self.error = RuntimeError(f"the viewer cannot open: no window within "
-                                          f"{timeout:.0f} s (MuJoCo's GUI thread did not start)")
-                break
-        if self.error is not None:
-            raise self.error
         log.info("the viewer shows the world")
 
     def stop(self) -> None:
-        """Close the window and wait until MuJoCo's GUI thread has let go of GLFW: the
-        process's exit terminates GLFW, and a GUI thread still drawing then would crash it."""
+        """Close the window: the child ends once its socket closes."""
         self._stop.set()
-        self._thread.join(5.0)
+        if self._thread.is_alive():
+            self._thread.join(5.0)
+        self._end_child()
 
-    def _run(self) -> None:
-        import mujoco
-        import mujoco.viewer
+    def _feed(self) -> None:
+        qpos, sock, child = self.source.qpos, self._sock, self._child
+        while not self._stop.wait(FRAME_PERIOD):
+            if child.poll() is not None:
+                self._say_ended(child.returncode)
+                return
+            try:
+                sock.send(qpos.tobytes())  # a copy; the world may be mid-step
+            except (BlockingIOError, InterruptedError):
+                pass  # the child is behind: this frame is not shown
+            except OSError:  # its end closed: it is ending (the next poll says how)
+                pass
 
-        model = self.model
-        data = mujoco.MjData(model)
-        refused = _glfw_refusal()
-        if refused:  # MuJoCo's own GUI thread would end the process with a bare "ERROR"
-            self.error = RuntimeError(f"the viewer cannot open: {refused}")
-            self._ready.set()
+    def _say_ended(self, code: int) -> None:
+        if code == 0:
+            log.info("the viewer's window was closed; serving goes on")
             return
-        before = set(threading.enumerate())
-        try:
-            handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False,
-                                                  show_right_ui=False)
-        except Exception as exc:  # noqa: BLE001 - reported by start()
-            self.error = RuntimeError(f"the viewer cannot open: {exc}")
-            self._ready.set()
-            return
-        # The thread launch_passive started draws the window until the handle is closed.
-        gui = [thread for thread in threading.enumerate() if thread not in before]
-        self._ready.set()
-        with handle:
-            while handle.is_running() and not self._stop.is_set():
-                data.qpos[:] = self.source.qpos  # a copy; the world may be mid-step
+        words = self._last_words()
+        log.warning("the viewer ended (%s%s); serving goes on",
+                    f"exit code {code}" if code > 0 else f"signal {-code}",
+                    f": {words}" if words else "")
+
+    def _last_words(self) -> str:
+        """The child's last line on stderr (Xlib's, on a lost display)."""
+        if self._stderr is None:
+            return ""
+        self._stderr.seek(0)
+        lines = [line.strip() for line in self._stderr.read().decode(errors="replace")
+                 .splitlines() if line.strip()]
+        return lines[-1] if lines else ""
+
+    def _end_child(self) -> None:
+        sock, self._sock = self._sock, None
+        if sock is not None:
+            sock.close()
+        child = self._child
+        if child is not None and child.poll() is None:
+            try:
+                child.wait(CLOSE_WITHIN if sock is not None else 0.0)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+        if self._stderr is not None:
+            self._stderr.close()
+            self._stderr = None
+
+
+# -- the child -----------------------------------------------------------------------------------
+def show(model_path: str, fd: int) -> int:
+    """The viewer's process: the window until it is closed or the server's socket closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # (a terminal's Ctrl-C is the server's to act on)
+    sock = socket.socket(fileno=fd)
+    refused = _glfw_refusal()
+    if refused:  # MuJoCo's own GUI thread would end the process with a bare "ERROR"
+        sock.send(REFUSED + refused.encode())
+        return 1
+    import mujoco
+    import mujoco.viewer
+    import numpy as np
+
+    model = mujoco.MjModel.from_binary_path(model_path)
+    data = mujoco.MjData(model)
+    failures: list[BaseException] = []
+    previous = threading.excepthook
+    threading.excepthook = lambda args: failures.append(args.exc_value) or previous(args)
+    before = set(threading.enumerate())
+    try:  # (launch_passive hands back its handle once its GUI thread made the window)
+        handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False,
+                                              show_right_ui=False)
+    except Exception as exc:  # noqa: BLE001 - said to the server
+        sock.send(REFUSED + str(exc).encode())
+        return 1
+    if failures:
+        sock.send(REFUSED + f"{type(failures[0]).__name__}: {failures[0]}".encode())
+        return 1
+    gui = [thread for thread in threading.enumerate() if thread not in before]
+    sock.send(READY)
+    size, served = data.qpos.nbytes, True
+    with handle:
+        while served and handle.is_running():
+            frame = None
+            try:
+                while got := sock.recv(size, socket.MSG_DONTWAIT):  # the newest frame sent
+                    frame = got
+                served = False  # (b"": the server closed its end)
+            except (BlockingIOError, InterruptedError):
+                pass
+            except OSError:
+                served = False
+            if frame is not None and len(frame) == size:
+                data.qpos[:] = np.frombuffer(frame)
                 mujoco.mj_forward(model, data)
                 handle.sync()
-                time.sleep(FRAME_PERIOD)
-        for thread in gui:
-            thread.join(4.0)
+            time.sleep(FRAME_PERIOD)
+    for thread in gui:  # (the process's exit ends GLFW: not while its GUI thread draws)
+        thread.join(4.0)
+    return 0
 
 
 def _glfw_refusal() -> str | None:
@@ -117,20 +210,5 @@ def _glfw_refusal() -> str | None:
     return "; ".join(words) or "GLFW does not initialise"
 
 
-_watched: list[LiveViewer] = []
-
-
-def _catch_gui_failures(viewer: LiveViewer) -> None:
-    """Route an exception that ends MuJoCo's GUI thread (its target is `_launch_internal`) to
-    the viewer waiting for it; every other thread's goes on to the previous hook unchanged."""
-    if not _watched:
-        previous = threading.excepthook
-
-        def hook(args) -> None:
-            if args.thread is not None and "_launch_internal" in args.thread.name:
-                for waiting in _watched:
-                    waiting._gui_failure = args.exc_value
-            previous(args)
-
-        threading.excepthook = hook
-    _watched.append(viewer)
+if __name__ == "__main__":
+    sys.exit(show(sys.argv[1], int(sys.argv[2])))
