@@ -93,13 +93,14 @@ def serving_argument(config: Config, *, rt_priority: int = 0, log_level: str = "
 
 
 def become_serving(blob: str) -> None:
-    """Replace this process (same pid) with `python -m franka_sim.serving blob`."""
+    """Replace this process (same pid) with `python -P -m franka_sim.serving blob` (-P: no module
+    of the working directory shadows one of the server's)."""
     sys.stdout.flush()
     sys.stderr.flush()
     # A SIGTERM that comes before the new program handles it waits for it, pending (a mask
     # survives exec), rather than being lost: see stop_on_sigterm.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
-    os.execv(sys.executable, [sys.executable, "-m", "franka_sim.serving", blob,
+    os.execv(sys.executable, [sys.executable, "-P", "-m", "franka_sim.serving", blob,
                               *shown_command(sys.argv)])
 
 

@@ -136,7 +136,7 @@ def test_the_server_runs_without_the_cli_machinery():
     with running_sim("--clock", "lockstep") as sim:
         pid = sim.proc.pid
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-        assert cmdline[1:4] == [b"-m", b"franka_sim", b"serve"]
+        assert cmdline[1:5] == [b"-P", b"-m", b"franka_sim", b"serve"]
         maps = Path(f"/proc/{pid}/maps").read_text()
         assert "pydantic_core" not in maps and "mujoco" in maps
         assert "mujoco/_render" not in maps and "glfw" not in maps

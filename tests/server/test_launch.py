@@ -143,3 +143,21 @@ def test_help_and_a_refused_flag_exit_as_the_cli_says(tmp_path):
                               "--clock", "sometimes"], capture_output=True, text=True,
                              timeout=60, env={**os.environ, "COLUMNS": "200"})
     assert refused.returncode == 2 and "sometimes" in refused.stderr
+
+
+def test_modules_in_the_working_directory_do_not_shadow_the_servers_own(tmp_path):
+    """A user's `json.py` beside them: a server that starts afresh (a secret on its command
+    line) imports the standard library's, not theirs."""
+    for name in ("json", "queue", "concurrent"):
+        (tmp_path / f"{name}.py").write_text(f"raise SystemExit('shadowed by ./{name}.py')\n")
+    host = fresh_loopback_address()
+    script = Path(sys.executable).parent / "franka-sim"  # the installed command, as users run it
+    server = ServerProcess(host, command=[str(script), "serve", "--host", host,
+                                          "--control-token", "t0ken"], cwd=tmp_path)
+    try:
+        server.wait_ready()
+        robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+        assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+        assert not server.log_matching("shadowed")
+    finally:
+        server.stop()

@@ -113,7 +113,7 @@ def zig_compiler() -> list[str] | None:
     """`python -m ziglang cc` where the ziglang package is installed, else None."""
     if importlib.util.find_spec("ziglang") is None:
         return None
-    return [sys.executable, "-m", "ziglang", "cc"]
+    return [sys.executable, "-P", "-m", "ziglang", "cc"]
 
 
 class CompileError(Exception):

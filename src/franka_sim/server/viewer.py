@@ -67,7 +67,7 @@ class LiveViewer:
         try:
             mujoco.mj_saveModel(self.model, path, None)
             self._child = subprocess.Popen(
-                [sys.executable, "-m", "franka_sim.server.viewer", path, str(theirs.fileno())],
+                [sys.executable, "-P", "-m", "franka_sim.server.viewer", path, str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self._stderr)
             theirs.close()

@@ -44,17 +44,18 @@ class ServerProcess:
     thread collects its stderr lines."""
 
     def __init__(self, host: str, *args: str, env: dict | None = None,
-                 command: list[str] | None = None, ready: str = "serving on") -> None:
+                 command: list[str] | None = None, ready: str = "serving on",
+                 cwd: str | os.PathLike | None = None) -> None:
         self.host, self.ready = host, ready
         self.lines: list[str] = []
         self.serving_at: float | None = None  # perf_counter() when "serving on" was read
         self._ready = threading.Event()
         self.spawned_at = time.perf_counter()
         self.proc = subprocess.Popen(
-            command or [sys.executable, "-m", "franka_sim", "serve", "--host", host, *args],
+            command or [sys.executable, "-P", "-m", "franka_sim", "serve", "--host", host, *args],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
             env={k: v for k, v in {**os.environ, **(env or {})}.items() if v is not None},
-            preexec_fn=_normal_scheduling,
+            preexec_fn=_normal_scheduling, cwd=cwd,
         )
         self.pid = self.proc.pid
         self._fd = self.proc.stderr.fileno()
