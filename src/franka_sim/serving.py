@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from franka_sim.footprint import (import_mujoco_without_plugins, leave_out_renderer,
                                   leave_out_tls)
+from franka_sim.log_format import FORMAT, OneLine
 from franka_sim.log_names import RobotName
 
 if TYPE_CHECKING:
@@ -186,10 +187,10 @@ def main(blob: str) -> int:
     stop_on_sigterm()
     args = json.loads(blob)
     _leave_out(tls=needs_tls(args))
-    logging.basicConfig(level=args["log_level"].upper(),
-                        format="%(asctime)s %(levelname)s %(name)s: %(robot)s%(message)s")
-    for handler in logging.getLogger().handlers:
-        handler.addFilter(RobotName())  # (a line about one robot of several names it)
+    handler = logging.StreamHandler()
+    handler.setFormatter(OneLine(FORMAT))
+    handler.addFilter(RobotName())  # (a line about one robot of several names it)
+    logging.basicConfig(level=args["log_level"].upper(), handlers=[handler])
     if args["rt_priority"]:
         _realtime_scheduling(args["rt_priority"])
     uvloop = _import_uvloop(blob)

@@ -117,3 +117,15 @@ def test_bad_input_is_refused_and_changes_nothing(served, watched, at_rest, meth
     assert len(logged) == 1  # one line per refusal, naming what was wrong
     assert f"{method} {path} refused ({status})" in logged[0]
     assert says.split("'")[0] in logged[0]
+
+
+def test_what_a_client_sends_is_logged_on_its_own_line_escaped(served):
+    """A path with a newline and a terminal escape in it: one line, the characters escaped,
+    not a line that reads as the server's own nor a cleared screen."""
+    forged = "2026-01-01 00:00:00,000 INFO franka_sim: forged"
+    got, answer = request(served.host, "GET", "/x%0A" + forged.replace(" ", "%20") + "%1b%5b2J")
+    assert got == 404 and answer["error"].startswith("no resource /x\n2026-01-01")
+    logged = served.wait_for_log("no resource /x")
+    assert len(logged) == 1 and "/x\\n2026-01-01 00:00:00,000 INFO" in logged[0]
+    assert "\\x1b[2J" in logged[0] and "\x1b" not in logged[0]
+    assert not any(line.startswith("2026-01-01") for line in served.sync())
