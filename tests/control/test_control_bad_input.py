@@ -57,6 +57,7 @@ BAD = [  # (method, path, body, status, what the error says)
     ("GET", "/nothing", None, 404, "no resource /nothing"),
     ("DELETE", "/state", None, 405, "DELETE is not allowed on /state"),
     ("POST", "/push", b"[" * 70000, 413, "Too Large"),
+    ("POST", "/reset", b"[" * 5000, 400, "malformed JSON: nested too deeply"),
 ]
 
 

@@ -69,7 +69,8 @@ def test_an_unknown_endpoint_is_404_with_a_reason(sim):
 
 
 def test_a_malformed_body_is_400(sim):
-    for raw in (b"{not json", b"[]", json.dumps({"owner": "x", "timeout": "soon"}).encode()):
+    for raw in (b"{not json", b"[]", json.dumps({"owner": "x", "timeout": "soon"}).encode(),
+                b"[" * 5000):  # (nested past the parser's recursion)
         status, body = _request(sim.host, "POST", "/api/system/control-token:take", raw)
         assert status == 400 and body["error"], raw
     assert Control(sim.host).desk()["control_token"] is None

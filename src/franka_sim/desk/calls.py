@@ -43,6 +43,8 @@ class Call:
             value = json.loads(self.body.decode("utf-8"))
         except (UnicodeDecodeError, ValueError) as exc:
             raise DeskRefusal(400, "BadRequest", f"malformed JSON: {exc}") from None
+        except RecursionError:
+            raise DeskRefusal(400, "BadRequest", "malformed JSON: nested too deeply") from None
         if not isinstance(value, dict):
             raise DeskRefusal(400, "BadRequest",
                               f"expected a JSON object, not {type(value).__name__}")

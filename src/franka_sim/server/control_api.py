@@ -46,6 +46,8 @@ def parse_object(raw: bytes, allowed: dict[str, bool], *, optional_body: bool = 
         value = json.loads(raw.decode("utf-8"), parse_constant=_no_constants)
     except (UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError is a ValueError
         raise BadRequest(f"malformed JSON: {exc}") from None
+    except RecursionError:
+        raise BadRequest("malformed JSON: nested too deeply") from None
     if not isinstance(value, dict):
         raise BadRequest(f"expected a JSON object, not {type(value).__name__}")
     unknown = sorted(set(value) - set(allowed))
