@@ -12,9 +12,9 @@ import numpy as np
 import pylibfranka
 import pytest
 
-from franka_sim.control import BadRequest, Conflict, Control
+from franka_sim.control import BadRequest, Conflict, Control, ControlError
 from franka_sim.recording.reader import open_recording
-from franka_sim.testing import running_sim
+from franka_sim.testing import ServerProcess, fresh_loopback_address, running_sim
 from support.clients import connect, move_to
 from support.replayed import identical_line
 
@@ -80,6 +80,10 @@ def test_what_a_recording_start_refuses(tmp_path):
         control = Control(sim.host)
         with pytest.raises(BadRequest, match="cannot record to"):
             control.start_recording(tmp_path / "missing" / "x.mcap")
+        with pytest.raises(BadRequest, match="No space left on device"):
+            control.start_recording("/dev/full")  # (it opens; it takes no byte)
+        with pytest.raises(BadRequest, match="embedded null"):
+            control.start_recording(f"{tmp_path}/x\0y.mcap")
         robot = connect(sim.host)
         robot.read_once()
         with pytest.raises(Conflict, match="FCI client connected"):
@@ -107,3 +111,35 @@ def test_a_served_recording_refuses_a_second(tmp_path):
             Control(sim.host).start_recording(tmp_path / "d.mcap")
         with pytest.raises(Conflict, match="no recording started through the control API"):
             Control(sim.host).finish_recording()
+
+
+def test_a_write_that_fails_stops_the_recording_with_one_line_and_the_robot_serves_on(tmp_path):
+    """Files over 256 KiB refused to the server (RLIMIT_FSIZE: "File too large", as a full disk
+    refuses them): the recording stops where the write failed, said once; the motion goes on."""
+    host = fresh_loopback_address()
+    limited = ("import os, resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, "
+               "(1 << 18, 1 << 18)); os.execv(sys.executable, [sys.executable, '-P', '-m', "
+               "'franka_sim', 'serve', *sys.argv[1:]])")
+    server = ServerProcess(host, command=[sys.executable, "-c", limited, "--host", host,
+                                          "--clock", "lockstep"]).wait_ready()
+    try:
+        control = Control(host)
+        control.start_recording(tmp_path / "big.mcap")
+        robot = connect(host)
+        q0 = np.array(robot.read_once().q)
+        target = q0 + np.array([0.3, 0, 0, 0, 0, 0, 0.3])
+        np.testing.assert_allclose(move_to(robot, target, 2.0), target, atol=1e-2)
+        stopped = server.wait_for_log("stopped: File too large")
+        assert len(stopped) == 1 and "the file keeps what reached it" in stopped[0]
+        del robot
+        _client_gone(control)
+        with pytest.raises(ControlError, match="stopped when a write failed") as failed:
+            control.finish_recording()
+        assert failed.value.status == 500
+        control.start_recording(tmp_path / "next.mcap")  # nothing of the failed one is left
+        control.finish_recording()
+        assert not any("Traceback" in line for line in server.sync())
+    finally:
+        assert server.stop() < 10
+    assert server.proc.returncode == 0
+    assert (tmp_path / "big.mcap").stat().st_size <= 1 << 18

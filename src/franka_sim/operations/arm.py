@@ -12,6 +12,7 @@ Jobs that touch the robot core or the Hand hold the simulator's lock, as a TCP r
 from __future__ import annotations
 
 import asyncio
+import errno
 import threading
 from typing import Any, Callable
 
@@ -246,8 +247,10 @@ class ArmOps(DeskOps, FaultOps):
         q, _ = self._reset_arguments(None, None)
         try:
             recorder = recordings.open(path)  # here, not in the cycle thread: file I/O
-        except OSError as exc:
-            raise BadRequest(f"cannot record to {path}: {exc.strerror or exc}") from None
+        except (OSError, ValueError) as exc:  # (ValueError: a NUL in the path)
+            raise BadRequest(f"cannot record to {path}: {exc.strerror or exc}"
+                             if isinstance(exc, OSError) else f"cannot record to {path!r}: {exc}"
+                             ) from None
 
         def start(world, arm) -> dict:
             with self.lock:
@@ -280,6 +283,11 @@ class ArmOps(DeskOps, FaultOps):
                 return recordings.detach(), self.core.message_id
         recorder, cycle = await self._job(finish)
         await asyncio.to_thread(recorder.stop)  # the writer's last drain and the summary
+        if (failure := recorder.failure) is not None:  # (a full disk: Insufficient Storage)
+            raise ControlError(f"the recording to {recorder.path} stopped when a write failed: "
+                               f"{failure.strerror or failure}; the file keeps what reached it "
+                               "before", 507 if failure.errno in (errno.ENOSPC, errno.EDQUOT)
+                               else 500)
         return {"path": str(recorder.path), "cycle": cycle, "dropped": recorder.dropped}
 
     async def set_pose(self, name: str, position, quaternion=None) -> dict:

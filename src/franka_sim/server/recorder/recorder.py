@@ -44,8 +44,14 @@ class Recorder:
             self._stopped = True
             self._writer.stop()
 
+    @property
+    def failure(self) -> OSError | None:
+        """The write that stopped this recording (None while it records)."""
+        return self._writer.failure
+
     def put(self, event: tuple) -> None:
         if len(self._queue) < self._limit:
-            self._queue.append(event)
+            if self._writer.failure is None:  # (a stopped recording takes nothing more)
+                self._queue.append(event)
         else:
             self.dropped += 1

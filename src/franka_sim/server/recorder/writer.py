@@ -2,7 +2,9 @@
 (recording/channels.py says what each channel holds).
 
 Chunked and zstd-compressed; every FLUSH_PERIOD the open chunk is closed and the file flushed,
-so a process that dies loses at most that much. The last cycle's stop writes the summary, which
+so a process that dies loses at most that much. The header is flushed at once: a target that
+takes no bytes (a full disk) is refused when the recording starts. Should a write fail later,
+the recording stops there (one log line; `failure` says why): the file keeps what reached it. The last cycle's stop writes the summary, which
 makes the file seekable (readers without it fall back to reading it through). Cycles repeated
 one after another are written as one run (first, last), before whatever came after them.
 """
@@ -55,6 +57,8 @@ class RecordingWriter:
         self._thread = threading.Thread(target=self._run, name="fsim-recorder", daemon=True)
         self._reported_drops = 0
         self._unflushed = False
+        self.failure: OSError | None = None  # the write that stopped the recording
+        self._file.flush()  # (OSError here too: the caller says the target is unwritable)
 
     def _register(self, channel, schemas: dict[str, int]) -> int:
         schema = schemas.get(channel.schema_name)
@@ -70,14 +74,24 @@ class RecordingWriter:
         self._stop.set()
         if self._thread.ident is not None:  # (a recording discarded before it started)
             self._thread.join()
-        self._drain()
-        self._write_repeats()
-        self._mcap.finish()
-        self._file.close()
+        try:
+            if self.failure is None:
+                self._drain()
+                self._write_repeats()
+                self._mcap.finish()
+            self._file.close()
+        except OSError as exc:  # (the file is closed all the same)
+            self._failed(exc)
+
+    def _failed(self, exc: OSError) -> None:
+        if self.failure is None:
+            self.failure = exc
+            log.error("recording to %s stopped: %s (the file keeps what reached it before)",
+                      self._file.name, exc.strerror or exc)
 
     # -- the thread ----------------------------------------------------------------------------------
     def _run(self) -> None:
-        last_flush = time.monotonic()
+        last_flush, errors = time.monotonic(), 0
         while not self._stop.wait(DRAIN_PERIOD):
             try:
                 self._drain()
@@ -85,8 +99,15 @@ class RecordingWriter:
                 if now - last_flush >= FLUSH_PERIOD:
                     self._flush()
                     last_flush = now
+            except OSError as exc:  # the file takes no more (a full disk, an I/O error)
+                self._failed(exc)
+                self._queue.clear()
+                return
             except Exception:  # noqa: BLE001 - keep recording what can be recorded
-                log.exception("recording to %s failed", self._file.name)
+                errors += 1
+                if worth_logging(errors):
+                    log.exception("recording to %s: an event could not be written (%d so far)",
+                                  self._file.name, errors)
 
     def _flush(self) -> None:
         if self._unflushed:
