@@ -79,6 +79,13 @@ def test_scene_from_the_environment(tmp_path):
     ("<mujoco><worldbody><geom type='box'", "XML parse error"),
     ("<mujoco><worldbody><body name='x'><freejoint/></body></worldbody></mujoco>",
      "mass and inertia"),
+    # (MuJoCo takes a NaN with a warning; every cycle of such a world would fail)
+    ("<mujoco><worldbody><site name='arm/fr3' pos='nan 0 0'/></worldbody></mujoco>",
+     "stands arm fr3 at a pose that is not finite"),
+    ("<mujoco><worldbody><body name='b' pos='0.5 nan 0.2'><freejoint/><geom size='0.02'/>"
+     "</body></worldbody></mujoco>", "body 'scene/b' is at a pose that is not finite"),
+    ("<mujoco><worldbody><body name='b' pos='0.5 0.3 0.2'><freejoint/><geom size='inf'/>"
+     "</body></worldbody></mujoco>", "a geom size that is not finite"),
 ])
 def test_a_scene_that_cannot_load_is_refused_on_one_line(tmp_path, text, what):
     path = tmp_path / "broken.xml"

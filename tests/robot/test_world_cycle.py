@@ -118,3 +118,28 @@ def test_the_same_command_streams_give_the_same_bits(streams):
     first, second = run(streams), run(streams)
     assert first == second
     assert first[-1] != first[0]  # the arms did move
+
+
+def test_a_world_no_state_of_which_can_be_published_fails_after_a_second(monkeypatch):
+    """One cycle whose state cannot be packed costs that state; a second of them in a row
+    ends the cycle (the server then answers 503 and exits non-zero) rather than serving a
+    stream that never comes."""
+    from franka_sim.robot.arm_core import ArmCore
+    from franka_sim.robot.arm_cycle import GIVE_UP_AFTER
+
+    parts = WorldParts(Config())
+    cycle = parts.make_cycle(parts.make_physics(), [lambda: False])
+    assert step(cycle)[0] is not None
+
+    def broken(*_):
+        raise FloatingPointError("no state")
+
+    monkeypatch.setattr(ArmCore, "publish", broken)
+    for _ in range(GIVE_UP_AFTER - 1):
+        released = cycle.release()
+        cycle.complete(released)
+        assert released.states == (None,)
+    with pytest.raises(FloatingPointError):
+        cycle.release()
+    monkeypatch.undo()  # one good cycle in between starts the count again
+    assert step(cycle)[0] is not None

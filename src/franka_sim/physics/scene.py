@@ -7,6 +7,7 @@ can be attached around the arms; the package ships one (scenes/default.xml).
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -171,28 +172,59 @@ def scene_mounts(path: os.PathLike) -> dict[str, tuple[float, float, float, floa
     its worldbody, by NAME (the yaw of the site's orientation about the vertical)."""
     _plugins_for(path)
     try:
-        spec = mujoco.MjSpec.from_file(os.fspath(path))
+        with _warnings_kept():
+            spec = mujoco.MjSpec.from_file(os.fspath(path))
     except ValueError as exc:
         raise SceneError(f"cannot load the scene {path}: {' '.join(str(exc).split())}") from None
     names = [site.name[len(MOUNT_PREFIX):] for site in spec.worldbody.sites
              if site.name.startswith(MOUNT_PREFIX)]
     if not names:
         return {}
-    model = spec.compile()  # resolves euler, axisangle, zaxis, ... into positions and quats
+    with _warnings_kept():
+        model = spec.compile()  # resolves euler, axisangle, zaxis, ... into positions, quats
     placed = {}
     for name in names:
         site = model.site(MOUNT_PREFIX + name)
         x, y, z = (float(v) for v in site.pos)
         w, qx, qy, qz = site.quat
+        if not np.isfinite([x, y, z, w, qx, qy, qz]).all():
+            raise SceneError(f"the scene {path} stands arm {name} at a pose that is not finite "
+                             f"(site {MOUNT_PREFIX}{name}: pos {x:g} {y:g} {z:g})")
         yaw = float(np.arctan2(2.0 * (w * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
         placed[name] = (x, y, z, yaw)
     return placed
 
 
 def check_world(arms: list[ArmPlacement], path: os.PathLike | None) -> None:
-    """Raise SceneError (one line) unless the arms compile inside the scene at `path`."""
+    """Raise SceneError (one line) unless the arms compile inside the scene at `path`, every
+    body at a finite pose (MuJoCo takes a NaN in an MJCF with a warning; every cycle would
+    then fail)."""
     try:
-        build_world_model(arms, scene_xml=None if path is None else Path(path))
+        with _warnings_kept():
+            model = build_world_model(arms, scene_xml=None if path is None else Path(path))
     except ValueError as exc:  # MuJoCo's parse and compile errors
         message = " ".join(str(exc).split())
         raise SceneError(f"cannot load the scene {path}: {message}") from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    for body in range(model.nbody):
+        if not (np.isfinite(data.xpos[body]).all() and np.isfinite(data.xquat[body]).all()):
+            raise SceneError(f"cannot load the scene {path}: body {model.body(body).name!r} is "
+                             "at a pose that is not finite (a NaN or an infinity in the MJCF?)")
+    for name, values in (("geom_size", model.geom_size), ("body_mass", model.body_mass),
+                         ("body_inertia", model.body_inertia)):
+        if not np.isfinite(values).all():
+            raise SceneError(f"cannot load the scene {path}: a {name.replace('_', ' ')} that "
+                             "is not finite (a NaN or an infinity in the MJCF?)")
+
+
+@contextlib.contextmanager
+def _warnings_kept():
+    """MuJoCo's warnings while a scene is checked (its "XML contains a 'NaN'" before the one
+    line that refuses the scene) are not printed: what they warn of is refused, or harmless."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda _message: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)

@@ -23,6 +23,8 @@ from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 
+GIVE_UP_AFTER = 1000  # cycles in a row (1 s) whose state could not be published
+
 
 class ArmCycle(PacerQuestions):
     def __init__(self, core: ArmCore, physics: Backend, tool: ToolDevice | None = None, *,
@@ -32,6 +34,7 @@ class ArmCycle(PacerQuestions):
         self.tool = tool  # its tool's device (robot/tool.py), or None
         self.tool_state_wanted = tool_state_wanted  # () -> bool: a tool client takes states
         self._failures = 0
+        self._failing = 0  # cycles in a row whose state could not be published
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
         self._q_d = None  # the desired q of the cycle being released (None: no generator)
@@ -87,7 +90,12 @@ class ArmCycle(PacerQuestions):
             state = core.publish(measured, kinematics)
         except Exception:  # noqa: BLE001 - one bad cycle must not end the stream
             self._failed()
-            state = None
+            self._failing += 1
+            if self._failing >= GIVE_UP_AFTER:  # ... but a world no cycle of which can be
+                raise  # published is not served: the cycle thread fails, and the server
+            state = None  # with it (503, a non-zero exit)
+        else:
+            self._failing = 0
         return Released(core.message_id, state, measured)
 
     def skip(self, cycles: int) -> None:
