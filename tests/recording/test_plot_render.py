@@ -95,12 +95,20 @@ def test_truncated_foreign_and_incompatible_files(lockstep_run, tmp_path, comman
     data = path.read_bytes()
     (tmp_path / "truncated.mcap").write_bytes(data[: len(data) // 2])
     (tmp_path / "foreign.mcap").write_bytes(b"PK\x03\x04 not a recording" * 10)
+    from mcap.reader import make_reader
     from mcap.writer import Writer
 
     with open(tmp_path / "other.mcap", "wb") as f:  # an MCAP file of another program
         writer = Writer(f)
         writer.start()
         writer.finish()
+    with open(path, "rb") as f:  # 64 bytes of a chunk in the middle flipped
+        chunks = make_reader(f).get_summary().chunk_indexes
+    chunk = chunks[len(chunks) // 2]
+    middle = chunk.chunk_start_offset + chunk.chunk_length // 2
+    (tmp_path / "damaged.mcap").write_bytes(
+        data[:middle] + bytes(b ^ 0xFF for b in data[middle:middle + 64]) + data[middle + 64:])
+    (tmp_path / "head.mcap").write_bytes(data[:300])  # its magic and header, no whole record
     version = str(FORMAT_VERSION).encode()
     (tmp_path / "future.mcap").write_bytes(data.replace(b"format_version\x01\x00\x00\x00" + version,
                                                         b"format_version\x01\x00\x00\x009"))
@@ -108,7 +116,9 @@ def test_truncated_foreign_and_incompatible_files(lockstep_run, tmp_path, comman
              "render": ["-o", str(tmp_path / "r.mp4")]}[command]
     for name, message in [("truncated", "truncated"), ("foreign", "not an MCAP file"),
                           ("other", "not a franka-sim recording"),
-                          ("future", "recording format v9")]:
+                          ("future", "recording format v9"),
+                          ("damaged", "damaged, not as it was written"),
+                          ("head", "truncated before its first complete record")]:
         done = franka_sim(command, str(tmp_path / f"{name}.mcap"), *extra)
         assert done.returncode == 1, (name, done.stdout, done.stderr)
         assert message in done.stderr and done.stderr.count("\n") == 1, (name, done.stderr)

@@ -77,6 +77,9 @@ def tcp_data(value: dict) -> bytes:
     return base64.b64decode(value["data"])
 
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"  # what every MCAP file starts with
+
+
 def open_recording(path: str | Path) -> Recording:
     from mcap.exceptions import EndOfFile, InvalidMagic, McapError
     from mcap.records import Channel, Message, Metadata
@@ -92,7 +95,7 @@ def open_recording(path: str | Path) -> Recording:
     metadata, entries, pending = None, [], []
     with stream:
         try:
-            for record in StreamReader(stream, skip_magic=False).records:
+            for record in StreamReader(stream, skip_magic=False, validate_crcs=True).records:
                 if isinstance(record, Message):
                     pending.append(record)
                 elif isinstance(record, Channel):
@@ -103,14 +106,22 @@ def open_recording(path: str | Path) -> Recording:
             raise RecordingError(f"{path}: not an MCAP file") from None
         except (EndOfFile, struct.error):  # (a record cut inside its header: struct's error)
             if metadata is None and not pending:
+                stream.seek(0)
+                if stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
+                    raise RecordingError(f"{path}: truncated before its first complete "
+                                         "record") from None
                 raise RecordingError(f"{path}: empty or not an MCAP file") from None
             raise RecordingError(
                 f"{path}: truncated (the recording stops without its end; "
                 f"{sum(channel_topics.get(r.channel_id, '').endswith('/robot_state') for r in pending)}"
                 " states are readable: "
                 "`mcap recover` rewrites what is there as a complete file)") from None
-        except McapError as exc:
-            raise RecordingError(f"{path}: damaged MCAP ({exc})") from None
+        except (McapError, ValueError) as exc:  # (a chunk's CRC, garbled text: ValueErrors)
+            raise RecordingError(f"{path}: damaged, not as it was written "
+                                 f"({type(exc).__name__}: {exc})") from None
+        except Exception as exc:  # noqa: BLE001 - a chunk that does not decompress, and alike
+            raise RecordingError(f"{path}: damaged, not as it was written "
+                                 f"({type(exc).__name__}: {exc})") from None
     if metadata is None:
         raise RecordingError(f"{path}: an MCAP file, but not a franka-sim recording")
     version = metadata.get("format_version", "?")
