@@ -95,7 +95,9 @@ def test_view_says_on_one_line_what_it_cannot_show(tmp_path):
         cases = {"No such file": [str(tmp_path / "missing.mcap")],
                  "not an MCAP file": [str(junk)],
                  f"port {WEB_PORT} on {host} is in use": [str(recording), "--host", host,
-                                                          "--port", str(WEB_PORT)]}
+                                                          "--port", str(WEB_PORT)],
+                 # (viser alone would try the next thousand ports, saying nothing)
+                 "999.1.1.1:8080 cannot be served": [str(recording), "--host", "999.1.1.1"]}
         for said, args in cases.items():
             done = subprocess.run([sys.executable, "-m", "franka_sim", "view", *args],
                                   capture_output=True, text=True, timeout=120)

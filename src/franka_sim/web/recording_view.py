@@ -121,6 +121,7 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
         config.meshes = meshes  # (--meshes: how it is drawn)
         physics = WorldParts(config).make_physics()
     timeline = RecordingTimeline(recording, physics)
+    _check_address(host, port)
     quiet_libraries()
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, label=f"{TITLE}: {recording.path.name}",
@@ -179,3 +180,18 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
         pass
     finally:
         stop_quietly(server)
+
+
+def _check_address(host: str, port: int) -> None:
+    """OSError saying why the page cannot be served on (host, port): viser itself would try
+    the next thousand ports of a host that does not resolve, saying nothing meanwhile."""
+    import errno
+
+    from franka_sim.server.binding import bound_socket
+
+    try:
+        bound_socket(host, port).close()
+    except OSError as exc:
+        if exc.errno == errno.EADDRINUSE:
+            raise OSError(f"port {port} on {host} is in use") from None
+        raise OSError(f"{host}:{port} cannot be served: {exc.strerror or exc}") from None
