@@ -6,6 +6,7 @@ way, with the flag it concerns.
 from __future__ import annotations
 
 import dataclasses
+import math
 import ipaddress
 
 from franka_sim.config import DESK_BOOTS, ROBOTS, ClockMode, Config
@@ -33,6 +34,10 @@ def checked(config: Config) -> Config:
         raise ConfigError("--control-port", (
             f"{config.control_port} is the FCI's, the Hand's or the vacuum gripper's port "
             f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)"))
+    scale = config.joint_discontinuity_scale  # (typer's minimum lets a NaN through)
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 1e-6):
+        raise ConfigError("--joint-discontinuity-scale", f"{scale!r} is not a finite scale "
+                          "of at least 1e-06")
     if config.control_token is not None and not config.control_token.strip():
         raise ConfigError("--control-token", "an empty token protects nothing")
     if config.mobile_base is not None:

@@ -149,15 +149,22 @@ def test_the_server_runs_without_the_cli_machinery():
 @pytest.mark.parametrize("args, env, reason", [
     (["--inject", "loss=2"], {}, "loss=2: a probability is in [0, 1]"),
     (["--inject", "burst=20"], {}, "expected N@T"),
-    ([], {"FRANKA_SIM_INJECT": "delay=fast"}, "not a duration"),
+    ([], {"FRANKA_SIM_INJECT": "delay=fast"}, "--inject (from FRANKA_SIM_INJECT): "),
     (["--inject", "loss=0.1", "--seed", "-1"], {}, "--seed"),
+    (["--joint-discontinuity-scale", "nan"], {}, "nan is not a finite scale"),
+    ([], {"FRANKA_SIM_JOINT_DISCONTINUITY_SCALE": "inf"}, "inf is not a finite scale"),
+    (["--bogus"], {}, "No such option: --bogus"),
 ])
-def test_a_bad_fault_spec_or_seed_is_refused(args, env, reason):
+def test_a_bad_flag_or_variable_is_refused_on_one_line(args, env, reason):
+    """One line, whole (`docker logs` and CI keep it so), naming the variable a value came
+    from, however wide the terminal."""
     done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
                            fresh_loopback_address(), *args], capture_output=True, text=True,
-                          env={**os.environ, "COLUMNS": "200", **env}, timeout=60)
-    assert done.returncode != 0
-    assert reason in done.stderr and "Traceback" not in done.stderr
+                          env={**os.environ, "COLUMNS": "40", **env}, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith("python -m franka_sim serve: ")  # (its program's name)
+    assert reason in done.stderr and done.stderr.endswith("serve --help')\n")
 
 
 def test_faults_and_their_seed_from_the_environment():
