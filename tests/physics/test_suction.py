@@ -115,3 +115,16 @@ def test_a_reset_lets_go_and_idles():
     backend.reset(AT)
     cup = backend.measure().tool
     assert not cup.sealed and cup.vacuum == 0.0 and not backend.data.eq_active.any()
+
+
+def test_a_held_part_placed_elsewhere_leaves_the_cup_and_stays_there():
+    """Placed through the control API while sealed on: the seal goes (as when a hand pulls a
+    part off a cup), not a weld that pulls the part back under the cup."""
+    backend = cup_on_cube()
+    hold(backend, AT, sc.SuctionCommand(750.0), steps=400)
+    lift(backend, 1.0)
+    backend.world.place_body("scene/cube", [0.3, 0.2, 0.025])
+    cup = hold(backend, ABOVE, steps=500).tool
+    assert not cup.sealed and cup.part is None and cup.vacuum == 0.0
+    assert cup.lost == "placed elsewhere"
+    np.testing.assert_allclose(position(backend)[:2], [0.3, 0.2], atol=1e-3)

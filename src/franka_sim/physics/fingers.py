@@ -294,6 +294,9 @@ class Fingers:
         """Their gravity load alone, as the drive at rest (g(q) must be current)."""
         self._applied[:] = self._gravity
 
+    def body_placed(self, body: int) -> None:
+        pass  # the fingers hold by contact alone: a body placed away has left them
+
     def set_composite(self, mass: float, com, inertia) -> None:
         """Palm + fingers become the given rigid body (mass, CoM in F, inertia about it)."""
         self._palm.set_composite(mass, com, inertia)

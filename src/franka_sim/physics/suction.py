@@ -256,6 +256,12 @@ class Cup:
     def hold(self) -> None:
         pass  # the cup is part of the flange's rigid body: the arm's hold carries it
 
+    def body_placed(self, body: int) -> None:
+        """The part sealed on was put elsewhere: the weld goes and the air rushes in, as when
+        a hand pulls a part off a cup (left welded, it was pulled back under the cup)."""
+        if body == self._part:
+            self._release("placed elsewhere")
+
     def set_composite(self, mass: float, com, inertia) -> None:
         write_inertial(self._model, self._hand, mass, com, np.asarray(inertia, float))
 

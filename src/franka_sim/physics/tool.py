@@ -45,6 +45,9 @@ class ToolAttachment(Protocol):
     def hold(self) -> None:
         """Its share of the idle drive at rest (its gravity load)."""
 
+    def body_placed(self, body: int) -> None:
+        """Body `body` was put elsewhere from outside (the control API): a hold on it goes."""
+
     def set_composite(self, mass: float, com: np.ndarray, inertia: np.ndarray) -> None:
         """The flange's rigid body (tool and all) becomes the given one."""
 

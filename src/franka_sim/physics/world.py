@@ -279,6 +279,10 @@ class World:
         from the next step on (NotFree for a link or a fixed body)."""
         self.finish_step()
         self.bodies.place(name, position, quaternion)
+        placed = self.bodies.id(name)
+        for arm in self._arms:
+            if arm.tool is not None:
+                arm.tool.body_placed(placed)
         self._still = 0
         self._prepared = False
         mujoco.mj_step1(self.model, self.data)  # what derives from the new state
