@@ -119,3 +119,12 @@ def test_a_part_too_heavy_for_a_fast_turn_comes_off_in_one(python, speed, kept):
         assert out["swung"]["actual_power"] == 100
         assert "peeled off" in lost[0] or "slid off" in lost[0]
         assert cube[2] == pytest.approx(0.025, abs=0.002)  # it fell onto the table
+
+
+def test_vacuum_over_nothing_times_out_and_the_pump_stops(python):
+    """In lockstep too: the world at rest when the timeout stops the pump still takes the step
+    in which it stops (the idle pump's 0 %, not the last step's 100 %)."""
+    out, *_ = _run(python, {"above": ABOVE.tolist(), "at": ABOVE.tolist(), "speed": 0.1})
+    assert out["vacuumed"] is False
+    assert out["after_vacuum"]["actual_power"] == 0 and out["after_vacuum"]["vacuum"] == 0
+    assert not out["after_vacuum"]["part_present"]

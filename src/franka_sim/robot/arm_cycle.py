@@ -38,6 +38,9 @@ class ArmCycle(PacerQuestions):
         self._measured = None  # the last step's measurement
         self._unchanged = False  # the last step handed back the one before (physics at rest)
         self._q_d = None  # the desired q of the cycle being released (None: no generator)
+        # The tool's command the last step followed: one the tool changed since (the pump
+        # stopped at a timeout) is a step still to take, however still the world was.
+        self._tool_driven = None
         self.completed_id = 0  # the last completed cycle's message_id
 
     # -- questions a clock asks (and PacerQuestions') ------------------------------------------
@@ -59,7 +62,8 @@ class ArmCycle(PacerQuestions):
         the Hand idle, the robot's estimates steady, and the physics at rest (a step that can
         change nothing hands back the last measurement itself, physics "Rest")."""
         tool = self.tool
-        return self._unchanged and self.core.settled and (tool is None or tool.idle)
+        return self._unchanged and self.core.settled and (
+            tool is None or (tool.idle and tool.command == self._tool_driven))
 
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, command) -> bool:
@@ -78,7 +82,8 @@ class ArmCycle(PacerQuestions):
         core = self.core
         joint_command = core.release_cycle()
         self._q_d = core.desired_q
-        return joint_command, (None if self.tool is None else self.tool.command)
+        self._tool_driven = None if self.tool is None else self.tool.command
+        return joint_command, self._tool_driven
 
     def publish(self) -> Released:
         core, physics, q_d = self.core, self.physics, self._q_d
