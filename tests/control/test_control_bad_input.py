@@ -130,3 +130,38 @@ def test_what_a_client_sends_is_logged_on_its_own_line_escaped(served):
     assert len(logged) == 1 and "/x\\n2026-01-01 00:00:00,000 INFO" in logged[0]
     assert "\\x1b[2J" in logged[0] and "\x1b" not in logged[0]
     assert not any(line.startswith("2026-01-01") for line in served.sync())
+
+
+MALFORMED_HTTP = [  # what aiohttp's own parser refuses before a handler sees it, and its line
+    (b"POST /reset HTTP/1.1\r\nHost: x\r\nContent-Length: abc\r\n\r\n{}",
+     "refused (400): Invalid character in Content-Length"),
+    (b"POST /reset HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n{}\r\n0\r\n\r\n",
+     "refused (400): Invalid character in chunk size"),
+    (b"GET /health HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 500 + b"\r\n",
+     "refused (400): Too many headers"),
+]
+
+
+@pytest.mark.parametrize(("raw", "line"), MALFORMED_HTTP, ids=["length", "chunk", "headers"])
+def test_malformed_http_is_one_line_each_and_serving_goes_on(served, watched, raw, line):
+    import socket
+
+    before = len(served.sync())
+    with socket.create_connection((served.host, 1340), timeout=10) as sock:
+        sock.sendall(raw)
+        assert b" 400 " in sock.recv(100).split(b"\r\n")[0]
+    logged = served.wait_for_log(line)
+    assert len(logged) == 1
+    new = served.sync()[before:]
+    assert not any("Traceback" in text for text in new), "\n".join(new)
+    assert watched.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_a_client_that_hangs_up_mid_body_is_one_line(served):
+    import socket
+
+    with socket.create_connection((served.host, 1340), timeout=10) as sock:
+        sock.sendall(b"POST /reset HTTP/1.1\r\nHost: x\r\nContent-Length: 100\r\n\r\n{")
+    logged = served.wait_for_log("the client left before its request was whole")
+    assert len(logged) == 1 and "POST /reset" in logged[0]
+    assert Control(served.host).health()["ready"]

@@ -26,6 +26,7 @@ from aiohttp import web
 
 from franka_sim.control.errors import BadRequest, ControlError, NotFound, Unauthorized
 from franka_sim.control.table import OPERATIONS, Operation, served_by
+from franka_sim.server.http_log import quiet_aiohttp
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +76,7 @@ class ControlApi:
         self._expected = None if token is None else token.encode()
         self._runner: web.AppRunner | None = None
         self._said_failed = False  # "stopped simulating" refusals are logged once
+        quiet_aiohttp()
         app = web.Application(middlewares=[self._refusals], client_max_size=MAX_BODY)
         served = served_by(ops.kind)
         for operation in OPERATIONS:
@@ -128,6 +130,10 @@ class ControlApi:
                 message = f"{request.method} is not allowed on {request.path}"
             elif exc.status == 404:
                 message = f"no resource {request.path} (see docs/control_api.md)"
+        except ConnectionError:  # (the client hung up before its body was whole)
+            log.warning("control API: %s %s: the client left before its request was whole",
+                        request.method, request.path)
+            return web.Response(status=400)  # (nobody reads it)
         except Exception as exc:  # noqa: BLE001 - answered, not raised into aiohttp
             log.exception("control API: %s %s failed", request.method, request.path)
             return web.json_response({"error": f"internal error: {exc}"}, status=500)

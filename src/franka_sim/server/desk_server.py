@@ -18,6 +18,7 @@ from franka_sim.desk.calls import MAX_BODY, Answer, Call
 from franka_sim.desk.service import PILOT_EVENTS, DeskService
 from franka_sim.control.errors import ControlError
 from franka_sim.desk.state import DeskRefusal
+from franka_sim.server.http_log import quiet_aiohttp
 from franka_sim.desk.users import DEFAULT_USER, Users, parse_user
 
 log = logging.getLogger(__name__)
@@ -38,6 +39,7 @@ class DeskServer:
         self.desk.watchers.append(self._changed.set)
         self._sockets: set[web.WebSocketResponse] = set()
         self._runner: web.AppRunner | None = None
+        quiet_aiohttp()
         app = web.Application(client_max_size=MAX_BODY)
         app.router.add_route("*", "/{tail:.*}", self._handle)
         self.app = app

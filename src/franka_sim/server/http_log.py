@@ -1,0 +1,41 @@
+"""What aiohttp logs about the requests it refuses itself, as one line each.
+
+Before a request reaches the control API's or the Desk's handlers, aiohttp's own parser may
+refuse it (a malformed Content-Length or chunk, a line or header over its limits) and answers
+400; it logs each refusal as an error with a traceback of its parser, and so does a handler
+whose client hung up mid-body. Neither is the server's error: each becomes one warning naming
+what was wrong and who sent it."""
+
+from __future__ import annotations
+
+import logging
+
+
+class _OneLine(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if exc is None:
+            return True
+        if isinstance(exc, ConnectionError):
+            said = "the client left before its request was whole"
+        elif isinstance(getattr(exc, "code", None), int) and hasattr(exc, "message"):
+            lines = [line.strip() for line in str(exc.message).splitlines() if line.strip()]
+            said = f"refused ({exc.code}): {' '.join(lines[:2]).rstrip(':')}"
+        else:
+            return True  # a fault of ours: the traceback stays
+        peer = record.getMessage().rpartition(" from ")[2] if " from " in record.msg else "?"
+        record.msg, record.args = "HTTP request from %s %s", (peer, said)
+        record.exc_info, record.exc_text = None, None
+        record.levelno, record.levelname = logging.WARNING, "WARNING"
+        return True
+
+
+_installed = False
+
+
+def quiet_aiohttp() -> None:
+    """Install the filter on aiohttp's server logger (once per process)."""
+    global _installed
+    if not _installed:
+        logging.getLogger("aiohttp.server").addFilter(_OneLine())
+        _installed = True
