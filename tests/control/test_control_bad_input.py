@@ -7,6 +7,7 @@ import http.client
 import json
 import time
 
+import numpy as np
 import pylibfranka
 import pytest
 
@@ -165,3 +166,17 @@ def test_a_client_that_hangs_up_mid_body_is_one_line(served):
     logged = served.wait_for_log("the client left before its request was whole")
     assert len(logged) == 1 and "POST /reset" in logged[0]
     assert Control(served.host).health()["ready"]
+
+
+def test_a_quaternion_of_huge_numbers_is_normalised_without_overflow(served, at_rest):
+    """[1e308, 1e308, 0, 0] is the turn [0.707, 0.707, 0, 0]: its norm overflows unless scaled
+    first (it was placed unturned, and numpy's overflow warnings went to the log)."""
+    control = at_rest
+    before = len(served.sync())
+    try:
+        placed = control.set_pose("cube", [0.45, 0.0, 0.3], [1e308, 1e308, 0, 0])
+        np.testing.assert_allclose(placed["quaternion"], [0.5 ** 0.5, 0.5 ** 0.5, 0, 0],
+                                   atol=1e-9)
+        assert not any("RuntimeWarning" in line for line in served.sync()[before:])
+    finally:
+        control.set_pose("cube", [0.45, 0.0, 0.025], [1, 0, 0, 0])

@@ -295,7 +295,7 @@ class ArmOps(DeskOps, FaultOps):
         position = within("position", numbers("position", position, 3), MAX_PLACE, "m")
         if quaternion is not None:
             quaternion = numbers("quaternion", quaternion, 4)
-            if np.linalg.norm(quaternion) < 1e-9:
+            if np.abs(quaternion).max() < 1e-9:
                 raise BadRequest("quaternion must not be zero (it is normalised)")
 
         def place(world, arm) -> dict:

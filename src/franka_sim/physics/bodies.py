@@ -98,6 +98,7 @@ class Bodies:
         d.qpos[qpos:qpos + 3] = position
         if quaternion is not None:
             quaternion = np.asarray(quaternion, dtype=float)
+            quaternion = quaternion / np.abs(quaternion).max()  # (no overflow in the norm)
             d.qpos[qpos + 3:qpos + 7] = quaternion / np.linalg.norm(quaternion)
         d.qvel[dof:dof + 6] = 0.0
         d.qacc_warmstart[dof:dof + 6] = 0.0
