@@ -61,7 +61,9 @@ def replay(
 
 def plot(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
-    output: Path = typer.Option(..., "-o", "--output", dir_okay=False, help="The PNG to write."),
+    output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
+                                help="The image to write: .png, .pdf, .svg or .jpg (no suffix: "
+                                "PNG)."),
     joints: str | None = typer.Option(None, help="Joints to draw, e.g. 1,4 (default: all)."),
     start: float | None = typer.Option(None, "--from", help="From this robot time \\[s]."),
     end: float | None = typer.Option(None, "--to", help="To this robot time \\[s]."),
@@ -72,11 +74,12 @@ def plot(
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
     rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
-    from franka_sim.playback.plot import PlotError, parse_fields, parse_joints
+    from franka_sim.playback.plot import PlotError, output_format, parse_fields, parse_joints
     from franka_sim.playback.plot import plot as draw
     from franka_sim.recording.reader import RecordingError
 
     try:
+        output_format(output)
         chosen, extra = parse_joints(joints), parse_fields(fields)
         loaded = _open(recording)
         draw(loaded, output, joints=chosen, start=start, end=end, fields=extra, robot=robot)

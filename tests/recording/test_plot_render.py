@@ -77,6 +77,7 @@ def test_render_writes_the_expected_number_of_frames(lockstep_run, tmp_path):
     (["plot", "{rec}", "-o", "{tmp}/x.png", "--joints", "1,9"], "joints are numbered 1 to 7"),
     (["plot", "{rec}", "-o", "{tmp}/x.png", "--joints", "one"], "joint numbers 1-7"),
     (["plot", "{rec}", "-o", "{tmp}/x.png", "--fields", "q,qq"], "RobotState has no field 'qq'"),
+    (["plot", "{rec}", "-o", "{tmp}/x.txt"], "{tmp}/x.txt: a plot is written as .jpeg, .jpg"),
     (["render", "{rec}", "-o", "{tmp}/x.mp4", "--camera", "nope"], "no such camera"),
     (["render", "{rec}", "-o", "{tmp}/x.gif"], "a video is .mp4, .mkv, .mov, .avi"),
     (["render", "{rec}", "-o", "{tmp}/no/x.mp4"], "cannot write {tmp}/no/x.mp4: no directory"),

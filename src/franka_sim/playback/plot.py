@@ -32,6 +32,20 @@ class MissingExtra(PlotError):
     pass
 
 
+# The image formats `plot` writes, by the output's suffix (none: PNG, at the path as given).
+FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg", ".jpg": "jpeg", ".jpeg": "jpeg"}
+
+
+def output_format(output: Path) -> str:
+    """The format `output`'s suffix names (PlotError for one matplotlib would refuse only once
+    the whole figure is drawn)."""
+    suffix = output.suffix.lower()
+    if suffix and suffix not in FORMATS:
+        raise PlotError(f"{output}: a plot is written as {', '.join(sorted(FORMATS))} "
+                        f"(or PNG without a suffix), not {suffix}")
+    return FORMATS.get(suffix, "png")
+
+
 def parse_joints(text: str | None) -> list[int]:
     if not text:
         return list(range(7))
@@ -118,7 +132,7 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
     axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
     axes[0].set_title(f"{recording.path.name}: {len(states)} states")
     fig.tight_layout()
-    fig.savefig(output, dpi=DPI)
+    fig.savefig(output, dpi=DPI, format=output_format(output))
     plt.close(fig)
     return len(panels)
 
