@@ -64,6 +64,9 @@ def test_a_wrong_password_is_401_and_changes_nothing(sim):
 def test_an_unknown_endpoint_is_404_with_a_reason(sim):
     status, body = _request(sim.host, "GET", "/api/warp-drive")
     assert status == 404 and "/api/warp-drive" in body["error"]
+    status, body = _request(sim.host, "GET", "/api/a%0Afake")  # (a newline in the path)
+    assert status == 404 and "/api/a\nfake" in body["error"]
+    assert len(sim.wait_for_log("/api/a\\nfake")) == 1  # one line, the newline escaped
     status, body = _request(sim.host, "GET", "/desk/api/navigation/events")  # not a WebSocket
     assert status == 400 and "WebSocket" in body["error"]
 

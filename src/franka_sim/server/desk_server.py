@@ -41,7 +41,7 @@ class DeskServer:
         self._runner: web.AppRunner | None = None
         quiet_aiohttp()
         app = web.Application(client_max_size=MAX_BODY)
-        app.router.add_route("*", "/{tail:.*}", self._handle)
+        app.router.add_route("*", r"/{tail:[\s\S]*}", self._handle)  # (a newline too)
         self.app = app
 
     async def serve_socket(self, sock, context) -> None:
