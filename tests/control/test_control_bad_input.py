@@ -38,6 +38,7 @@ BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", {**PUSH, "duration": -0.5}, 400, "duration must be positive"),
     ("POST", "/push", {**PUSH, "duration": 0}, 400, "duration must be positive"),
     ("POST", "/push", {**PUSH, "duration": "1s"}, 400, "duration must be a number"),
+    ("POST", "/push", {**PUSH, "duration": 1e300}, 400, "duration 1e+300 s is over the 60 s"),
     ("POST", "/push", {**PUSH, "body": 7}, 400, "body must be a body's name"),
     ("POST", "/push", {**PUSH, "body": "link9"}, 404, "no body named 'link9'"),
     ("GET", "/bodies/link9", None, 404, "no body named 'link9'"),

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from franka_sim.config import READY_POSE
-from franka_sim.control import BadRequest, Control
+from franka_sim.control import BadRequest, Control, NotFound
 from clients.test_several_arms import PROGRAM, two_arms
 
 
@@ -34,6 +34,8 @@ def test_reset_acts_on_its_arm_only_and_bodies_are_shared():
         names = {b["name"] for b in Control(right).bodies()}
         assert {"left/hand", "right/hand", "scene/cube", "scene/box"} <= names
         assert names == {b["name"] for b in Control(left).bodies()}
+        with pytest.raises(NotFound, match="did you mean 'left/link7' or 'right/link7'"):
+            Control(left).push("link7", [10.0, 0.0, 0.0])  # (a link is its arm's)
         assert Control(left).health()["arm"] == "left"
         assert Control(right).health()["arm"] == "right"
         # Each line about one arm names it: its client, its requests, its cycles.

@@ -38,10 +38,12 @@ from franka_sim.robot.tool import ToolDevice
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 # The largest push and placement the world stays physical under: under 1000 N at the hand
 # the arm's joint limits hold (tens of kN tear it past them, ~1 MN breaks the step); 100 Nm
-# turns a link or the cube; 100 m from the base is far beyond any scene.
+# turns a link or the cube; 100 m from the world's origin is far beyond any scene; a push
+# longer than a minute is a mistyped one (1e300 s would never end).
 MAX_PUSH_FORCE = 1000.0
 MAX_PUSH_TORQUE = 100.0
 MAX_PLACE = 100.0
+MAX_PUSH_DURATION = 60.0
 
 
 def _pose(state) -> dict:
@@ -150,7 +152,7 @@ class ArmOps(DeskOps, FaultOps):
             try:
                 return _pose(world.body_state(name))
             except UnknownBody:
-                raise NotFound(f"no body named {name!r} (GET /bodies lists them)") from None
+                raise _no_body(world, name) from None
         return await self._job(read)
 
     # -- changing ----------------------------------------------------------------------------------
@@ -302,7 +304,7 @@ class ArmOps(DeskOps, FaultOps):
             try:
                 world.place_body(name, position, quaternion)
             except UnknownBody:
-                raise NotFound(f"no body named {name!r} (GET /bodies lists them)") from None
+                raise _no_body(world, name) from None
             except NotFree as exc:
                 raise Conflict(f"{exc.args[0]!r} is not a free body: its pose follows its "
                                "joints (only free bodies can be placed)") from None
@@ -322,16 +324,25 @@ class ArmOps(DeskOps, FaultOps):
         duration = number("duration", duration)
         if duration <= 0.0:
             raise BadRequest(f"duration must be positive, not {duration}")
+        if duration > MAX_PUSH_DURATION:
+            raise BadRequest(f"duration {duration:g} s is over the {MAX_PUSH_DURATION:g} s a "
+                             "push may last")
         cycles = max(1, round(duration / CYCLE_PERIOD))
 
         def push(world, arm) -> dict:
             try:
                 world.push(body, force, torque, cycles)
             except UnknownBody:
-                raise NotFound(f"no body named {body!r} (GET /bodies lists them)") from None
+                raise _no_body(world, body) from None
             self.driver.keep_running()
             return {"body": world.bodies.find(body), "force": force.tolist(),
                     "torque": torque.tolist(), "cycles": cycles}
         return await self._job(push, ("push", {
             "body": body, "force": force.tolist(), "torque": torque.tolist(),
             "duration": duration}))
+
+
+def _no_body(world, name: str) -> NotFound:
+    like = world.bodies.named_like(name)
+    hint = f"; did you mean {' or '.join(map(repr, like))}?" if like else ""
+    return NotFound(f"no body named {name!r} (GET /bodies lists them{hint})")

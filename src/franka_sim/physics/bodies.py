@@ -77,6 +77,12 @@ class Bodies:
     def id(self, name: str) -> int:
         return self._ids[self.find(name)]
 
+    def named_like(self, name: str) -> list[str]:
+        """The bodies `name` may have meant: in a world of several arms a link is its arm's
+        (`left/link7` for `link7`)."""
+        tail = "/" + name.removeprefix(ROBOT_PREFIX)
+        return [body for body in self.names if body.endswith(tail)]
+
     def state(self, name: str) -> BodyState:
         """Where the body is now (the kinematics and velocities of the current state must be
         computed: mj_step1 done)."""
