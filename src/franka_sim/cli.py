@@ -295,16 +295,25 @@ def parse_arm(text: str) -> ArmSpec:
 
 @app.command()
 def check(
+    ctx: typer.Context,
     host: str = typer.Argument(
         "127.0.0.1", envvar="FRANKA_SIM_HOST", metavar="HOST",
-        help="Address of the simulator (or, with --fci, of the robot).",
+        help="Address of the simulator (or, with --fci, of the robot). Given here, it is "
+        "checked even where a serving file is named.",
     ),
     control_port: int = typer.Option(
-        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=1, max=65535,
-        help="Port of the simulator's control API.",
+        1340, envvar="FRANKA_SIM_CONTROL_PORT", min=0, max=65535,
+        help="Port of the simulator's control API (0, `serve`'s for none: only --fci or a "
+        "serving file can tell).",
     ),
     token: str | None = typer.Option(
         None, envvar="FRANKA_SIM_CONTROL_TOKEN", help="Bearer token of the control API.",
+    ),
+    serving_file: Path | None = typer.Option(
+        None, envvar="FRANKA_SIM_SERVING_FILE", dir_okay=False, metavar="FILE",
+        help="Without a HOST argument: check every robot listed in the file a `serve` started "
+        "with FRANKA_SIM_SERVING_FILE=FILE writes while it serves (its addresses, control "
+        "port and token): ready when all are. The image sets it (docs/deployment.md).",
     ),
     wait: float = typer.Option(
         0.0, min=0.0, help="Try again until ready or this many seconds have passed.",
@@ -321,8 +330,17 @@ def check(
     For container health checks and CI scripts."""
     from franka_sim.readiness import check_until
 
+    # A HOST from FRANKA_SIM_HOST is `serve`'s, which --arm and --mobile-base override: the
+    # serving file knows better.
+    # (click's ParameterSource, by name: typer may bring its own click)
+    if getattr(ctx.get_parameter_source("host"), "name", None) == "COMMANDLINE":
+        serving_file = None
+    if serving_file is None and not fci and not control_port:
+        typer.echo("franka-sim check: control port 0: no control API to ask (--fci asks the "
+                   "robot's FCI)", err=True)
+        raise typer.Exit(1)
     reason = check_until(host, wait=wait, timeout=timeout, fci=fci,
-                         control_port=control_port, token=token)
+                         control_port=control_port, token=token, serving=serving_file)
     if reason is not None:
         typer.echo(f"franka-sim check: {reason}", err=True)
         raise typer.Exit(1)

@@ -278,9 +278,13 @@ async def _serve(config: Config, viewer: bool = False) -> None:
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     stopped, failed = asyncio.create_task(stop.wait()), asyncio.create_task(sim.failed.wait())
+    from franka_sim.server.serving_file import announce
+
+    announced = announce(sim)  # FRANKA_SIM_SERVING_FILE: what `franka-sim check` asks
     try:
         await asyncio.wait((stopped, failed), return_when=asyncio.FIRST_COMPLETED)
     finally:
+        announced.withdraw()
         stopped.cancel()
         failed.cancel()
         status.cancel()

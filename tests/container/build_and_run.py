@@ -63,6 +63,7 @@ def wheels(context: Path) -> Path:
     extras = project["project"]["optional-dependencies"]
     wanted = (project["project"]["dependencies"] + project["build-system"]["requires"]
               + extras["web"]  # the image has the view
+              + extras["record"]  # and records
               + extras["zig"])  # its build stage compiles the model libraries with it
     pins = "".join(f"{d.metadata['Name']}=={d.version}\n" for d in metadata.distributions()
                    if d.metadata["Name"] and d.metadata["Name"].lower() != "franka-sim")

@@ -14,7 +14,7 @@ yaml = pytest.importorskip("yaml")
 
 ROOT = Path(__file__).resolve().parents[2]
 KUBERNETES = ROOT / "deploy" / "kubernetes"
-FCI, HAND, CONTROL, DESK, WEB = 1337, 1338, 1340, 443, 8080
+FCI, HAND, VACUUM, CONTROL, DESK, WEB = 1337, 1338, 1339, 1340, 443, 8080
 
 
 def _manifests() -> list[dict]:
@@ -61,7 +61,14 @@ def test_robots_are_probed_with_franka_sim_check_and_sized_by_measurement():
     pod = _one("StatefulSet")["spec"]["template"]["spec"]
     container = pod["containers"][0]
     for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
-        assert container[probe]["exec"]["command"][:2] == ["franka-sim", "check"]
+        # no address: every robot the serving file lists, however `args` configure them
+        assert container[probe]["exec"]["command"] == ["franka-sim", "check"]
+    # the serving file's folder is writable under a read-only root
+    assert container["securityContext"]["readOnlyRootFilesystem"] is True
+    mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
+    serving_file = _image_env()["FRANKA_SIM_SERVING_FILE"]
+    assert str(Path(serving_file).parent) in mounts
+    assert mounts[str(Path(serving_file).parent)] in {v["name"] for v in pod["volumes"]}
     resources = container["resources"]
     assert {"cpu", "memory"} <= resources["requests"].keys()
     assert "cpu" not in resources.get("limits", {})  # CFS throttling would stall the stream
@@ -72,6 +79,11 @@ def test_robots_are_probed_with_franka_sim_check_and_sized_by_measurement():
 
 def _dockerfile() -> str:
     return (ROOT / "Dockerfile").read_text()
+
+
+def _image_env() -> dict[str, str]:
+    pairs = shlex.split(" ".join(_instructions("ENV")))
+    return dict(pair.split("=", 1) for pair in pairs)
 
 
 def _instructions(keyword: str) -> list[str]:
@@ -92,11 +104,16 @@ def test_the_dockerfile_builds_from_any_base_into_a_non_root_runtime():
     assert _dockerfile_user() != 0
     assert _instructions("ENTRYPOINT") == ['["franka-sim", "serve"]']
     assert "FRANKA_SIM_HOST=0.0.0.0" in " ".join(_instructions("ENV"))
-    assert _instructions("EXPOSE") == [f"{FCI}/tcp {HAND}/tcp {CONTROL}/tcp {DESK}/tcp {WEB}/tcp"]
-    assert "ARG EXTRAS=web" in _dockerfile()  # the image can serve the web view
+    assert _instructions("EXPOSE") == [
+        f"{FCI}/tcp {HAND}/tcp {VACUUM}/tcp {CONTROL}/tcp {DESK}/tcp {WEB}/tcp"]
+    # the image serves the web view, and records
+    (extras,) = [a.split("=", 1)[1] for a in _instructions("ARG") if a.startswith("EXTRAS=")]
+    assert set(extras.split(",")) == {"web", "record"}
     assert '"$wheel${EXTRAS:+[$EXTRAS]}"' in _dockerfile()
+    # the check takes what it asks from the file the server writes, not from `serve`'s flags
+    assert _image_env()["FRANKA_SIM_SERVING_FILE"].startswith("/tmp/")
     (healthcheck,) = _instructions("HEALTHCHECK")
-    assert "franka-sim check" in healthcheck
+    assert healthcheck.endswith('CMD ["franka-sim", "check"]')
     assert "--no-index --find-links" in _dockerfile()  # offline from a wheelhouse
 
 

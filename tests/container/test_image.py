@@ -13,6 +13,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -64,7 +65,7 @@ def built(daemon, tmp_path_factory):
 
 
 def test_the_image_builds_offline_serves_pylibfranka_and_stops_on_sigterm(built, daemon):
-    # 422 MB with the web extra: the test's Debian base carries the Python headers for the
+    # 428 MB with the web and record extras: the test's Debian base carries the Python headers for the
     # build stage (libpython3.11-dev, ~52 MB with its static library; python:3.11-slim has them)
     assert built["image_mb"] < 450
     assert "web_s" in built  # its web view served its page
@@ -141,3 +142,106 @@ def test_an_unreachable_daemon_fails_the_daemon_step_in_one_line(tmp_path):
     done = _script("--docker-host", f"unix://{tmp_path}/no-daemon.sock", timeout=60)
     line = _failure_line(done)
     assert line.startswith(f"container test: daemon failed: cannot reach unix://{tmp_path}"), line
+
+
+def _container(daemon, name: str, *options: str, command: tuple[str, ...] = ()) -> None:
+    """`docker run --detach` of the built image on the host network with `serve`'s flags
+    `command`, until every robot serves (fails with its last line should it exit instead)."""
+    daemon.run("run", "run", "--detach", "--pull", "never", "--name", name, "--network", "host",
+               *options, IMAGE, *command)
+    robots = 1 + sum(flag in ("--arm", "--mobile-base") for flag in command) - (
+        "--arm" in command)
+    for _ in range(600):
+        logs = daemon.run("run", "logs", name).stderr
+        if logs.count("serving on") >= robots:
+            return
+        if daemon.inspect("run", name, "{{.State.Status}}") == "exited":
+            logs = daemon.run("run", "logs", name).stderr
+            pytest.fail(f"{name} exited: {logs.strip().splitlines()[-1:]}")
+        time.sleep(0.2)
+    pytest.fail(f"{name} did not serve: {logs}")
+
+
+@pytest.fixture
+def removed(daemon):
+    """Names of the containers and volumes a test makes: removed after it, whatever happened."""
+    made = {"containers": [], "volumes": []}
+    yield made
+    for name in made["containers"]:
+        daemon.run("stop", "rm", "--force", name, check=False)
+    for name in made["volumes"]:
+        daemon.run("stop", "volume", "rm", "--force", name, check=False)
+
+
+def test_the_health_check_asks_every_robot_however_they_are_configured(built, daemon, removed):
+    """Flags the health check cannot see: several arms, a mobile base, a control port other
+    than 1340 and a token. It reads what the server wrote to FRANKA_SIM_SERVING_FILE."""
+    from build_and_run import healthy
+
+    name = "fsim-health-arms"
+    removed["containers"].append(name)
+    left, right, base = "127.0.0.160", "127.0.0.161", "127.0.0.162"
+    _container(daemon, name, command=(
+        "--scene", "mobile_duo", "--arm", f"left={left}", "--arm", f"right={right}",
+        "--mobile-base", base, "--control-port", "1341", "--control-token", "s3cret"))
+    healthy(daemon, name)
+    # the check as the health check runs it, and what it read
+    assert daemon.run("exec", "exec", name, "franka-sim", "check").returncode == 0
+    served = json.loads(daemon.run("exec", "exec", name, "sh", "-c",
+                                   'cat "$FRANKA_SIM_SERVING_FILE"').stdout)
+    assert [(r["host"], r["control_port"]) for r in served["robots"]] == [
+        (left, 1341), (right, 1341), (base, 1341)]
+
+
+def test_it_records_to_a_named_volume_and_the_image_replays_it_identically(built, daemon,
+                                                                          removed):
+    """The image carries the `record` extra, and a named volume on its recordings folder is the
+    image user's (Docker copies the folder's owner into a new volume)."""
+    sys.path.insert(0, str(HERE))
+    from drive import drive_apart
+
+    host, name, volume = "127.0.0.163", "fsim-record", "fsim-recordings"
+    removed["containers"].append(name)
+    removed["volumes"].append(volume)
+    folder = "/home/franka-sim/recordings"
+    _container(daemon, name, "--env", f"FRANKA_SIM_HOST={host}", "--volume",
+               f"{volume}:{folder}", command=("--record", f"{folder}/run.mcap"))
+    drive_apart(host, "drive")
+    daemon.run("stop", "stop", name, timeout=30)
+    assert daemon.inspect("stop", name, "{{.State.ExitCode}}") == "0"
+    replay = daemon.run("replay", "run", "--rm", "--pull", "never", "--network", "none",
+                        "--volume", f"{volume}:{folder}", "--entrypoint", "franka-sim", IMAGE,
+                        "replay", f"{folder}/run.mcap", timeout=300, check=False)
+    assert replay.returncode == 0, replay.stdout + replay.stderr
+    assert "identical" in replay.stdout + replay.stderr
+
+
+def test_the_desk_certificate_is_kept_in_a_named_volume(built, daemon, removed):
+    host, name, volume = "127.0.0.164", "fsim-desk", "fsim-desk-certificate"
+    removed["containers"].append(name)
+    removed["volumes"].append(volume)
+    folder = "/home/franka-sim/.local/share/franka-sim/desk"
+    _container(daemon, name, "--env", f"FRANKA_SIM_HOST={host}", "--env",
+               "FRANKA_SIM_DESK_PORT=8443", "--volume", f"{volume}:{folder}")
+    kept = daemon.run("stop", "run", "--rm", "--pull", "never", "--network", "none",
+                      "--volume", f"{volume}:{folder}", "--entrypoint", "ls", IMAGE, folder)
+    assert kept.stdout.split(), "the certificate was not written to the volume"
+
+
+def _capabilities(daemon, name: str) -> int:
+    status = daemon.run("exec", "exec", name, "cat", "/proc/1/status").stdout
+    return int(status.split("CapEff:")[1].split()[0], 16)
+
+
+def test_rt_priority_has_its_capability_only_as_root(built, daemon, removed):
+    """--cap-add SYS_NICE gives the capability to root only: the image's user 10001 runs with
+    none in effect, and SCHED_FIFO is refused to it."""
+    sys_nice = 1 << 23
+    for host, name, user in (("127.0.0.165", "fsim-rt-user", ()),
+                             ("127.0.0.166", "fsim-rt-root", ("--user", "0"))):
+        removed["containers"].append(name)
+        _container(daemon, name, "--env", f"FRANKA_SIM_HOST={host}", "--cap-add", "SYS_NICE",
+                   *user, command=("--rt-priority", "10"))
+        assert bool(_capabilities(daemon, name) & sys_nice) == bool(user), name
+    logs = daemon.run("logs", "logs", "fsim-rt-user").stderr
+    assert "--rt-priority 10 not applied (Operation not permitted)" in logs
