@@ -176,5 +176,8 @@ def test_faults_and_their_seed_from_the_environment():
         server.wait_ready()
         report = Control(server.host).faults()
         assert report["spec"] == "loss=0.01,delay=2ms,jitter=0.5ms" and report["seed"] == 7
+        # the start's log says so (a reader of `docker logs` alone sees the faults are on)
+        assert server.log_matching(
+            "serving with: network faults loss=0.01,delay=2ms,jitter=0.5ms (seed 7)")
     finally:
         server.stop()

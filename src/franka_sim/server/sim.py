@@ -124,7 +124,25 @@ class FrankaSim(EmbeddedOperations):
                      _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
                      robot.describe(),
                      config.clock.value, self.scene)
+        if switches := self._switches():
+            log.info("serving with: %s", "; ".join(switches))
         return self
+
+    def _switches(self) -> list[str]:
+        """What this server does beyond serving the robot as it is, for its start's log: a
+        reader of the log alone (`docker logs`) sees it recorded, faulted or guarded."""
+        config, said = self.config, []
+        if config.record is not None:
+            said.append(f"recording to {config.record}")
+        if config.inject:
+            said.append(f"network faults {config.inject} (seed {config.seed})")
+        if config.control_token is not None:
+            said.append("the control API wants a bearer token")
+        for flag, on in (("--enforce-comm-constraints", config.enforce_comm_constraints),
+                         ("--enforce-motion-limits", config.enforce_motion_limits)):
+            if on:
+                said.append(flag)
+        return said
 
     def _snapshot_now(self, _physics, tap) -> None:
         """Cycle thread: the web view's snapshot of the world as it is, each robot's state as
