@@ -86,6 +86,7 @@ MODULES = {
                    "protocol/test_fuzz_sessions.py", "server/test_hostile_peers.py",
                    "server/test_hostile_peers_netns.py", "server/test_failure.py"],
     "serving": ["server/test_cli.py", "server/test_launch.py", "server/test_check.py",
+                "server/test_serving_file.py",
                 "server/test_embedding.py",
                 "server/test_footprint.py", "server/test_status_line.py",
                 "server/test_viewer.py"],
