@@ -3,6 +3,8 @@ registers `COMMANDS` on its app; this module imports nothing of the CLI's)."""
 
 from __future__ import annotations
 
+import json
+
 from pathlib import Path
 
 import typer
@@ -56,6 +58,13 @@ def replay(
         raise typer.Exit(1) from None
     typer.echo(outcome.line())
     if not outcome.identical:
+        from franka_sim.recording.numerics import differences
+
+        recorded = loaded.metadata.get("numerics")
+        if recorded and (differ := differences(json.loads(recorded))):
+            typer.echo(f"recorded with other numerical kernels ({'; '.join(differ)}): their "
+                       "last bits differ, and so does a replay (docs/recording.md, Across "
+                       "machines)")
         raise typer.Exit(1)
 
 

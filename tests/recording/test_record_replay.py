@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import platform
 import subprocess
 import sys
 
@@ -15,6 +16,8 @@ from franka_sim.protocol.gripper_messages import GripperState
 from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.channels import COMMAND_PREFIX
 from franka_sim.recording.reader import open_recording
+from franka_sim.testing import ServerProcess, fresh_loopback_address
+from support.clients import connect, move_to
 from support.replayed import identical_line
 
 RUNS = ["lockstep_run", "realtime_run"]
@@ -150,3 +153,35 @@ def test_a_hand_state_changed_names_its_cycle_and_field(lockstep_run, tmp_path):
     assert done.returncode == 1
     assert done.stdout.strip() == (f"diverged at cycle {GripperState.parse(changed).message_id}:"
                                    " width (gripper_state of robot fr3)")
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="OpenBLAS's Prescott core is x86's")
+def test_a_recording_made_with_other_kernels_diverges_and_replay_says_why(tmp_path):
+    """OpenBLAS's core picked by OPENBLAS_CORETYPE: a product's last bits differ, a replay
+    elsewhere diverges, and replay says the kernels differed; with the recorder's, identical."""
+    own = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}  # the CPU's pick
+    core = subprocess.run([sys.executable, "-c", "from franka_sim.recording.numerics import "
+                           "numerics; print(numerics()['openblas_core'])"], env=own,
+                          capture_output=True, text=True, timeout=60).stdout.strip()
+    if core in ("", "Katmai", "Prescott"):
+        pytest.skip(f"this machine's own OpenBLAS core ({core or 'none'}) is the recorder's")
+    path, host = tmp_path / "prescott.mcap", fresh_loopback_address()
+    server = ServerProcess(host, "--clock", "lockstep", "--record", str(path),
+                           env={"OPENBLAS_CORETYPE": "Prescott"}).wait_ready()
+    try:
+        robot = connect(host)
+        q0 = np.array(robot.read_once().q)
+        move_to(robot, q0 + np.array([0.3, 0.2, 0, -0.2, 0, 0.2, 0.3]), 0.5)
+        del robot
+    finally:
+        server.stop()
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)], env=own,
+                          capture_output=True, text=True, timeout=300)
+    said = done.stdout.strip().splitlines()
+    assert done.returncode == 1 and said[0].startswith("diverged at cycle"), done.stdout
+    assert said[1].startswith(f"recorded with other numerical kernels (openblas_core Katmai → "
+                              f"{core}"), said
+    same = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
+                          env={**own, "OPENBLAS_CORETYPE": "Prescott"}, capture_output=True,
+                          text=True, timeout=300)
+    assert same.returncode == 0 and same.stdout.startswith("identical"), same.stdout

@@ -28,10 +28,12 @@ def describe(config: Config, urdf_text: str, scene: Path, robots) -> dict:
     """The metadata of a recording of the world built from `config`; `robots`: its parts
     (assembly.py), in the world's order."""
     import franka_sim
+    from franka_sim.recording.numerics import numerics
 
     scene_text = Path(scene).read_text()
     return {
         "franka_sim_version": franka_sim.__version__,
+        "numerics": numerics(),  # (replay says so when its kernels differ: numerics.py)
         "robots": [{"name": robot.name, "kind": robot.kind,
                     "base": None if getattr(robot, "spec", None) is None
                     or robot.spec.base is None else list(robot.spec.base),
