@@ -115,7 +115,8 @@ def open_recording(path: str | Path) -> Recording:
                 f"{path}: truncated (the recording stops without its end; "
                 f"{sum(channel_topics.get(r.channel_id, '').endswith('/robot_state') for r in pending)}"
                 " states are readable: "
-                "`mcap recover` rewrites what is there as a complete file)") from None
+                "the mcap CLI's `mcap recover` rewrites what is there as a complete file)"
+            ) from None
         except (McapError, ValueError) as exc:  # (a chunk's CRC, garbled text: ValueErrors)
             raise RecordingError(f"{path}: damaged, not as it was written "
                                  f"({type(exc).__name__}: {exc})") from None
