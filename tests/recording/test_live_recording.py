@@ -143,3 +143,13 @@ def test_a_write_that_fails_stops_the_recording_with_one_line_and_the_robot_serv
         assert server.stop() < 10
     assert server.proc.returncode == 0
     assert (tmp_path / "big.mcap").stat().st_size <= 1 << 18
+
+
+def test_a_recording_that_replaces_a_file_says_so(tmp_path):
+    """A container restarted with the same --record writes over the last run's file: said."""
+    path = tmp_path / "run.mcap"
+    path.write_bytes(b"x" * 1000)
+    with running_sim("--record", str(path)) as sim:
+        assert sim.wait_for_log(f"recording to {path} replaces the 1000-byte file")
+    with running_sim("--record", str(tmp_path / "new.mcap")) as sim:
+        assert not sim.log_matching("-byte file that was there")

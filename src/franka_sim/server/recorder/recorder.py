@@ -9,9 +9,12 @@ never waited for: the 1 kHz cycle keeps its deadline.
 from __future__ import annotations
 
 import collections
+import logging
 from pathlib import Path
 
 from franka_sim.server.recorder.writer import RecordingWriter
+
+log = logging.getLogger(__name__)
 
 QUEUE_LIMIT = 200_000  # events held at most (~4 s of a 1 kHz motion's traffic and more)
 
@@ -27,8 +30,15 @@ class Recorder:
         self._limit = limit
         self.dropped = 0
         self._stopped = False
+        try:  # (a container restarted with the same --record: the last run's file goes)
+            replaced = self.path.stat().st_size if self.path.is_file() else 0
+        except OSError:
+            replaced = 0
         # Opening the file now: a target that cannot be written stops the server at start.
         self._writer = RecordingWriter(self.path, metadata, robots, self._queue, self)
+        if replaced:
+            log.warning("recording to %s replaces the %d-byte file that was there",
+                        self.path, replaced)
 
     def describe_world(self, free_bodies: list[tuple[str, int]]) -> None:
         """(name, qpos address) of the world's free bodies, whose poses the records of qpos
