@@ -28,8 +28,19 @@ app = typer.Typer(
 )
 
 
+def _show_version(asked: bool) -> None:
+    if asked:
+        import franka_sim
+
+        typer.echo(f"franka-sim {franka_sim.__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(False, "--version", is_eager=True, callback=_show_version,
+                                 help="Print franka-sim's version and exit."),
+) -> None:
     """The sub-commands stay sub-commands (`franka-sim serve`), however many there are."""
 
 

@@ -28,6 +28,14 @@ def test_help_names_every_flag_and_its_environment_variable():
         assert flag in out and env in out
 
 
+def test_version_is_the_installed_packages():
+    from importlib.metadata import version
+
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "--version"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and done.stdout == f"franka-sim {version('franka-sim')}\n"
+
+
 def _help_texts():
     """(command, every help text written for it: its docstring and each option's help)."""
     import typer.main
