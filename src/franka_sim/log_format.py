@@ -16,9 +16,15 @@ _ESCAPED.update({ord("\n"): "\\n", ord("\r"): "\\r", ord("\t"): "\t"})  # (a tab
 
 
 class OneLine(logging.Formatter):
-    """FORMAT, the message's control characters escaped."""
+    """FORMAT, the message's control characters escaped. `clear_line`: each record first
+    clears the terminal's line, where `serve`'s status line (server/status_line.py) stands
+    without its newline: the record then does not run on from it."""
+
+    def __init__(self, fmt: str = FORMAT, *, clear_line: bool = False) -> None:
+        super().__init__(fmt)
+        self._prefix = "\r\x1b[K" if clear_line else ""
 
     def formatMessage(self, record: logging.LogRecord) -> str:  # noqa: N802 - logging's name
         record.message = record.message.translate(_ESCAPED)
-        return super().formatMessage(record)
+        return self._prefix + super().formatMessage(record)
 

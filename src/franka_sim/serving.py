@@ -188,7 +188,7 @@ def main(blob: str) -> int:
     args = json.loads(blob)
     _leave_out(tls=needs_tls(args))
     handler = logging.StreamHandler()
-    handler.setFormatter(OneLine(FORMAT))
+    handler.setFormatter(OneLine(FORMAT, clear_line=sys.stdout.isatty() and sys.stderr.isatty()))
     handler.addFilter(RobotName())  # (a line about one robot of several names it)
     logging.basicConfig(level=args["log_level"].upper(), handlers=[handler])
     if args["rt_priority"]:

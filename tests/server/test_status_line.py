@@ -42,6 +42,43 @@ def test_on_a_terminal_one_line_with_mode_rate_and_success():
     assert "last error: -" in line
 
 
+def test_a_log_line_on_the_same_terminal_starts_on_a_line_of_its_own():
+    """stdout and stderr on one terminal (`docker run -t`): a record clears the status line
+    first rather than running on from it."""
+    master, slave = pty.openpty()
+    host = fresh_loopback_address()
+    proc = subprocess.Popen([sys.executable, "-m", "franka_sim", "serve", "--host", host],
+                            stdin=subprocess.DEVNULL, stdout=slave, stderr=slave)
+    os.close(slave)
+    out, asked = b"", False
+    try:
+        end = time.monotonic() + 60
+        while time.monotonic() < end and b"GET /nothing refused" not in out:
+            if select.select([master], [], [], 0.2)[0]:
+                out += os.read(master, 4096)
+            if not asked and b"cycles/s" in out:
+                asked = True
+                _get(host, "/nothing")  # (one log line: the refusal)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(10)
+        os.close(master)
+    text = out.decode(errors="replace")
+    before = text[:text.index("control API: GET /nothing")]
+    record = before[before.rindex("\r\x1b[K") + len("\r\x1b[K"):]
+    assert record.startswith("20") and "cycles/s" not in record, repr(before[-300:])
+
+
+def _get(host: str, path: str) -> None:
+    import urllib.error
+    import urllib.request
+
+    try:
+        urllib.request.urlopen(f"http://{host}:1340{path}", timeout=30)
+    except urllib.error.HTTPError:
+        pass
+
+
 def test_not_a_terminal_no_status():
     proc = _serve(subprocess.PIPE)
     time.sleep(2.0)
