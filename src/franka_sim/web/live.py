@@ -68,7 +68,11 @@ class LiveView:
         server.on_client_connect(self._connected)
         server.on_client_disconnect(self._disconnected)
         self._thread.start()
-        log.info("the web view is on http://%s:%d", self.host, self.port)
+        if self.host in ("0.0.0.0", "::"):  # (every address: a browser asks one of them)
+            log.info("the web view is on port %d of every address (http://127.0.0.1:%d on "
+                     "this machine)", self.port, self.port)
+        else:
+            log.info("the web view is on http://%s:%d", self.host, self.port)
 
     def stop(self) -> None:
         self._stop.set()
