@@ -13,7 +13,7 @@ import platform
 import re
 
 _CORENAME = ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename",
-            "openblas_get_corename64_", "openblas_get_corename")
+             "openblas_get_corename64_", "openblas_get_corename")
 
 
 def numerics() -> dict[str, str]:
@@ -27,7 +27,7 @@ def numerics() -> dict[str, str]:
 
 
 def differences(recorded: dict, here: dict | None = None) -> list[str]:
-    """"name: recorded → here" for each figure that differs (none for an older recording)."""
+    """"name recorded → here" for each figure that differs (none for an older recording)."""
     here = numerics() if here is None else here
     return [f"{name} {recorded[name] or '?'} → {here.get(name) or '?'}"
             for name in sorted(recorded) if recorded[name] != here.get(name)]
@@ -54,7 +54,7 @@ def _openblas_core() -> str:
 
 
 def _numpy_simd() -> str:
-    """The highest SIMD targets NumPy dispatches to on this CPU (e.g. AVX512_SKX)."""
+    """The SIMD targets NumPy dispatches to on this CPU (e.g. X86_V3 X86_V4 AVX512_ICL)."""
     try:
         from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
     except ImportError:  # another NumPy's layout
