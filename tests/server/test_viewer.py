@@ -28,6 +28,8 @@ def test_the_viewer_shows_the_arm_move_and_stops_cleanly():
             viewer = [child for task in Path(f"/proc/{server.pid}/task").iterdir()
                       for child in (task / "children").read_text().split()]
             assert len(viewer) == 1  # the window's own process
+            maps = Path(f"/proc/{server.pid}/maps").read_text()
+            assert "glfw" not in maps and "mujoco/_render" not in maps  # (the server draws not)
             before = wait_for_screen(display, server=server)  # the window, drawn
             robot = connect(server.host)
             target = np.array(READY_POSE) + [0.6, 0, 0, 0, 0, 0, 0]
