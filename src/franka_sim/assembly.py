@@ -85,9 +85,11 @@ class BaseParts:
     name, label = "base", "mobile base"
     tool = tool_kind = None
 
-    def __init__(self, host: str, events: RobotEvents = NO_ROBOT_EVENTS) -> None:
+    def __init__(self, host: str, events: RobotEvents = NO_ROBOT_EVENTS, *,
+                 enforce_comm_constraints: bool = False) -> None:
         self.host = host
-        self.core = BaseCore(base_urdf_text().encode(), events=events)
+        self.core = BaseCore(base_urdf_text().encode(), events=events,
+                             enforce_comm_constraints=enforce_comm_constraints)
 
     def make_part(self, physics, tool_state_wanted) -> BaseCycle:
         return BaseCycle(self.core, physics)
@@ -124,7 +126,8 @@ class WorldParts:
         self.arms = [ArmParts(config, spec, described[i][1], described[i][0], robot_events[i])
                      for i, spec in enumerate(specs)]
         self.base = None if config.mobile_base is None else BaseParts(
-            config.mobile_base, robot_events[len(specs)])
+            config.mobile_base, robot_events[len(specs)],
+            enforce_comm_constraints=config.enforce_comm_constraints)
         # Every robot of the world, in the world cycle's order: the arms, then the mobile base.
         self.robots = [*self.arms, *([self.base] if self.base is not None else [])]
 

@@ -16,7 +16,7 @@ from franka_sim.protocol.enums import (Command, MotionGeneratorMode, MoveMotionG
                                        MoveStatus, RobotMode)
 from franka_sim.protocol.errors import error_index
 from franka_sim.robot.base_cycle import BaseCycle
-from franka_sim.robot.base_core import PLANAR_REFLEX, BaseCore
+from franka_sim.robot.base_core import COMM_REFLEX, PLANAR_REFLEX, BaseCore
 from franka_sim.robot.swerve import SwerveDrive
 
 CARTESIAN_VELOCITY = int(MoveMotionGeneratorMode.kCartesianVelocity)
@@ -25,8 +25,8 @@ CARTESIAN_VELOCITY = int(MoveMotionGeneratorMode.kCartesianVelocity)
 class Base:
     """A base core run cycle by cycle, as the server runs it."""
 
-    def __init__(self) -> None:
-        self.cycle = BaseCycle(BaseCore(base_urdf_text().encode()))
+    def __init__(self, **settings) -> None:
+        self.cycle = BaseCycle(BaseCore(base_urdf_text().encode(), **settings))
         self.replies: list[bytes] = []
         self.step()
 
@@ -167,6 +167,29 @@ def test_a_silent_client_leaves_the_base_braking():
     base.step(400)
     assert base.state["O_dP_EE_d"][0] == 0.0
     assert base.state["robot_mode"] == RobotMode.kMove  # until the client is heard again
+
+
+def test_under_enforcement_a_silent_client_ends_the_motion_in_the_reflex():
+    """--enforce-comm-constraints on the base as on an arm: 20 cycles lost in a row abort."""
+    base = Base(enforce_comm_constraints=True)
+    base.drive([(0.3, 0.0, 0.0, 0.0, 0.0, 0.0)] * 400)
+    base.step(19)
+    assert base.state["robot_mode"] == RobotMode.kMove
+    base.step()
+    assert [reply_status(r)[2] for r in base.replies] == [int(MoveStatus.kReflexAborted)]
+    assert base.state["robot_mode"] == RobotMode.kReflex
+    assert base.state["errors"][error_index(COMM_REFLEX)]
+    base.request(Command.AutomaticErrorRecovery)
+    base.step(400)
+    assert base.state["robot_mode"] == RobotMode.kIdle and base.state["O_dP_EE_d"][0] == 0.0
+
+
+def test_under_enforcement_a_client_gone_mid_motion_is_the_reflex():
+    base = Base(enforce_comm_constraints=True)
+    base.drive([(0.3, 0.0, 0.0, 0.0, 0.0, 0.0)] * 10)
+    base.core.client_gone()
+    assert base.step()["robot_mode"] == RobotMode.kReflex
+    assert base.state["errors"][error_index(COMM_REFLEX)]
 
 
 def test_a_client_heard_only_late_still_ends_the_base_motion():

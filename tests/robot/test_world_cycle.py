@@ -104,6 +104,32 @@ def test_beside_a_stream_a_motion_is_waited_for_from_its_second_state():
     assert cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))
 
 
+def test_a_silent_client_is_not_waited_for_beside_a_streaming_one():
+    """One arm's client paused (a debugger) for 20 cycles: its arm is braked and held, and the
+    other arm's answers alone release the cycles (a window each for the silent one would hold
+    the world to ten cycles a second); heard again, it is waited for again. Alone, a silent
+    client is still waited for."""
+    cycle, parts = world()
+    step(cycle)
+    for arm in parts.arms:
+        arm.core.request_move(5, move_request(0, 1))
+    step(cycle)
+    states = step(cycle)
+    waited = 0
+    while not parts.arms[1].core.client_silent:  # the right client says nothing
+        assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))  # (right is owed)
+        states = step(cycle)
+        waited += 1
+    assert waited >= 18  # (20 cycles lost in a row make a client silent)
+    assert cycle.waits_for == {0}
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    states = step(cycle)
+    assert not cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))  # heard again
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    states = step(cycle)
+    assert cycle.waits_for == {0, 1}
+
+
 def test_skipped_ids_count_as_completed():
     """Where an event lands (a recording's `position`) reads the same after a skip as replay
     puts it: between completed cycles."""

@@ -11,7 +11,8 @@ requests with what a base can do:
   refused with kCommandNotPossibleRejected;
 - each cycle the command window decides which twist applies (as on an arm: a missed cycle
   keeps the last one, and after MAX_EXTRAPOLATED_CYCLES lost the base brakes until the client
-  is heard again); a twist with vz, wx or wy is a reflex
+  is heard again, or with `enforce_comm_constraints` the motion ends in the reflex
+  communication_constraints_violation, as an arm's does); a twist with vz, wx or wy is a reflex
   (cartesian_motion_generator_velocity_limits_violation), recovered by
   AutomaticErrorRecovery;
 - a finished motion, StopMove or a client gone leaves the base braking to rest.
@@ -36,6 +37,7 @@ log = logging.getLogger(__name__)
 
 PLANAR_TOLERANCE = 1e-6  # m/s, rad/s: what vz, wx and wy may be without a reflex
 PLANAR_REFLEX = "cartesian_motion_generator_velocity_limits_violation"
+COMM_REFLEX = "communication_constraints_violation"
 
 
 class BaseMotion:
@@ -57,8 +59,10 @@ class BaseCore(FciRobot):
     """The base's part of the FCI lifecycle (robot/fci.py): its Moves, its drive, its state."""
 
     def __init__(self, urdf: bytes, first_message_id: int = 1,
-                 events: RobotEvents = NO_ROBOT_EVENTS) -> None:
+                 events: RobotEvents = NO_ROBOT_EVENTS, *,
+                 enforce_comm_constraints: bool = False) -> None:
         super().__init__(urdf, first_message_id, events)
+        self.enforce_comm_constraints = enforce_comm_constraints
         self.drive = SwerveDrive()
         self.publisher = BaseStatePublisher()
         self.motion: BaseMotion | None = None
@@ -97,15 +101,20 @@ class BaseCore(FciRobot):
         motion.braking = command is None and (
             self.window.consecutive_lost >= MAX_EXTRAPOLATED_CYCLES)
         if command is None:
+            if motion.braking and self.enforce_comm_constraints:
+                log.warning("%d consecutive command cycles lost: %s",
+                            self.window.consecutive_lost, COMM_REFLEX)
+                self._reflex(motion, COMM_REFLEX)
+                return
             if motion.braking:
                 if self.window.consecutive_lost == MAX_EXTRAPOLATED_CYCLES:
-                    log.warning("base: " + self.window.silence(
+                    log.warning(self.window.silence(
                         "braking to rest", "until the client is heard again"))
                 self._target = (0.0, 0.0, 0.0)
                 late = self.window.late
                 if late is not None and late["motion_generation_finished"]:
                     # Heard only late (the arm's reason, robot/arm_core.py): the finish ends it.
-                    log.warning("base: motion finished by a late command")
+                    log.warning("motion finished by a late command")
                     self.status.answer_move(motion.command_id, MoveStatus.kSuccess)
                     self._end_motion(RobotMode.kIdle)
             return
@@ -115,14 +124,17 @@ class BaseCore(FciRobot):
         if max(abs(vz), abs(wx), abs(wy)) > PLANAR_TOLERANCE:
             log.warning("base twist has vz/wx/wy %.3g/%.3g/%.3g: a base moves in the plane "
                         "only (%s)", vz, wx, wy, PLANAR_REFLEX)
-            self.status.latch([PLANAR_REFLEX])
-            self.status.answer_move(motion.command_id, MoveStatus.kReflexAborted)
-            self._end_motion(RobotMode.kReflex)
+            self._reflex(motion, PLANAR_REFLEX)
             return
         self._target = (vx, vy, wz)
         if bool(command["motion_generation_finished"]):
             self.status.answer_move(motion.command_id, MoveStatus.kSuccess)
             self._end_motion(RobotMode.kIdle)
+
+    def _reflex(self, motion: BaseMotion, error: str) -> None:
+        self.status.latch([error])
+        self.status.answer_move(motion.command_id, MoveStatus.kReflexAborted)
+        self._end_motion(RobotMode.kReflex)
 
     def _end_motion(self, mode: RobotMode) -> None:
         """The motion ends; the base brakes to rest."""
@@ -161,7 +173,12 @@ class BaseCore(FciRobot):
 
     # -- the session's view --------------------------------------------------------------------
     def client_gone(self) -> None:
-        """Its motion ends unanswered (nobody is left to answer) and the base brakes."""
-        if self.motion is not None:
+        """Its motion ends unanswered (nobody is left to answer) and the base brakes; under
+        enforcement a running one ends in the reflex, as an arm's."""
+        motion = self.motion
+        if motion is not None and motion.running and self.enforce_comm_constraints:
+            log.warning("the client left during its motion: %s", COMM_REFLEX)
+            self._reflex(motion, COMM_REFLEX)
+        elif motion is not None:
             self._end_motion(RobotMode.kIdle)
         self.status.take_replies()

@@ -213,14 +213,17 @@ class WorldCycle:
         """Whose answers the state just released waits for: every robot whose client streams,
         one whose motion still awaits its client's first command too (beside another robot's
         stream its client would otherwise fall behind by however slow it is to start); with
-        none, the robots whose motion's first state it is (an answer is taken at once)."""
-        streaming, first = set(), set()
+        none, the robots whose motion's first state it is (an answer is taken at once). A
+        client gone silent (its robot braked and held until it is heard again: paused in a
+        debugger, stopped) is waited for only while no other robot's client streams: a window
+        a cycle for it would hold the others to ten cycles a second."""
+        streaming, silent, first = set(), set(), set()
         for i, part in enumerate(self.parts):
             core = part.core
             if core.first_motion_state:
                 first.add(i)
             elif core.streams_commands:
-                streaming.add(i)
-        awaited = streaming or first
+                (silent if core.client_silent else streaming).add(i)
+        awaited = streaming or silent or first
         self.waits_for = frozenset(awaited)
         self._awaited = awaited
