@@ -152,6 +152,9 @@ class WorldParts:
             if spec.host == self.config.mobile_base:
                 raise SceneError(f"arm {spec.name}: {spec.host} serves the mobile base "
                                  "(one address per robot)")
+            if self.config.mobile_base is not None and spec.name == BaseParts.name:
+                raise SceneError(f"arm {spec.name}: the mobile base's name (its log lines, "
+                                 "its recording's channels): call the arm otherwise")
         mounts = scene_mounts(self.scene)
         rides = self.config.mobile_base is not None
         kinds = [tool_kind(self.config.tool_of(spec)) for spec in specs]

@@ -18,7 +18,7 @@ def serve(*args: str) -> subprocess.CompletedProcess:
 
 
 def said(done: subprocess.CompletedProcess) -> str:
-    """What the failed start said, as one line (a usage error comes in typer's box)."""
+    """What the failed start said, as one line."""
     assert done.returncode != 0
     assert "Traceback" not in done.stderr
     return " ".join(done.stderr.replace("│", " ").split())
@@ -28,6 +28,15 @@ def test_two_arms_on_one_address():
     host = fresh_loopback_address()
     err = said(serve("--arm", f"left={host}", "--arm", f"right={host}"))
     assert f"arm right: {host} serves arm left already" in err
+
+
+def test_an_arm_named_as_the_mobile_base():
+    """Its log lines and its recording's channels would be the base's (a recording that then
+    does not replay)."""
+    a, b, c = (fresh_loopback_address() for _ in range(3))
+    err = said(serve("--scene", "mobile_duo", "--arm", f"base={a}", "--arm", f"right={b}",
+                     "--mobile-base", c))
+    assert "arm base: the mobile base's name" in err
 
 
 def test_an_address_that_cannot_be_bound_names_the_arm_and_serves_nothing():
