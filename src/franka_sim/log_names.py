@@ -23,6 +23,11 @@ def about(name: str | None):
         _ROBOT.reset(token)
 
 
+def current() -> str | None:
+    """The robot the running work is about (None: the world's own, or a world of one)."""
+    return _ROBOT.get()
+
+
 def name_work(part, name: str, methods: tuple[str, ...]) -> None:
     """Each of `part`'s `methods` runs under `name` from now on (instance attributes that
     shadow the methods: a world of one robot, which names none, calls them as they are)."""

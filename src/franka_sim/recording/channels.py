@@ -121,5 +121,5 @@ def world_channels() -> dict[str, Channel]:
         "skipped": _json("/world/skipped", "franka_sim/SkippedCycles", _object(
             first=_INT, last=_INT)),
         "log": _json("/log", "franka_sim/LogLine", _object(
-            level=_STR, logger=_STR, message=_STR)),
+            level=_STR, logger=_STR, message=_STR, robot=_STR)),
     }

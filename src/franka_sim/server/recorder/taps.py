@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import time
 
+from franka_sim import log_names
 from franka_sim.robot.events import RobotEvents, WorldEvents
 from franka_sim.server.recorder import events as ev
 
@@ -96,7 +97,7 @@ class Taps(WorldEvents):
         recorder = self.recorder
         if recorder is not None:
             recorder.put((ev.LOG, int(record.created * 1e9), record.levelname, record.name,
-                          message))
+                          message, log_names.current()))
 
 
 class RobotTaps(RobotEvents):

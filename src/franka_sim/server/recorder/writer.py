@@ -196,8 +196,11 @@ class RecordingWriter:
                 "reason": reason, "source": source, "size": len(data),
                 "data": base64.b64encode(data[:4096]).decode()}, 0)
         elif kind == ev.LOG:
-            _, wall, level, name, message = event
-            self._json("log", wall, {"level": level, "logger": name, "message": message}, 0)
+            _, wall, level, name, message, robot = event
+            line = {"level": level, "logger": name, "message": message}
+            if robot is not None:  # (a line about one robot of several: its name)
+                line["robot"] = robot
+            self._json("log", wall, line, 0)
 
     def _write_repeats(self) -> None:
         runs, self._repeats = self._repeats, None
