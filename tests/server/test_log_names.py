@@ -59,6 +59,7 @@ def test_a_recording_keeps_which_robot_each_line_is_about(tmp_path):
         server.wait_ready()
         connect(right).read_once()
         assert server.wait_for_log("right: FCI client")
+        assert server.log_matching(f"right: simulated FR3 serving on {right}:1337")
     finally:
         server.stop()
     lines = [e.json() for e in open_recording(path).of("log")]

@@ -19,6 +19,7 @@ from franka_sim import kernels
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.config_rules import ConfigError, checked
+from franka_sim.log_names import about
 from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -120,10 +121,10 @@ class FrankaSim(EmbeddedOperations):
             log.info("the cycle runs its numpy kernels (%s): the same states, ~40 %% more CPU a "
                      "cycle (docs/benchmarks.md, The compiled kernels)", kernels.WHY_NUMPY)
         for robot in self.robots:
-            log.info("simulated %s %s; clock %s; scene %s)",
-                     _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
-                     robot.describe(),
-                     config.clock.value, self.scene)
+            with about(robot.log_name):  # (a robot of several: "left: simulated FR3 serving …")
+                log.info("simulated %s %s; clock %s; scene %s)",
+                         _KINDS[robot.parts.robot] if robot.parts.kind == "arm" else "base",
+                         robot.describe(), config.clock.value, self.scene)
         if switches := self._switches():
             log.info("serving with: %s", "; ".join(switches))
         return self
