@@ -88,3 +88,21 @@ def test_the_bases_faults_are_its_own_path(duo):
     finally:
         control.clear_faults()
         Control(left).clear_faults()
+
+
+def test_the_base_and_what_it_carries_are_not_pushed_or_placed(duo):
+    """On an arm's control API: the base is moved by its own motion alone (a mocap body), and
+    its first link with it; a push on them would change nothing."""
+    from franka_sim.control import Conflict
+
+    _, _, left, _ = duo
+    control = Control(left)
+    with pytest.raises(Conflict, match="'mobile_base' does not move under a push: only its "
+                                       "own motion moves it"):
+        control.push("mobile_base", [100.0, 0.0, 0.0])
+    with pytest.raises(Conflict, match="'left/base' does not move under a push: it is carried "
+                                       "by mobile_base"):
+        control.push("left/base", [100.0, 0.0, 0.0])
+    with pytest.raises(Conflict, match="'mobile_base' is not a free body: only its own motion"):
+        control.set_pose("mobile_base", [1.0, 0.0, 0.0])
+    assert control.push("left/link3", [1.0, 0.0, 0.0])["cycles"] == 100  # (a link moves)

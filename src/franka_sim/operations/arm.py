@@ -27,7 +27,7 @@ from franka_sim.operations.ports import Jobs, Pacer
 from franka_sim.control.table import Kind
 from franka_sim.operations.values import (body_name, mode_name, number, numbers,
                                           refuse_if_failed, within)
-from franka_sim.physics.bodies import NotFree, UnknownBody
+from franka_sim.physics.bodies import Immovable, NotFree, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
@@ -306,8 +306,8 @@ class ArmOps(DeskOps, FaultOps):
             except UnknownBody:
                 raise _no_body(world, name) from None
             except NotFree as exc:
-                raise Conflict(f"{exc.args[0]!r} is not a free body: its pose follows its "
-                               "joints (only free bodies can be placed)") from None
+                raise Conflict(f"{exc.args[0]!r} is not a free body: {exc.args[1]} (only free "
+                               "bodies can be placed)") from None
             self.driver.keep_running()
             return _pose(world.body_state(name))
         return await self._job(place, ("set_pose", {
@@ -334,6 +334,9 @@ class ArmOps(DeskOps, FaultOps):
                 world.push(body, force, torque, cycles)
             except UnknownBody:
                 raise _no_body(world, body) from None
+            except Immovable as exc:
+                raise Conflict(f"{exc.args[0]!r} does not move under a push: {exc.args[1]}"
+                               ) from None
             self.driver.keep_running()
             return {"body": world.bodies.find(body), "force": force.tolist(),
                     "torque": torque.tolist(), "cycles": cycles}

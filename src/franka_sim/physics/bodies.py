@@ -31,7 +31,11 @@ class UnknownBody(KeyError):
 
 
 class NotFree(ValueError):
-    """The body's pose follows its joints (a link, the table): only a free body can be placed."""
+    """Only a free body can be placed: args (its name, why this one cannot: `Bodies.why_fixed`)."""
+
+
+class Immovable(ValueError):
+    """A push cannot move the body: args (its name, why: `Bodies.anchored`)."""
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,23 @@ class Bodies:
     def id(self, name: str) -> int:
         return self._ids[self.find(name)]
 
+    def anchored(self, body: int) -> str:
+        """Why no force moves body `body` ("" when one does): welded to the world (the
+        table), or to the mobile base, a body its own motion moves (mocap: forces do not)."""
+        m = self._model
+        weld = m.body_weldid[body]
+        if weld == 0:
+            return "it is fixed to the world"
+        if m.body_mocapid[weld] >= 0:
+            if weld == body:
+                return "only its own motion moves it"
+            return f"it is carried by {self.names[weld - 1]}, which only its own motion moves"
+        return ""
+
+    def why_fixed(self, body: int) -> str:
+        """Why body `body` cannot be placed: what fixes its pose."""
+        return self.anchored(body) or "its pose follows its joints"
+
     def named_like(self, name: str) -> list[str]:
         """The bodies `name` may have meant: in a world of several arms a link is its arm's
         (`left/link7` for `link7`)."""
@@ -97,7 +118,7 @@ class Bodies:
         as it is), at rest. The caller recomputes what derives from the state."""
         body = self.id(name)
         if body not in self._free:
-            raise NotFree(self.find(name))
+            raise NotFree(self.find(name), self.why_fixed(body))
         m, d = self._model, self._data
         joint = m.body_jntadr[body]
         qpos, dof = m.jnt_qposadr[joint], m.jnt_dofadr[joint]

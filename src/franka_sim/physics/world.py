@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm import Arm
-from franka_sim.physics.bodies import Bodies, BodyState, Pushes
+from franka_sim.physics.bodies import Bodies, BodyState, Immovable, Pushes
 from franka_sim.physics.scene import ArmPlacement, build_world_model
 
 # What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
@@ -289,5 +289,8 @@ class World:
 
     def push(self, name: str, force, torque, steps: int) -> None:
         """A wrench (world frame, at the body's centre of mass) on a body during the next
-        `steps` steps; replaces a push still acting on it."""
-        self._pushes.push(self.bodies.id(name), force, torque, steps)
+        `steps` steps; replaces a push still acting on it (Immovable: no force moves it)."""
+        body = self.bodies.id(name)
+        if why := self.bodies.anchored(body):
+            raise Immovable(self.bodies.find(name), why)
+        self._pushes.push(body, force, torque, steps)

@@ -227,7 +227,7 @@ class GenesisWorld:
 
         found = self.bodies.find(name)
         if not self.bodies.is_free(found):
-            raise NotFree(found)
+            raise NotFree(found, "its pose follows its joints or the world")
         joint = self.bodies._joint_of[found]
         qs, dofs = list(joint.qs_idx_local), list(joint.dofs_idx_local)
         values = self.entity.get_qpos(qs).cpu().numpy().copy()
