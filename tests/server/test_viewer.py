@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from franka_sim.config import READY_POSE
 from franka_sim.control import Control
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 from support.clients import connect, move_to
-from support.xserver import SERVERS, opengl_display, wait_for_screen
+from support.xserver import SERVERS, opengl_display, screenshot, wait_for_screen
 
 
 def test_the_viewer_shows_the_arm_move_and_stops_cleanly():
@@ -72,3 +73,38 @@ def test_a_lost_display_ends_the_viewer_and_the_robot_serves_on():
         finally:
             server.stop()
         assert server.proc.returncode == 0, "\n".join(server.lines)
+
+
+def test_the_viewer_shows_the_mobile_base_drive():
+    """The base is a mocap body: its pose travels to the viewer with the world's qpos."""
+    base_program = Path(__file__).resolve().parents[1] / "mobile" / "base_program.py"
+    base, left, right = (fresh_loopback_address() for _ in range(3))
+    with opengl_display() as display:
+        server = ServerProcess(left, "--scene", "mobile_duo", "--arm", f"left={left}", "--arm",
+                               f"right={right}", "--mobile-base", base, "--viewer", "--clock",
+                               "lockstep", env={"DISPLAY": display}).wait_ready()
+        try:
+            assert server.wait_for_log("the viewer shows the world", timeout=60)
+            before = _still(display, server)
+            done = subprocess.run([sys.executable, str(base_program), base, "0.4", "0.0", "0.0",
+                                   "2.0"], capture_output=True, text=True, timeout=120)
+            assert done.returncode == 0, done.stderr
+            after = _still(display, server)
+            moved = (np.abs(before.astype(int) - after.astype(int)).max(axis=2) > 40).sum()
+            assert moved > 2000, moved  # (the chassis drove out of its place on the screen)
+        finally:
+            server.stop()
+
+
+def _still(display: str, server, timeout: float = 60.0):
+    """The screen once the world is drawn (not MuJoCo's black "LOADING…" screen) and unchanged
+    over half a second (the viewer has drawn the world as it stands)."""
+    deadline = time.monotonic() + timeout
+    shot = wait_for_screen(display, server=server)
+    while True:
+        time.sleep(0.5)
+        again = screenshot(display)
+        if np.array_equal(shot, again) and shot.mean() > 40:
+            return shot
+        assert time.monotonic() < deadline, "the screen does not settle"
+        shot = again

@@ -4,10 +4,12 @@ its own.
 Xlib ends the process whose display connection breaks (the X server stopped, `xkill`, a dropped
 `ssh -X`); a viewer inside the server took the robot down with it. So the window belongs to a
 child (`python -m franka_sim.server.viewer MODEL FD`): it loads the world's compiled model, and
-~30 times a second the server's `fsim-viewer` thread sends it the world's qpos over a socket
-pair (a torn copy only shows for one frame; the cycle thread never waits for it, takes no lock
-for it and is never called back). The child recomputes the kinematics of its own MjData and
-draws. A frame the child has not taken yet is dropped, never queued. Its window closed or its
+~30 times a second the server's `fsim-viewer` thread sends it the world's positions (qpos, and
+the mocap bodies' poses: the mobile base) over a socket pair (a torn copy only shows for one
+frame; the cycle thread never waits for it, takes no lock for it and is never called back).
+The child recomputes the kinematics of its own MjData and draws, at a lower priority than the
+server (MuJoCo's viewer draws as fast as the display lets it: with software GL, most of a
+core, which a realtime cycle must not have to share evenly). A frame the child has not taken yet is dropped, never queued. Its window closed or its
 display gone, the child ends and the server says so on one line and serves on; the server
 gone, its socket closes and the child ends too.
 """
@@ -31,7 +33,8 @@ log = logging.getLogger(__name__)
 # good part of a core, which a lockstep client on a two-core machine then waits for)
 FRAME_PERIOD = 1 / 30
 OPEN_WITHIN = 30.0  # s a window may take to appear (software GL on a loaded machine)
-CLOSE_WITHIN = 5.0  # s the child gets to close its window before it is killed
+CLOSE_WITHIN = 2.0  # s the child gets to close its window before it is killed
+NICENESS = 10  # the child's: the server's cycle comes first when both want a core
 READY, REFUSED = b"ready", b"refused "  # what the child says once, before any frame
 
 
@@ -97,13 +100,13 @@ class LiveViewer:
         self._end_child()
 
     def _feed(self) -> None:
-        qpos, sock, child = self.source.qpos, self._sock, self._child
+        data, sock, child = self.source, self._sock, self._child
         while not self._stop.wait(FRAME_PERIOD):
             if child.poll() is not None:
                 self._say_ended(child.returncode)
                 return
             try:
-                sock.send(qpos.tobytes())  # a copy; the world may be mid-step
+                sock.send(positions(data))  # a copy; the world may be mid-step
             except (BlockingIOError, InterruptedError):
                 pass  # the child is behind: this frame is not shown
             except OSError:  # its end closed: it is ending (the next poll says how)
@@ -119,12 +122,16 @@ class LiveViewer:
                     f": {words}" if words else "")
 
     def _last_words(self) -> str:
-        """The child's last line on stderr (Xlib's, on a lost display)."""
+        """What the child said of its end on stderr: Xlib's error, if it wrote one (its first
+        line names it; the lines after are its serial numbers), else its last line."""
         if self._stderr is None:
             return ""
         self._stderr.seek(0)
         lines = [line.strip() for line in self._stderr.read().decode(errors="replace")
                  .splitlines() if line.strip()]
+        for line in lines:
+            if line.startswith(("X Error", "XIO", "X connection")):
+                return line
         return lines[-1] if lines else ""
 
     def _end_child(self) -> None:
@@ -143,10 +150,16 @@ class LiveViewer:
             self._stderr = None
 
 
+def positions(data) -> bytes:
+    """What a frame carries: qpos, then each mocap body's position and quaternion."""
+    return data.qpos.tobytes() + data.mocap_pos.tobytes() + data.mocap_quat.tobytes()
+
+
 # -- the child -----------------------------------------------------------------------------------
 def show(model_path: str, fd: int) -> int:
     """The viewer's process: the window until it is closed or the server's socket closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # (a terminal's Ctrl-C is the server's to act on)
+    os.nice(NICENESS)
     sock = socket.socket(fileno=fd)
     refused = _glfw_refusal()
     if refused:  # MuJoCo's own GUI thread would end the process with a bare "ERROR"
@@ -173,7 +186,8 @@ def show(model_path: str, fd: int) -> int:
         return 1
     gui = [thread for thread in threading.enumerate() if thread not in before]
     sock.send(READY)
-    size, served = data.qpos.nbytes, True
+    nq, nmocap = model.nq, model.nmocap
+    size, served = len(positions(data)), True
     with handle:
         while served and handle.is_running():
             frame = None
@@ -186,7 +200,10 @@ def show(model_path: str, fd: int) -> int:
             except OSError:
                 served = False
             if frame is not None and len(frame) == size:
-                data.qpos[:] = np.frombuffer(frame)
+                values = np.frombuffer(frame)
+                data.qpos[:] = values[:nq]
+                data.mocap_pos[:] = values[nq:nq + 3 * nmocap].reshape(nmocap, 3)
+                data.mocap_quat[:] = values[nq + 3 * nmocap:].reshape(nmocap, 4)
                 mujoco.mj_forward(model, data)
                 handle.sync()
             time.sleep(FRAME_PERIOD)
