@@ -62,7 +62,8 @@ class ArmOps(DeskOps, FaultOps):
                  worker: Jobs, lock: threading.Lock, description: ArmDescription,
                  q0, clock: str, client_connected: Callable[[], bool], arm: str = "fr3",
                  arm_index: int = 0, faults=None, taps=None, recordings=None,
-                 desk_boot: str = "ready", desk_effects=None) -> None:
+                 desk_boot: str = "ready", desk_effects=None,
+                 tool_client_connected: Callable[[], bool] = lambda: False) -> None:
         self.core, self.tool, self.driver = core, tool, driver
         # The arm's Desk (operations/arm_desk.py) holds the arm while its brakes are locked or it
         # is not in Execution (--desk-boot locked: from the start, assembly.py holds it);
@@ -78,6 +79,7 @@ class ArmOps(DeskOps, FaultOps):
         self.q0 = np.array(q0, dtype=float)
         self.clock = clock
         self.client_connected = client_connected
+        self.tool_client_connected = tool_client_connected  # its Hand's or vacuum gripper's
         # the worker's physics: one backend per arm; the arms come first among the robots
         self.arm = arm
         self.arm_index = self.robot_index = arm_index
@@ -120,6 +122,7 @@ class ArmOps(DeskOps, FaultOps):
         return {"ready": True, "arm": self.arm, "robot": self.description.name,
                 "clock": self.clock, "cycle": core.message_id,
                 "client_connected": self.client_connected(),
+                "tool_client_connected": self.tool_client_connected(),
                 "robot_mode": mode_name(core.robot_mode)}
 
     async def state(self) -> dict:

@@ -89,7 +89,9 @@ class RobotServer:
                 clock=config.clock.value, client_connected=connected, arm=self.name,
                 arm_index=self.index, faults=self.faults, taps=self.taps,
                 recordings=self.recordings, desk_boot=config.desk_boot,
-                desk_effects=self.desk_effects and self.desk_effects.apply)
+                desk_effects=self.desk_effects and self.desk_effects.apply,
+                tool_client_connected=lambda: (self.tool_endpoint is not None
+                                               and self.tool_endpoint.active is not None))
         from franka_sim.operations.base import BaseOps
 
         return BaseOps(self.core, self.lock, config.clock.value, connected, self.worker,

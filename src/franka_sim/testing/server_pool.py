@@ -169,13 +169,17 @@ def _reset(server: ServerProcess, control) -> bool:
 
     if server.proc.poll() is not None:
         return False
+    def connected() -> bool:  # (an FCI client, or a Hand's: the next test's would be refused)
+        health = control.health()
+        return health["client_connected"] or health.get("tool_client_connected", False)
+
     try:
-        if control.health()["client_connected"]:
+        if connected():
             # A finished test's client held only by a reference cycle closes on a collection
             # (~12 ms inside pytest, so only when a client is still there).
             gc.collect()
         end = time.monotonic() + _CLIENT_GONE_TIMEOUT
-        while control.health()["client_connected"]:
+        while connected():
             if time.monotonic() > end:
                 return False  # still connected (e.g. kept alive by a failed test's traceback)
             time.sleep(0.01)

@@ -75,6 +75,19 @@ def test_after_a_motion_left_running_the_world_is_back(franka_sim):
     assert np.allclose(state.q, READY_POSE, atol=1e-3)
 
 
+def test_leaves_a_hand_client_connected(franka_sim):
+    record(franka_sim, "default")
+    gripper = pylibfranka.Gripper(franka_sim.host)
+    _HELD.append(gripper)  # its connection still open when the next test starts
+    assert franka_sim.control.health()["tool_client_connected"]
+
+
+def test_after_a_hand_client_was_left_the_hand_serves_this_one(franka_sim):
+    record(franka_sim, "default")
+    gripper = pylibfranka.Gripper(franka_sim.host)  # (refused were the last one still there)
+    assert gripper.homing()
+
+
 @pytest.mark.parametrize("k", range(2))
 @pytest.mark.franka_sim(gripper=False, scene="dual_arm_table")  # (a packaged scene's name)
 def test_without_a_hand_port_1338_refuses(franka_sim, k):
