@@ -99,6 +99,10 @@ def pytest_configure(config: pytest.Config) -> None:
         "scene=None, clock=None, desk_boot='ready', robot='fr3'): the franka_sim fixture of this test is a simulator of this "
         "configuration (started on demand, shared by the tests that ask for the same)")
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
+    directory = config.getoption("--franka-sim-record-dir")
+    if directory is not None and Path(config.invocation_params.dir, directory).exists() and \
+            not Path(config.invocation_params.dir, directory).is_dir():
+        raise pytest.UsageError(f"--franka-sim-record-dir {directory}: not a directory")
 
 
 @pytest.fixture(scope="session")
@@ -211,10 +215,12 @@ def _recording_path(item: pytest.Item) -> Path | None:
 
 def recording_name(nodeid: str) -> str:
     """A file name for a test id: path separators and `::` as `__`, anything else but
-    letters, digits and `._=-` as `_`; a long id cut short, with a digest of the whole."""
-    name = re.sub(r"[^A-Za-z0-9._=-]", "_", nodeid.replace("::", "__").replace("/", "__"))
-    if len(name) > 150:
-        name = f"{name[:130]}-{hashlib.sha256(nodeid.encode()).hexdigest()[:16]}"
+    letters, digits and `._=-` as `_`; where that replaced a character (`[a:b]` and `[a;b]`
+    would share a name) or the id is long (cut short), a digest of the whole id follows."""
+    plain = nodeid.replace("::", "__").replace("/", "__")
+    name = re.sub(r"[^A-Za-z0-9._=-]", "_", plain)
+    if name != plain or len(name) > 150:
+        name = f"{name[:130]}-{hashlib.sha256(nodeid.encode()).hexdigest()[:8]}"
     return f"{name}.mcap"
 
 

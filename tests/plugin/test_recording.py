@@ -80,9 +80,26 @@ def test_all_keeps_every_test_s_recording_and_none_records_none(tmp_path):
 
 @pytest.mark.parametrize("nodeid, name", [
     ("tests/test_a.py::test_b", "tests__test_a.py__test_b.mcap"),
-    ("t.py::C::test[1-x y/z]", "t.py__C__test_1-x_y__z_.mcap"),
+    ("t.py::C::test[1-x y/z]", "t.py__C__test_1-x_y__z_-d151c072.mcap"),
 ])
 def test_a_recording_is_named_after_its_test(nodeid, name):
     assert recording_name(nodeid) == name
     long = recording_name("t.py::test[" + "x" * 300 + "]")
     assert len(long) < 160 and long != recording_name("t.py::test[" + "x" * 299 + "]")
+    # ids the replacement alone would give one name keep one recording each
+    assert recording_name("t.py::test[a:b]") != recording_name("t.py::test[a;b]")
+
+
+def test_a_recording_directory_that_is_a_file_is_one_usage_error(tmp_path):
+    project = tmp_path / "project"
+    shutil.copytree(PROJECT, project)
+    (project / "runs").write_text("not a directory")
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q",
+         "--franka-sim-record-dir", "runs"], cwd=project, capture_output=True, text=True,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}, timeout=600)
+    assert done.returncode == 4  # pytest's usage error: no test ran
+    assert "--franka-sim-record-dir runs: not a directory" in done.stderr
+    assert "Traceback" not in done.stdout + done.stderr
