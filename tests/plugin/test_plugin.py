@@ -7,9 +7,11 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
+import time
 import tomllib
 from collections import defaultdict
 from importlib.metadata import entry_points
@@ -124,3 +126,42 @@ def test_every_setting_is_passed_as_an_explicit_flag():
     assert SimSettings(robot="fer").flags()[2:4] == ["--robot", "fer"]
     assert SimSettings(desk_boot="locked").flags()[-4:] == [
         "--desk-boot", "locked", "--desk-port", str(DESK_PORT)]
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
+def test_a_test_run_killed_outright_leaves_no_server(tmp_path, how):
+    """No hook of pytest's runs then: the servers end with the process that started them."""
+    project = tmp_path / "killed"
+    project.mkdir()
+    seen = tmp_path / "host.txt"
+    (project / "test_waits.py").write_text(
+        "import os, time\n"
+        "def test_waits(franka_sim):\n"
+        f"    open({str(seen)!r}, 'w').write(franka_sim.host)\n"
+        "    time.sleep(600)\n")
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    run = subprocess.Popen([sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider",
+                            "-q", "--franka-sim-record", "none"], cwd=project,
+                           env={k: v for k, v in os.environ.items()
+                                if not k.startswith("PYTEST_")},
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not (seen.exists() and seen.read_text()):
+            assert run.poll() is None and time.monotonic() < deadline, "the test never ran"
+            time.sleep(0.1)
+        host = seen.read_text()
+        socket.create_connection((host, 1337), timeout=5).close()  # its server serves
+        run.send_signal(how)
+        run.wait(30)
+        deadline = time.monotonic() + 30
+        while True:  # (SIGTERM's stop takes the server a moment)
+            try:
+                socket.create_connection((host, 1337), timeout=2).close()
+            except ConnectionRefusedError:
+                break
+            assert time.monotonic() < deadline, "the server outlived its test run"
+            time.sleep(0.1)
+    finally:
+        run.kill()

@@ -125,7 +125,9 @@ class ServerPool:
         for _ in range(_ADDRESS_ATTEMPTS):
             host = worker_address(self.worker, self.pid, self._started)
             self._started += 1
-            server = ServerProcess(host, *settings.flags(), env=unset_settings(os.environ))
+            # (spawned from pytest's main thread, whose end the death signal follows)
+            server = ServerProcess(host, *settings.flags(), env=unset_settings(os.environ),
+                                   die_with_parent=True)
             try:
                 server.wait_ready(_START_TIMEOUT)
             except RuntimeError:

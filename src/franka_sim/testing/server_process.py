@@ -38,6 +38,23 @@ def _normal_scheduling() -> None:
         pass
 
 
+def _dying_with(parent: int):
+    """In the child, before exec: ordinary scheduling (above), and SIGTERM should `parent` die
+    (a test run killed outright, SIGKILL or SIGTERM, leaves no server behind; Linux's
+    PR_SET_PDEATHSIG, kept across exec)."""
+    def prepare() -> None:
+        _normal_scheduling()
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM, 0, 0, 0)  # SET_PDEATHSIG
+        except (OSError, AttributeError):  # not Linux
+            return
+        if os.getppid() != parent:  # (it died before the prctl: nobody would signal)
+            os._exit(1)
+    return prepare
+
+
 class ServerProcess:
     """`python -m franka_sim serve --host H *args` (or another `command` that logs `ready`,
     "serving on", to stderr, such as a benchmark's reference server or another simulator); a
@@ -45,7 +62,7 @@ class ServerProcess:
 
     def __init__(self, host: str, *args: str, env: dict | None = None,
                  command: list[str] | None = None, ready: str = "serving on",
-                 cwd: str | os.PathLike | None = None) -> None:
+                 cwd: str | os.PathLike | None = None, die_with_parent: bool = False) -> None:
         self.host, self.ready = host, ready
         self.lines: list[str] = []
         self.serving_at: float | None = None  # perf_counter() when "serving on" was read
@@ -55,7 +72,8 @@ class ServerProcess:
             command or [sys.executable, "-P", "-m", "franka_sim", "serve", "--host", host, *args],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
             env={k: v for k, v in {**os.environ, **(env or {})}.items() if v is not None},
-            preexec_fn=_normal_scheduling, cwd=cwd,
+            preexec_fn=_dying_with(os.getpid()) if die_with_parent else _normal_scheduling,
+            cwd=cwd,
         )
         self.pid = self.proc.pid
         self._fd = self.proc.stderr.fileno()
