@@ -207,10 +207,6 @@ def serve(
     if log_level.lower() not in ("debug", "info", "warning", "error"):
         raise typer.BadParameter(f"{log_level!r}: not one of debug, info, warning, error",
                                  param_hint="--log-level")
-    if desk_boot == "locked" and not desk_port:
-        # Only the Desk activates the FCI: locked without it, no client could ever connect.
-        raise typer.BadParameter("a robot booted locked is brought up through its Desk: give "
-                                 "--desk-port too (the robot's is 443)", param_hint="--desk-boot")
     try:
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:

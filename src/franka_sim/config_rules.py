@@ -34,6 +34,7 @@ def checked(config: Config) -> Config:
         raise ConfigError("--control-port", (
             f"{config.control_port} is the FCI's, the Hand's or the vacuum gripper's port "
             f"({RESERVED_PORTS.start}-{RESERVED_PORTS.stop - 1}); choose another (default 1340)"))
+    _kinds(config)
     scale = config.joint_discontinuity_scale  # (typer's minimum lets a NaN through)
     if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 1e-6):
         raise ConfigError("--joint-discontinuity-scale", f"{scale!r} is not a finite scale "
@@ -109,9 +110,34 @@ def _physics(config: Config) -> None:
                               "(they draw and record the MuJoCo world)")
 
 
+def _kinds(config: Config) -> None:
+    """What the CLI's parsing guarantees, for an embedder's Config too: a switch is a bool (a
+    string "no" is true), a port an int in range, the seed a non-negative int, an arm's base
+    three or four numbers."""
+    for name in ("enforce_comm_constraints", "enforce_motion_limits", "strict_versions"):
+        if not isinstance(getattr(config, name), bool):
+            raise ConfigError(f"--{name.replace('_', '-')}",
+                              f"{getattr(config, name)!r} is not True or False")
+    for name in ("control_port", "desk_port", "web_port"):
+        port = getattr(config, name)
+        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+            raise ConfigError(f"--{name.replace('_', '-')}", f"{port!r} is not a TCP port "
+                              "(0-65535)")
+    if isinstance(config.seed, bool) or not isinstance(config.seed, int) or config.seed < 0:
+        raise ConfigError("--seed", f"{config.seed!r} is not a non-negative integer")
+    for spec in config.arms:
+        if spec.base is not None and len(spec.base) not in (3, 4):
+            raise ConfigError("--arm", f"arm {spec.name}: its base {spec.base!r} is x, y, z "
+                              "and an optional yaw in degrees")
+
+
 def _desk(config: Config) -> None:
     if config.desk_boot not in DESK_BOOTS:
         raise ConfigError("--desk-boot", f"{config.desk_boot!r}: one of {', '.join(DESK_BOOTS)}")
+    if config.desk_boot == "locked" and not config.desk_port:
+        # Only the Desk activates the FCI: locked without it, no client could ever connect.
+        raise ConfigError("--desk-boot", "a robot booted locked is brought up through its "
+                          "Desk: give --desk-port too (the robot's is 443)")
     port = config.desk_port
     if not 0 <= port <= 65535:
         raise ConfigError("--desk-port", f"{port} is not a TCP port (0: no Desk)")

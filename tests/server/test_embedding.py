@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import re
 import subprocess
 import sys
 import textwrap
@@ -10,6 +11,7 @@ import textwrap
 import pytest
 
 from franka_sim import FrankaSim
+from franka_sim.config import ArmSpec
 from franka_sim.config_rules import ConfigError
 from franka_sim.testing import fresh_loopback_address
 
@@ -57,6 +59,18 @@ def test_the_clock_by_its_name_and_a_misspelt_setting():
             return (await sim.health())["clock"]
 
     assert asyncio.run(app()) == "lockstep"
+
+
+@pytest.mark.parametrize("settings, said", [
+    ({"enforce_motion_limits": "no"}, "'no' is not True or False"),  # (a string is true)
+    ({"control_port": -5}, "-5 is not a TCP port"),
+    ({"seed": -1}, "-1 is not a non-negative integer"),
+    ({"desk_boot": "locked"}, "brought up through its Desk: give --desk-port"),
+    ({"arms": (ArmSpec("left", "127.0.0.2", (0.0, 0.0)),)}, "its base (0.0, 0.0) is x, y, z"),
+])
+def test_settings_serve_refuses_are_refused_by_name_in_embedding_too(settings, said):
+    with pytest.raises(ConfigError, match=re.escape(said)):
+        FrankaSim(host=fresh_loopback_address(), **settings)
 
 
 def test_a_stopped_simulator_says_so_instead_of_waiting():
