@@ -186,7 +186,7 @@ def _absolute(path, base: Path) -> str | None:
         return None
     file = (Path(base) / Path(path)).resolve()
     bare = isinstance(path, str) and Path(path).name == path and not Path(path).suffix
-    return path if bare and not file.exists() else str(file)
+    return path if bare and not file.is_file() else str(file)  # (a folder is no scene)
 
 
 class _Recording:

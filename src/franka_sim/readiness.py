@@ -20,9 +20,9 @@ def health_problem(host: str, control_port: int = 1340, token: str | None = None
         health = Control(host, port=control_port, token=token, timeout=timeout).health()
     except Failed as exc:
         raise NeverReady(f"{where}: {exc.message}") from None
-    except Unauthorized as exc:
-        return (f"{where}: unauthorized ({exc.message}); pass the server's --control-token "
-                "as --token")
+    except Unauthorized as exc:  # (no wait will mend a wrong token: said at once)
+        raise NeverReady(f"{where}: unauthorized ({exc.message}); pass the server's "
+                         "--control-token as --token") from None
     except Unreachable as exc:
         said = exc.message.lower()
         if "refused" in said:

@@ -125,7 +125,7 @@ def _replay_problems(path) -> list[str]:
     done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
                           capture_output=True, text=True, timeout=600)
     line = done.stdout.strip()
-    found = re.fullmatch(r"identical \((\d+) cycles(, \d+ tool states)?\)", line)
+    found = re.fullmatch(r"identical \((\d+) cycles?(, \d+ tool states?)?\)", line)
     if done.returncode != 0 or not found or int(found.group(1)) == 0 or done.stderr:
         return [f"replay: exit {done.returncode}: {(line + done.stderr).strip()[-2000:]}"]
     return []

@@ -165,3 +165,12 @@ def test_a_test_run_killed_outright_leaves_no_server(tmp_path, how):
             time.sleep(0.1)
     finally:
         run.kill()
+
+
+def test_a_packaged_scene_name_beside_a_folder_of_that_name_stays_the_packaged_scene(tmp_path):
+    from franka_sim.pytest_plugin import _absolute
+
+    (tmp_path / "default").mkdir()  # (a folder is no scene file)
+    assert _absolute("default", tmp_path) == "default"
+    (tmp_path / "mine.xml").write_text("<mujoco/>")
+    assert _absolute("mine.xml", tmp_path) == str(tmp_path / "mine.xml")

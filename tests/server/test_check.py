@@ -63,6 +63,11 @@ def test_a_wrong_token_is_unauthorized():
         code, stderr = _check(sim.host, "--token", "guess")
         assert code == 1 and "unauthorized" in _one_line(stderr).lower()
         assert _check(sim.host, "--token", "s3cret") == (0, "")
+        # no wait mends a wrong token: said at once, not after --wait's time
+        started = time.monotonic()
+        code, stderr = _check(sim.host, "--token", "guess", "--wait", "60")
+        assert code == 1 and "unauthorized" in _one_line(stderr).lower()
+        assert time.monotonic() - started < 30
 
 
 def test_wait_polls_until_a_late_server_is_ready():

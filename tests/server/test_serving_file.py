@@ -10,9 +10,10 @@ import socket
 import stat
 import subprocess
 import sys
+import time
 from pathlib import Path
 
-from franka_sim.server.serving_file import Served, Serving, write
+from franka_sim.server.serving_file import Served, Serving, read, write
 from franka_sim.testing import ServerProcess, fresh_loopback_address, running_sim
 
 
@@ -96,3 +97,19 @@ def test_an_unwritable_serving_file_leaves_the_server_serving(tmp_path):
     with running_sim("--clock", "lockstep", env={"FRANKA_SIM_SERVING_FILE": str(path)}) as sim:
         assert sim.wait_for_log(f"cannot write FRANKA_SIM_SERVING_FILE={path}")
         assert _check(sim.host, env={}) == (0, "")
+
+
+def test_a_server_stopping_leaves_another_servers_file(tmp_path):
+    """Two servers given one path: the file is the last one's, and the first, stopping, does
+    not take it away."""
+    path = tmp_path / "serving.json"
+    env = {"FRANKA_SIM_SERVING_FILE": str(path)}
+    with running_sim("--clock", "lockstep", env=env) as first:
+        with running_sim("--clock", "lockstep", env=env) as second:
+            deadline = time.monotonic() + 30
+            while read(path).pid != second.pid:
+                assert time.monotonic() < deadline, "the second server's file never came"
+                time.sleep(0.05)
+            first.stop()
+            assert read(path).pid == second.pid
+            assert _check(env=env) == (0, "")

@@ -3,6 +3,7 @@ cycle whose states were recorded (once, however many robots), and every tool sta
 
 from __future__ import annotations
 
+from franka_sim.playback.replay import Outcome
 from franka_sim.recording.channels import TOOL_STATE_KEYS
 from franka_sim.recording.reader import Recording
 
@@ -14,4 +15,4 @@ def identical_line(recording: Recording, until: int | None = None) -> str:
              if e.key in TOOL_STATE_KEYS.values()]
     if until is not None:
         cycles, tools = {n for n in cycles if n <= until}, [n for n in tools if n <= until]
-    return f"identical ({len(cycles)} cycles" + (f", {len(tools)} tool states)" if tools else ")")
+    return Outcome(cycles=len(cycles), tool_states=len(tools)).line()  # (replay's own words)

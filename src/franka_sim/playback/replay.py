@@ -56,10 +56,14 @@ class Outcome:
 
     def line(self) -> str:
         if self.identical:
-            tools = f", {self.tool_states} tool states" if self.tool_states else ""
-            return f"identical ({self.cycles} cycles{tools})"
+            tools = f", {_counted(self.tool_states, 'tool state')}" if self.tool_states else ""
+            return f"identical ({_counted(self.cycles, 'cycle')}{tools})"
         return f"diverged at cycle {self.divergence}: {', '.join(self.fields)}" + (
             f" ({self.note})" if self.note else "")
+
+
+def _counted(n: int, what: str) -> str:
+    return f"{n} {what}" + ("" if n == 1 else "s")
 
 
 def differing_fields(recorded: bytes, replayed: bytes | None) -> list[str]:

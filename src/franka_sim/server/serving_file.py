@@ -49,7 +49,16 @@ class Announcement:
         self.path = path
 
     def withdraw(self) -> None:
+        """Remove the file, if it is still this process's (another server given the same
+        path since wrote its own: that one stays)."""
         if self.path is None:
+            return
+        try:
+            if read(self.path).pid != os.getpid():
+                self.path = None
+                return
+        except Unreadable:
+            self.path = None
             return
         try:
             self.path.unlink()
