@@ -46,6 +46,7 @@ def _root(
 
 @app.command()
 def serve(
+    ctx: typer.Context,
     host: str = typer.Option(
         "127.0.0.1", envvar="FRANKA_SIM_HOST",
         help="Address to serve the robot on (TCP 1337 + UDP). Use one loopback address "
@@ -211,6 +212,11 @@ def serve(
         arms = tuple(parse_arm(text) for text in arm)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--arm") from None
+    # A --host beside --arm serves nothing: said, rather than a robot silently missing from
+    # it. (From FRANKA_SIM_HOST it is the image's or the shell's default: taken silently.)
+    if arms and getattr(ctx.get_parameter_source("host"), "name", "") == "COMMANDLINE":
+        typer.echo(f"franka-sim serve: --host {host} serves nothing beside --arm (each arm "
+                   "names its own address)", err=True)
     if viewer:
         from franka_sim.server.viewer import NoDisplay, check_display
 

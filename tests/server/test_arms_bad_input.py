@@ -85,3 +85,16 @@ def test_arms_placed_into_each_other():
     left, right = fresh_loopback_address(), fresh_loopback_address()
     err = said(serve("--arm", f"left={left}@0,0.05,0", "--arm", f"right={right}@0,-0.05,0"))
     assert "arm left: placed into arm right" in err
+
+
+def test_a_host_given_beside_arms_is_said_to_serve_nothing():
+    from franka_sim.testing import ServerProcess
+
+    host, arm = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(host, "--arm", f"left={arm}").wait_ready()  # (it passes --host)
+    try:
+        assert server.log_matching(f"--host {host} serves nothing beside --arm")
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection((host, 1337), timeout=5).close()
+    finally:
+        server.stop()
