@@ -47,12 +47,8 @@ def test_plot_says_there_is_no_arm_state(hand_only, tmp_path):
 
 def test_the_viewers_timeline_spans_the_worlds_poses(hand_only):
     pytest.importorskip("viser", reason="the web view needs franka-sim[web] (viser)")
-    from franka_sim.assembly import WorldParts
-    from franka_sim.recording.metadata import replay_config
-    from franka_sim.web.recording_view import RecordingTimeline
+    from franka_sim.web.recording_view import timeline_of
 
-    recording = open_recording(hand_only)
-    physics = WorldParts(replay_config(recording.metadata, str(hand_only.parent))).make_physics()
-    timeline = RecordingTimeline(recording, physics)
+    timeline = timeline_of(open_recording(hand_only))
     assert timeline.duration > 0.5  # the homing and the move, in robot time
     assert timeline.at(timeline.duration).states == (None,)  # no arm state to show

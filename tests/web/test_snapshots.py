@@ -143,19 +143,13 @@ def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
 
 
 def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_scrubbing():
-    import tempfile
-
-    from franka_sim.assembly import WorldParts
-    from franka_sim.recording.metadata import replay_config
     from franka_sim.recording.reader import open_recording
     from franka_sim.web.arm_panel import ArmPanel
-    from franka_sim.web.recording_view import RecordingTimeline
+    from franka_sim.web.recording_view import timeline_of
 
     recording = open_recording(Path(__file__).resolve().parents[1] / "data" / "older_libfranka"
                                / "0.13.6" / "generate_joint_position_motion.mcap")
-    with tempfile.TemporaryDirectory() as workdir:
-        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
-    timeline = RecordingTimeline(recording, physics)
+    timeline = timeline_of(recording)
     ids = timeline.ids[0]
     modes = recording.states()["robot_mode"]
     changed = [0, *np.flatnonzero(modes[1:] != modes[:-1]) + 1]
@@ -177,20 +171,14 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
 
 
 def test_a_recordings_last_reflex_is_the_one_before_the_moment_shown(tmp_path):
-    import tempfile
-
-    from franka_sim.assembly import WorldParts
-    from franka_sim.recording.metadata import replay_config
     from franka_sim.recording.reader import open_recording
     from franka_sim.web.arm_panel import ArmPanel
-    from franka_sim.web.recording_view import RecordingTimeline
+    from franka_sim.web.recording_view import timeline_of
     from recording.conftest import record_session  # (a motion, then a reflex, then recovery)
 
     record_session(tmp_path / "run.mcap", "lockstep")
     recording = open_recording(tmp_path / "run.mcap")
-    with tempfile.TemporaryDirectory() as workdir:
-        physics = WorldParts(replay_config(recording.metadata, workdir)).make_physics()
-    timeline = RecordingTimeline(recording, physics)
+    timeline = timeline_of(recording)
     panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
     for seconds in (timeline.duration, 0.0):  # the end, then scrubbed back to the start
         panel.show_recorded(timeline.at(seconds), timeline.rows(0, seconds),
@@ -198,3 +186,40 @@ def test_a_recordings_last_reflex_is_the_one_before_the_moment_shown(tmp_path):
         if seconds:
             assert "discontinuity" in panel.reflex.value
     assert panel.reflex.value == "none" and panel.mode.value == "Idle"
+
+
+def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
+    """The base is a mocap body, not in the recorded qpos: `view` puts it where its recorded
+    states (its odometry) had it, and its drive is on the timeline."""
+    import json
+    import math
+    import subprocess
+    import sys
+
+    from franka_sim.physics.mobile_base import BASE_BODY
+    from franka_sim.recording.reader import open_recording
+    from franka_sim.testing import ServerProcess, fresh_loopback_address
+    from franka_sim.web.recording_view import timeline_of
+
+    base, left, right = (fresh_loopback_address() for _ in range(3))
+    path = tmp_path / "duo.mcap"
+    server = ServerProcess(left, "--scene", "mobile_duo", "--arm", f"left={left}", "--arm",
+                           f"right={right}", "--mobile-base", base, "--clock", "lockstep",
+                           "--record", str(path)).wait_ready()
+    try:
+        done = subprocess.run([sys.executable, str(Path(__file__).resolve().parents[1]
+                                                   / "mobile" / "base_program.py"),
+                               base, "0.2", "0.0", "0.3", "1.5"],
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        after = json.loads(done.stdout.strip().splitlines()[-1])["after"]  # (x, y, yaw)
+    finally:
+        server.stop()
+    timeline = timeline_of(open_recording(path))
+    m = int(timeline.model.body_mocapid[timeline.model.body(BASE_BODY).id])
+    start, end = timeline.at(0.0), timeline.at(timeline.duration)
+    assert timeline.duration > 1.4  # the arms sent nothing: the span is the base's drive
+    np.testing.assert_allclose(start.mocap_pos[m][:2], [0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(end.mocap_pos[m][:2], after[:2], atol=1e-4)
+    yaw = 2 * math.atan2(end.mocap_quat[m][3], end.mocap_quat[m][0])
+    assert yaw == pytest.approx(after[2], abs=1e-4) and abs(yaw) > 0.1

@@ -13,8 +13,10 @@ import io
 import tempfile
 import threading
 
+import mujoco
 import numpy as np
 
+from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.web.arm_panel import (EVENTS, WINDOW, ArmPanel, event_line, row_of,
                                       status_of)
 from franka_sim.web.live import TITLE, quiet_libraries, stop_quietly
@@ -41,8 +43,10 @@ class RecordingTimeline:
         poses = [(e.json()["cycle"], np.array(e.json()["qpos"])) for e in recording.of("bodies")]
         self._poses = [(c, q) for c, q in poses if len(q) == self.model.nq]
         self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
-        # Its span: the arms' states, else (a run of the Hand alone) the world's poses.
-        spans = [ids for ids in self.ids if len(ids)] or (
+        self._base = _BasePoses(recording, self.model, len(self.arms))
+        # Its span: the arms' and the base's states, else (a run of the Hand alone) the world's
+        # poses.
+        spans = [ids for ids in (*self.ids, self._base.ids) if len(ids)] or (
             [self._pose_cycles] if len(self._pose_cycles) else [])
         if not spans:
             from franka_sim.recording.metadata import Incompatible
@@ -106,21 +110,55 @@ class RecordingTimeline:
             i = min(int(ids.searchsorted(cycle)), len(ids) - 1)
             qpos[arm.qs] = states["q"][i]
             sent.append(states[i].tobytes())
-        return Snapshot(seconds, tuple(sent), qpos, *self._mocap)
+        return Snapshot(seconds, tuple(sent), qpos, *self._base.at(cycle, *self._mocap))
+
+
+class _BasePoses:
+    """The mobile base's pose as recorded: it is a mocap body, not in the world's qpos, and
+    its own states (its odometry in O_T_EE, from where it started: the world origin) say
+    where it stood. None recorded (no base, or no client of it): the start's."""
+
+    def __init__(self, recording, model, arms: int) -> None:
+        from franka_sim.physics.mobile_base import BASE_BODY
+
+        names = recording.robots[arms:]
+        states = recording.states(names[0]) if names else np.zeros(0, STATE_DTYPE)
+        self.ids = states["message_id"].astype(np.int64)
+        T = states["O_T_EE"].reshape(-1, 4, 4).transpose(0, 2, 1)  # (column-major on the wire)
+        self._x, self._y = T[:, 0, 3], T[:, 1, 3]
+        self._yaw = np.arctan2(T[:, 1, 0], T[:, 0, 0])
+        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, BASE_BODY)
+        self._mocap = int(model.body_mocapid[body]) if body >= 0 else -1
+
+    def at(self, cycle: int, mocap_pos, mocap_quat) -> tuple:
+        """(mocap_pos, mocap_quat) at `cycle`: copies of the start's, the base put where its
+        last state by then had it."""
+        pos, quat = mocap_pos.copy(), mocap_quat.copy()
+        i = int(self.ids.searchsorted(cycle, side="right")) - 1
+        if i >= 0 and self._mocap >= 0:
+            m, yaw = self._mocap, float(self._yaw[i])
+            pos[m, 0], pos[m, 1] = self._x[i], self._y[i]
+            quat[m] = (np.cos(0.5 * yaw), 0.0, 0.0, np.sin(0.5 * yaw))
+        return pos, quat
+
+
+def timeline_of(recording, meshes=None) -> RecordingTimeline:
+    """The recording's timeline over the world it was made in (`meshes`: how it is drawn)."""
+    from franka_sim.assembly import WorldParts
+    from franka_sim.recording.metadata import replay_config
+
+    with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
+        config = replay_config(recording.metadata, workdir)
+        config.meshes = meshes
+        physics = WorldParts(config).make_physics()
+    return RecordingTimeline(recording, physics)
 
 
 def serve_recording(recording, host: str, port: int, meshes=None) -> None:
     """Serve the view of `recording` until Ctrl-C (OSError: the port cannot be had)."""
     import viser
 
-    from franka_sim.assembly import WorldParts
-    from franka_sim.recording.metadata import replay_config
-
-    with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
-        config = replay_config(recording.metadata, workdir)
-        config.meshes = meshes  # (--meshes: how it is drawn)
-        physics = WorldParts(config).make_physics()
-    timeline = RecordingTimeline(recording, physics)
+    timeline = timeline_of(recording, meshes)
     _check_address(host, port)
     quiet_libraries()
     with contextlib.redirect_stdout(io.StringIO()):
