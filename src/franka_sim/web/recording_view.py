@@ -12,6 +12,7 @@ import contextlib
 import io
 import tempfile
 import threading
+import time
 
 import mujoco
 import numpy as np
@@ -206,10 +207,13 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
     print(f"franka-sim: {recording.path} on http://{host}:{server.get_port()} (Ctrl-C ends)",
           flush=True)
     stop = threading.Event()
+    last = time.monotonic()
     try:
         while not stop.wait(FRAME_PERIOD):
-            if playing.is_set():
-                t = slider.value + FRAME_PERIOD * float(speed.value)
+            now = time.monotonic()
+            elapsed, last = now - last, now
+            if playing.is_set():  # (by the time that passed: a slow frame does not slow it)
+                t = slider.value + elapsed * float(speed.value)
                 if t >= timeline.duration:
                     t = timeline.duration
                     playing.clear()
