@@ -264,6 +264,12 @@ async def _serve(config: Config, viewer: bool = False) -> None:
     # scans, so that no full collection (~13 ms here) ever stalls the 1 kHz stream.
     gc.collect()
     gc.freeze()
+    # From here a signal is a clean stop (the recording finished), even one that comes while
+    # the endpoints open, right after "serving on".
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
     try:
         await sim.start()
     except OSError as exc:  # an address in use or that cannot be served: nothing is served
@@ -272,24 +278,36 @@ async def _serve(config: Config, viewer: bool = False) -> None:
     from franka_sim.server.status_line import show_status
 
     status = asyncio.create_task(show_status(sim))
-    live = await _open_viewer(sim) if viewer else None
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
     stopped, failed = asyncio.create_task(stop.wait()), asyncio.create_task(sim.failed.wait())
     from franka_sim.server.serving_file import announce
 
-    announced = announce(sim)  # FRANKA_SIM_SERVING_FILE: what `franka-sim check` asks
+    # The robot serves while the viewer's window opens (software GL may take seconds): a stop
+    # meanwhile is taken at once, and a window that opens after it is closed.
+    opening = asyncio.create_task(_open_viewer(sim)) if viewer else None
+    live = announced = cannot_view = None
     try:
-        await asyncio.wait((stopped, failed), return_when=asyncio.FIRST_COMPLETED)
+        if opening is not None:
+            await asyncio.wait((opening, stopped, failed), return_when=asyncio.FIRST_COMPLETED)
+            if opening.done():
+                live = opening.result()  # (RuntimeError: it cannot open)
+        if not (stopped.done() or failed.done()):
+            announced = announce(sim)  # FRANKA_SIM_SERVING_FILE: what `franka-sim check` asks
+            await asyncio.wait((stopped, failed), return_when=asyncio.FIRST_COMPLETED)
+    except RuntimeError as exc:
+        cannot_view = str(exc)
     finally:
-        announced.withdraw()
+        if announced is not None:
+            announced.withdraw()
         stopped.cancel()
         failed.cancel()
         status.cancel()
+        if opening is not None and not opening.done():
+            opening.add_done_callback(_close_late_window)
         if live is not None:
             live.stop()
+        if cannot_view is not None:
+            await sim.stop()
+            raise _Failed(cannot_view)
         if sim.failure is not None:
             # A simulator that stopped simulating must not look alive to a supervisor (Docker's
             # restart policy, Kubernetes): exit non-zero now, however the rest shuts down.
@@ -319,12 +337,14 @@ async def _open_viewer(sim):
 
     world = await sim.worker.call(lambda physics: physics.world)
     viewer = LiveViewer(world.model, world.data)
-    try:
-        await asyncio.to_thread(viewer.start)  # (the robot serves while the window opens)
-    except RuntimeError as exc:
-        await sim.stop()
-        raise _Failed(str(exc)) from None
+    await asyncio.to_thread(viewer.start)  # RuntimeError: it cannot open (the caller says so)
     return viewer
+
+
+def _close_late_window(opening) -> None:
+    """The viewer's window opened after the server was told to stop: closed."""
+    if not opening.cancelled() and opening.exception() is None:
+        opening.result().stop()
 
 
 if __name__ == "__main__":

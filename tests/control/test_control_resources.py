@@ -38,10 +38,13 @@ def current_state(robot: pylibfranka.Robot, control: Control) -> pylibfranka.Rob
 def test_health_is_ready_and_says_what_the_robot_does(control, served):
     health = control.health()
     assert health == {"ready": True, "arm": "fr3", "robot": "fr3", "clock": "realtime",
-                      "cycle": health["cycle"], "client_connected": False, "robot_mode": "Idle"}
+                      "cycle": health["cycle"], "client_connected": False,
+                      "tool_client_connected": False, "robot_mode": "Idle"}
     robot = connect(served.host)
     assert control.health()["client_connected"] is True
-    del robot
+    gripper = pylibfranka.Gripper(served.host)
+    assert control.health()["tool_client_connected"] is True
+    del robot, gripper
 
 
 def test_state_is_the_ground_truth_a_client_reads(control, served):

@@ -108,3 +108,31 @@ def _still(display: str, server, timeout: float = 60.0):
             return shot
         assert time.monotonic() < deadline, "the screen does not settle"
         shot = again
+
+
+def test_a_stop_while_the_window_opens_stops_cleanly_and_keeps_the_recording(tmp_path):
+    """The robot serves while the viewer's window opens: a SIGTERM meanwhile is a clean stop
+    (exit 0, the recording whole), not a start cut short."""
+    path = tmp_path / "run.mcap"
+    with opengl_display() as display:
+        server = ServerProcess(fresh_loopback_address(), "--viewer", "--clock", "lockstep",
+                               "--record", str(path), env={"DISPLAY": display}).wait_ready()
+        server.stop()  # (at "serving on": the window is most likely still opening)
+    assert server.proc.returncode == 0, "\n".join(server.lines)
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert "truncated" not in done.stderr, done.stderr
+    assert not [pid for pid in _children_named("franka_sim.server.viewer")]
+
+
+def _children_named(text: str) -> list[int]:
+    """Processes whose command line holds `text` (a viewer left behind)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if text.encode() in (entry / "cmdline").read_bytes():
+                    found.append(int(entry.name))
+            except OSError:
+                pass
+    return found
