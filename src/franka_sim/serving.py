@@ -38,6 +38,7 @@ log = logging.getLogger("franka_sim")
 _TOKEN = "FRANKA_SIM_CONTROL_TOKEN"
 _DESK_USERS = "FRANKA_SIM_DESK_USERS"  # (their passwords too)
 SECRET_OPTIONS = ("--control-token", "--desk-user")  # whose values `ps` must not show
+_SERVING_FILE = "FRANKA_SIM_SERVING_FILE"  # server/serving_file.py's variable
 
 
 _hand_back: int | None = None  # the pipe to the serving process, in the CLI's child (launch)
@@ -279,7 +280,6 @@ async def _serve(config: Config, viewer: bool = False) -> None:
 
     status = asyncio.create_task(show_status(sim))
     stopped, failed = asyncio.create_task(stop.wait()), asyncio.create_task(sim.failed.wait())
-    from franka_sim.server.serving_file import announce
 
     # The robot serves while the viewer's window opens (software GL may take seconds): a stop
     # meanwhile is taken at once, and a window that opens after it is closed.
@@ -291,7 +291,10 @@ async def _serve(config: Config, viewer: bool = False) -> None:
             if opening.done():
                 live = opening.result()  # (RuntimeError: it cannot open)
         if not (stopped.done() or failed.done()):
-            announced = announce(sim)  # FRANKA_SIM_SERVING_FILE: what `franka-sim check` asks
+            if os.environ.get(_SERVING_FILE):  # (its module, tempfile's: only then)
+                from franka_sim.server.serving_file import announce
+
+                announced = announce(sim)  # what `franka-sim check` asks
             await asyncio.wait((stopped, failed), return_when=asyncio.FIRST_COMPLETED)
     except RuntimeError as exc:
         cannot_view = str(exc)
