@@ -8,8 +8,8 @@ started (its pid, its signals, its exit code), imports what serving needs meanwh
 serves them (franka_sim.serving). A server never holds typer's modules (serving.py says why).
 
 What the imports leave out (MuJoCo's renderer always, OpenSSL where no flag needs it:
-franka_sim.footprint) depends on the flags, so it is guessed from the command line; a guess the flags contradict costs one
-exec, not a wrong server. A command line holding a secret (the control API's token, the
+franka_sim.footprint) depends on the flags, so it is guessed from the command line; a guess
+the flags contradict costs one exec, not a wrong server. A command line holding a secret (the control API's token, the
 Desk's passwords) is not kept either: the server execs itself (same pid) with them in its
 environment, where `ps` does not show them.
 """

@@ -205,15 +205,14 @@ def check_world(arms: list[ArmPlacement], path: os.PathLike | None) -> None:
     except ValueError as exc:  # MuJoCo's parse and compile errors
         message = " ".join(str(exc).split())
         raise SceneError(f"cannot load the scene {path}: {message}") from None
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    for body in range(model.nbody):
-        if not (np.isfinite(data.xpos[body]).all() and np.isfinite(data.xquat[body]).all()):
+    for body in range(model.nbody):  # (the compiled figures: no data, no forward pass)
+        if not (np.isfinite(model.body_pos[body]).all()
+                and np.isfinite(model.body_quat[body]).all()):
             raise SceneError(f"cannot load the scene {path}: body {model.body(body).name!r} is "
                              "at a pose that is not finite (a NaN or an infinity in the MJCF?)")
-    for name, values in (("geom_size", model.geom_size), ("body_mass", model.body_mass),
-                         ("body_inertia", model.body_inertia)):
-        if not np.isfinite(values).all():
+    for name in ("geom_pos", "geom_quat", "geom_size", "site_pos", "body_mass",
+                 "body_inertia", "qpos0"):
+        if not np.isfinite(getattr(model, name)).all():
             raise SceneError(f"cannot load the scene {path}: a {name.replace('_', ' ')} that "
                              "is not finite (a NaN or an infinity in the MJCF?)")
 

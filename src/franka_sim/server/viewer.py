@@ -9,9 +9,10 @@ the mocap bodies' poses: the mobile base) over a socket pair (a torn copy only s
 frame; the cycle thread never waits for it, takes no lock for it and is never called back).
 The child recomputes the kinematics of its own MjData and draws, at a lower priority than the
 server (MuJoCo's viewer draws as fast as the display lets it: with software GL, most of a
-core, which a realtime cycle must not have to share evenly). A frame the child has not taken yet is dropped, never queued. Its window closed or its
-display gone, the child ends and the server says so on one line and serves on; the server
-gone, its socket closes and the child ends too.
+core, which a realtime cycle must not have to share evenly). A frame the child has not taken
+yet is dropped, never queued. Its window closed or its display gone, the child ends and the
+server says so on one line and serves on; the server gone, its socket closes and the child
+ends too.
 """
 
 from __future__ import annotations
@@ -67,20 +68,23 @@ class LiveViewer:
         fd, path = tempfile.mkstemp(prefix="franka-sim-viewer-", suffix=".mjb")
         os.close(fd)
         self._stderr = tempfile.TemporaryFile()
+        self._sock = ours  # (closed by _end_child, however the start ends)
         try:
             mujoco.mj_saveModel(self.model, path, None)
             self._child = subprocess.Popen(
-                [sys.executable, "-P", "-m", "franka_sim.server.viewer", path, str(theirs.fileno())],
-                pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
+                [sys.executable, "-P", "-m", "franka_sim.server.viewer", path,
+                 str(theirs.fileno())], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self._stderr)
-            theirs.close()
             ours.settimeout(timeout)
-            try:
-                said = ours.recv(4096)
-            except TimeoutError:
-                self._end_child()
-                raise RuntimeError(f"the viewer cannot open: no window within {timeout:.0f} s")
+            said = ours.recv(4096)
+        except TimeoutError:
+            self._end_child()
+            raise RuntimeError(f"the viewer cannot open: no window within {timeout:.0f} s")
+        except BaseException:
+            self._end_child()
+            raise
         finally:
+            theirs.close()
             os.unlink(path)
         if said != READY:
             reason = said[len(REFUSED):].decode(errors="replace") if said.startswith(REFUSED) \
@@ -88,7 +92,6 @@ class LiveViewer:
             self._end_child()
             raise RuntimeError(f"the viewer cannot open: {reason}")
         ours.setblocking(False)
-        self._sock = ours
         self._thread.start()
         log.info("the viewer shows the world")
 

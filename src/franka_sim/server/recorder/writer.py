@@ -4,8 +4,9 @@
 Chunked and zstd-compressed; every FLUSH_PERIOD the open chunk is closed and the file flushed,
 so a process that dies loses at most that much. The header is flushed at once: a target that
 takes no bytes (a full disk) is refused when the recording starts. Should a write fail later,
-the recording stops there (one log line; `failure` says why): the file keeps what reached it. The last cycle's stop writes the summary, which
-makes the file seekable (readers without it fall back to reading it through). Cycles repeated
+the recording stops there (one log line; `failure` says why): the file keeps what reached it.
+The last cycle's stop writes the summary, which makes the file seekable (readers without it
+fall back to reading it through). Cycles repeated
 one after another are written as one run (first, last), before whatever came after them.
 """
 
