@@ -153,6 +153,7 @@ class Cycle(Protocol):
     tool_busy: bool
     at_rest: bool
     holds_start: bool
+    starting: tuple[int, int | None] | None  # (robot, its client's reads at its last start)
     waits_for: frozenset[int]
 
     def receive(self, robot: int, command) -> bool:

@@ -72,6 +72,10 @@ class FciRobot:
         self._window_closed = False  # the open cycle's command window was closed early
         self._stray_commands = 0  # this client's: its first one is logged
         self._beyond = 0  # commands with values beyond COMMAND_RANGE
+        # How many states after its motion's first the client read before it answered one, at
+        # the robot's last start (None: none yet): a lockstep clock's guide to the next. Kept
+        # across connections: a test suite's clients, one per test, start alike.
+        self.start_reads: int | None = None
 
     # -- questions the server asks -----------------------------------------------------------
     @property
@@ -207,6 +211,9 @@ class FciRobot:
                             "(%d so far)", message_id, ", ".join(beyond),
                             COMMAND_RANGE, COMMAND_RANGE, self._beyond)
             command = clipped_command(command, COMMAND_RANGE)
+        if self.awaiting_first_command and motion.first_state is not None:
+            reads = message_id - motion.first_state  # (an id before the start's: unknown)
+            self.start_reads = reads if reads >= 0 else None
         on_time = self.window.take(message_id, command)
         if on_time and not self._window_closed:
             # The answer is in: the window closes now, so the next cycle's command is known

@@ -147,6 +147,20 @@ class WorldCycle:
                 return False
         return waiting
 
+    @property
+    def starting(self) -> tuple[int, int | None] | None:
+        """The one robot whose motion is starting (its first state out, or its client's first
+        command awaited) and how many states after the first its client read before it
+        answered one at its last start (robot/fci.py `start_reads`); None: none, or several."""
+        found = None
+        for i, part in enumerate(self.parts):
+            core = part.core
+            if core.first_motion_state or core.awaiting_first_command:
+                if found is not None:
+                    return None
+                found = (i, core.start_reads)
+        return found
+
     # -- the cycle -------------------------------------------------------------------------------
     def receive(self, robot: int, command) -> bool:
         """Robot `robot`'s decoded RobotCommand; True when it was the last answer the open state

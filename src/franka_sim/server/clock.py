@@ -65,8 +65,13 @@ HELD_AT_PERIOD = 2  # held states a motion's start sends START_SPACING apart bef
 # Lockstep: how far apart a motion's first state and its first held states go (wall time). The
 # client's handshake must read each alone, before the next arrives, or it reads one state fewer
 # and the run's message_ids shift by one: a period (1 ms) is too little for a client slowed by
-# a busy machine. Costs 60 ms of wall time per motion start, nothing in robot time.
+# a busy machine. Costs up to 40 ms of wall time per motion start, nothing in robot time.
 START_SPACING = 0.02
+# Lockstep, a client whose reads the server sees (server/read_probe.py) and whose last start
+# showed how many of the start's states it reads before it answers one: each of those goes
+# READ_MARGIN after the client read the one before (past the instant its read looks for a
+# newer one), and the state it answers waits for its answer (a lockstep window).
+READ_MARGIN = 0.002
 
 
 class ClockWatcher:
@@ -93,16 +98,21 @@ class ClockWatcher:
 class Clock:
     def __init__(self, cycle: Cycle, *, lockstep: bool, send: Callable[[tuple], float],
                  post: Callable[[int, object], None], has_client: Callable[[], bool],
-                 pacer: Pacer | None = None) -> None:
+                 pacer: Pacer | None = None,
+                 reads_seen: Callable[[int], bool] = lambda robot: False) -> None:
         self.cycle = cycle
         self.lockstep = lockstep
         self.send = send  # send(states) -> the time they left
         self.post = post  # post(message_id, replies): once that state left, write them
         self.has_client = has_client
+        self.reads_seen = reads_seen  # reads_seen(robot): its client's reads can be seen
         self.pacer = pacer or Pacer()
         self.watcher = ClockWatcher()
         self.paused = False
         self.deadline: float | None = None
+        # Lockstep, a motion's start: the robot whose client's read of the last state the next
+        # deadline waits for (`client_read`), else None.
+        self.awaits_read: int | None = None
         self.prepared = None  # an idle cycle released ahead (realtime)
         self._unwatched = 0  # cycles since a client was last connected
         # Client events and the count the last released cycle followed: in lockstep, an idle
@@ -137,6 +147,13 @@ class Clock:
         was prepared)."""
         prepared, self.prepared = self.prepared, None
         return None if prepared is None else prepared.message_id - 1
+
+    def client_read(self, now: float) -> None:
+        """The client `awaits_read` named has read the last state (at `now`): the next goes
+        READ_MARGIN after, unless it was due sooner."""
+        self.awaits_read = None
+        if self.deadline is not None:
+            self.deadline = min(self.deadline, now + READ_MARGIN)
 
     # -- questions the driver asks -----------------------------------------------------------------
     @property
@@ -190,24 +207,38 @@ class Clock:
             return self._pause()
         if not cycle.in_motion and not moved:  # idle: the next command is the hold
             self.prepared = cycle.release()
-        if lockstep and cycle.first_motion_state:
-            # Nothing answers a motion's first state (libfranka's handshake reads it): the next
-            # goes START_SPACING after it, not a lockstep window: long enough that the
-            # handshake has read the first state alone before the second arrives.
-            self.deadline = sent_at + START_SPACING
-        elif lockstep and cycle.holds_start and self._held < HELD_AT_PERIOD:
-            self.deadline = sent_at + START_SPACING  # (the held states it reads, as above)
-        elif lockstep and cycle.holds_start and self._held >= HELD_AT_PERIOD:
-            # The world held for the client's first command: libfranka's loop answers the
-            # state after the first, a pylibfranka program that reads once before its loop
-            # the one after that, and those go START_SPACING apart. Then the first command
-            # releases the next cycle when it comes, and another held state goes only after
-            # a window: a client slow over its first command reads no more of them.
-            self.deadline = self.pacer.next_deadline(sent_at, lockstep=True)
+        self.awaits_read = None
+        if lockstep and (cycle.first_motion_state or cycle.holds_start):
+            self.deadline = self._start_deadline(sent_at)
         else:
             self.deadline = self.pacer.next_deadline(
                 sent_at, lockstep=lockstep and cycle.lockstep_applies)
         return self.deadline
+
+    def _start_deadline(self, sent_at: float) -> float:
+        """Lockstep, a motion's start: when the state after the one sent at `sent_at` goes.
+
+        Nothing answers a motion's first state (libfranka's handshake reads it), and the world
+        is held for the client's first command: libfranka's loop answers the state after the
+        first, a pylibfranka program that reads once before its loop the one after that. The
+        first HELD_AT_PERIOD after the first state go START_SPACING apart, long enough that
+        the client has read each alone before the next arrives; then the first command
+        releases the next cycle when it comes, and another held state goes only after a
+        window: a client slow over its first command reads no more of them.
+
+        A client whose reads can be seen, and whose last start said how many of these states
+        it reads before it answers one, is not kept waiting: each goes READ_MARGIN after it
+        read the one before (`awaits_read`; at the latest after a window), and the one it
+        answers waits for its answer. Either way it reads the same states."""
+        held = self._held  # states held since the first (0: this is the first)
+        if held >= HELD_AT_PERIOD:
+            return self.pacer.next_deadline(sent_at, lockstep=True)
+        starting = self.cycle.starting
+        if starting is None or starting[1] is None or not self.reads_seen(starting[0]):
+            return sent_at + START_SPACING
+        if held < starting[1]:
+            self.awaits_read = starting[0]
+        return self.pacer.next_deadline(sent_at, lockstep=True)
 
     def _release(self, requested: bool):
         """The cycle that goes now: lockstep's repeat or hold where they apply, else a step."""

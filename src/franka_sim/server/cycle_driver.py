@@ -25,8 +25,10 @@ from typing import Callable, Sequence
 
 from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_thread import CycleThread
+from franka_sim.server.read_probe import probe_for
 
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the sockets before it sleeps
+READ_POLL = 250e-6  # s between looks at a client's socket while the clock awaits its read
 
 
 class CycleDriver:
@@ -38,10 +40,14 @@ class CycleDriver:
 
     def __init__(self, make_cycle: Callable, thread: CycleThread, lock: threading.Lock, *,
                  lockstep: bool, deliver: Callable, has_client: Callable[[], bool],
-                 watcher: ClockWatcher) -> None:
+                 watcher: ClockWatcher, find_probe: Callable = probe_for) -> None:
         self.make_cycle, self.thread, self.lock = make_cycle, thread, lock
         self.lockstep, self.deliver, self.has_client = lockstep, deliver, has_client
         self.watcher = watcher
+        # find_probe(target): whether a client at `target` has read its states
+        # (server/read_probe.py), None where that cannot be seen; each robot's, by its client.
+        self.find_probe = find_probe
+        self._probes: dict[int, tuple] = {}  # robot: (its client's target, its probe)
         self.endpoints: tuple = ()  # each robot's UdpEndpoint, by robot index
         self.cycle = None
         self.clock: Clock | None = None
@@ -64,7 +70,8 @@ class CycleDriver:
         if self.cycle is None:
             self.cycle = await self.thread.call(self.make_cycle)
             self.clock = Clock(self.cycle, lockstep=self.lockstep, send=self._send,
-                               post=self._post, has_client=self.has_client)
+                               post=self._post, has_client=self.has_client,
+                               reads_seen=self._reads_seen)
             self.clock.watcher = self.watcher
             self.clock.server_busy = self._busy
         self._sockets = tuple(endpoint.sock for endpoint in self.endpoints)
@@ -143,6 +150,12 @@ class CycleDriver:
 
     def _tick(self, _physics, due: bool) -> float | None:
         try:
+            if due and self.clock.awaits_read is not None:
+                with self.lock:
+                    due = self._look_for_read()
+                if not due:  # (an answer, or an event, still wakes the tick at once)
+                    self.thread.watch(self._sockets)
+                    return min(self.clock.deadline, time.monotonic() + READ_POLL)
             with self.lock:
                 deadline = self._tick_locked(due)
             while self.clock.answer_awaited:
@@ -154,6 +167,8 @@ class CycleDriver:
                     break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
+            if self.clock.awaits_read is not None:
+                return min(deadline, time.monotonic() + READ_POLL)
             return deadline
         except BaseException:
             self._running = False  # the cycle thread logs it and stops the clock
@@ -175,6 +190,31 @@ class CycleDriver:
         if due and prepared:  # no command can answer an idle state: what came
             self._read()  # (strays, junk) is read once the state has left
         return deadline
+
+    def _reads_seen(self, robot: int) -> bool:
+        """Whether robot `robot`'s client's reads can be seen (lock held): a client on this
+        host, states reaching it straight (no faults injected)."""
+        return self.endpoints[robot].faults is None and self._probe(robot) is not None
+
+    def _probe(self, robot: int):
+        target = self.endpoints[robot].target
+        known = self._probes.get(robot)
+        if known is None or known[0] != target:
+            known = self._probes[robot] = (target, self.find_probe(target))
+        return known[1]
+
+    def _look_for_read(self) -> bool:
+        """The clock awaits a client's read of the last state: look; True once the clock's
+        deadline came (lock held)."""
+        clock = self.clock
+        probe = self._probe(clock.awaits_read)
+        unread = None if probe is None else probe.unread()
+        now = time.monotonic()
+        if unread is None:  # its socket closed: the deadline stands
+            clock.awaits_read = None
+        elif not unread:
+            clock.client_read(now)
+        return now >= clock.deadline
 
     def _read(self, limit: int | None = None) -> bool:
         """Hand every robot's commands that arrived to the cycle (lock held); True if the

@@ -1,0 +1,60 @@
+"""Whether a client on this host has read what was sent to it: its UDP socket's receive queue,
+as Linux shows it in /proc/net/udp.
+
+A lockstep motion's start sends states the client reads without answering (libfranka's
+start-motion handshake, a read before the loop), and each must reach it alone: two waiting in
+its socket, it reads only the newer, and the run's message_ids shift by one. Seen from here, the
+next can go as soon as the client has read the last (server/clock.py); not seen, the clock
+spaces them by a wall-clock time long enough for a loaded machine.
+
+Only a client on a loopback address in this network namespace can be seen: one in a container
+or across a network has its socket elsewhere (`probe_for` answers None, and the clock waits as
+for any client it cannot see). The table is read whole at each look (~10-30 µs here); a
+motion's start looks a few times.
+"""
+
+from __future__ import annotations
+
+import socket
+
+UDP_TABLE = "/proc/net/udp"
+
+
+def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadProbe | None:
+    """The probe of the socket states go to at `target` (ip, port), if it is a loopback
+    address and its socket is in `table`; else None."""
+    if target is None:
+        return None
+    ip, port = target[0], target[1]
+    try:
+        packed = socket.inet_aton(ip)
+    except OSError:  # an IPv6 client: its table is not read
+        return None
+    if packed[0] != 127:
+        return None
+    # The kernel writes the local address as the 32-bit word in host (little-endian) order.
+    keys = (f": {packed[::-1].hex().upper()}:{port:04X} ".encode(),
+            f": 00000000:{port:04X} ".encode())  # bound to every address
+    probe = ReadProbe(keys, table)
+    return probe if probe.unread() is not None else None
+
+
+class ReadProbe:
+    def __init__(self, keys: tuple[bytes, ...], table: str = UDP_TABLE) -> None:
+        self.keys = keys
+        self.table = table
+
+    def unread(self) -> int | None:
+        """Bytes waiting in the client's socket; None: its socket is not there (closed)."""
+        try:
+            with open(self.table, "rb") as f:
+                rows = f.read()
+        except OSError:
+            return None
+        for key in self.keys:
+            at = rows.find(key)
+            if at >= 0:
+                # ": local remote st tx_queue:rx_queue ..." (hexadecimal)
+                queues = rows[at:rows.find(b"\n", at)].split()[4]
+                return int(queues.partition(b":")[2], 16)
+        return None
