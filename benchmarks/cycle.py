@@ -17,7 +17,7 @@ slack) and also prints the thread's CPU time per cycle, the wait's included (and
 encoding, a few µs of the client's part): what the same work costs when the thread sleeps
 between cycles, still without sockets or a client.
 
-    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint] [--floor] [--sleep 800]
+    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint|cartesian] [--floor] [--sleep 800]
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ from franka_sim.robot.world_cycle import WorldCycle
 
 SECTIONS = ("release", "complete", "decode", "receive")
 FLOOR_SECTIONS = ("decode", "step", "publish", "finish")
-MOVES = {"torque": (2, 4), "joint": (0, 0)}  # (controller, generator) of the Move request
+# (controller, generator) of the Move request
+MOVES = {"torque": (2, 4), "joint": (0, 0), "cartesian": (0, 2)}
 
 
 def _move(core: ArmCore, controller: int, generator: int) -> None:
@@ -92,7 +93,8 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
     _move(core, *MOVES[mode])
     released = cycle.release()
     cycle.complete(released)
-    q_start = np.array(decode_state(released.states[0])["q_d"])
+    start = decode_state(released.states[0])
+    q_start, pose_start = np.array(start["q_d"]), np.array(start["O_T_EE_c"], dtype=float)
     clock = time.perf_counter
 
     def one_cycle(k: int) -> tuple[float, ...]:
@@ -103,6 +105,10 @@ def run(mode: str, cycles: int, warmup: int = 500, sleep: float = 0.0) -> dict[s
         t2 = clock()
         if mode == "torque":
             answer = encode_command(message_id=released.message_id, tau_J_d=[0.0] * 7)
+        elif mode == "cartesian":  # a slow sway of the flange along x, 5 mm
+            pose = pose_start.copy()
+            pose[12] += 0.005 * (1 - math.cos(k * 1e-3))
+            answer = encode_command(message_id=released.message_id, O_T_EE_c=pose)
         else:  # a slow swing of joint 7, well inside every limit
             q_c = q_start.copy()
             q_c[6] += 0.005 * (1 - math.cos(k * 1e-3))

@@ -231,8 +231,10 @@ def lockstep(args) -> None:
           f"is not known yet), the others {1e3 * sum(later) / len(later):.1f} ms each (at the "
           f"client's pace); the motions' loops alone "
           f"{args.motions * args.seconds / (wall - sum(starts)):.2f} simulated s per wall s")
+    # (Negative "neither": the server read for the answer while the client computed it.)
     print(f"  per client cycle, µs          wall {wall * per:6.1f} = server CPU {cpu * per:6.1f}"
-          f" + client CPU {result['cpu'] * per:5.1f} + neither {rest * per:6.1f}")
+          f" + client CPU {result['cpu'] * per:5.1f} + neither {rest * per:6.1f}"
+          + ("  (< 0: both on a CPU at once)" if rest < 0 else ""))
     print(f"  server CPU per client cycle   {cpu * per:6.1f} µs   target ≤ "
           f"{TARGETS['cpu_cycle']:g}  {verdict(cpu * per <= TARGETS['cpu_cycle'])}"
           f"   (cycle thread {cycle_cpu * per:.1f}, the rest {(cpu - cycle_cpu) * per:.1f})")
