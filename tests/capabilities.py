@@ -60,6 +60,7 @@ MODULES = {
                "clients/test_contact_buildup_client.py", "clients/test_friction_client.py"],
     "engines": ["engines/test_engine_choice.py", "engines/test_same_clients.py"],
     "physics": ["physics/test_physics.py", "physics/test_model.py", "physics/test_description.py",
+                "physics/test_intrusions.py",
                 "physics/test_scene.py", "physics/test_world.py", "physics/test_bodies.py",
                 "physics/test_kernels.py"],
     "tools": ["tools/test_tool_seam.py", "robot/test_gripper_core.py",

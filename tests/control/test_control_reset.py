@@ -90,6 +90,24 @@ def test_reset_while_the_hand_moves_is_refused(control, served):
     assert control.state()["gripper_width"] == pytest.approx(0.08)
 
 
+INTO_THE_TABLE = [0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78]  # the Hand reaching down through it
+
+
+def test_a_reset_into_the_table_is_refused_and_the_arm_stays_where_it_was(control, served):
+    """A real arm cannot be set down inside the table: 409 naming what would be inside what,
+    and a client reading states sees the arm where it was, not pressed against the table."""
+    robot = connect(served.host)
+    before = robot.read_once()
+    with pytest.raises(Conflict, match=r"inside another body: finger\d into scene/table "
+                                       r"\(\d+ mm deep\)") as refused:
+        control.reset(q=INTO_THE_TABLE)
+    assert refused.value.status == 409
+    after = robot.read_once()
+    assert after.q == before.q and max(map(abs, after.tau_ext_hat_filtered)) < 0.5
+    assert control.reset(q=[0.0, 0.9, 0.0, -0.9, 0.0, 1.9, 0.78])["q"][1] == 0.9  # just clear
+    del robot
+
+
 def _program(host: str, control: Control) -> np.ndarray:
     """A velocity motion during which the arm is pushed and the cube moved, then a torque
     motion, then settings changed (which a reset must undo). Returns the last state of each

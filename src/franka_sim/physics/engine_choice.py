@@ -26,4 +26,20 @@ def make_physics(placements, q0s, scene, *, mobile_base: bool = False,
         from franka_sim.physics.mujoco_engine import make_physics as make
     else:
         raise ValueError(f"unknown physics engine {engine!r} (one of {', '.join(ENGINES)})")
-    return make(placements, q0s, scene, mobile_base=mobile_base)
+    physics = make(placements, q0s, scene, mobile_base=mobile_base)
+    _refuse_intrusions(physics.world, placements, q0s)
+    return physics
+
+
+def _refuse_intrusions(world, placements, q0s) -> None:
+    """SceneError if an arm starts inside another (their bases too close) or inside a body
+    of the scene (its starting pose): a real arm cannot stand there."""
+    from franka_sim.physics.scene import SceneError
+
+    for a, b in world.touching_arms():
+        raise SceneError(f"arm {a}: placed into arm {b} (their bodies intersect at the "
+                         "starting pose; move their bases apart)")
+    for placement in placements:
+        if inside := world.intrusions(placement.name, q0s[placement.name]):
+            raise SceneError(f"arm {placement.name or 'fr3'}: its starting pose would put it "
+                             "inside another body: " + "; ".join(map(str, inside[:3])))

@@ -32,6 +32,7 @@ import numpy as np
 
 from franka_sim.physics.arm import Arm
 from franka_sim.physics.bodies import Bodies, BodyState, Immovable, Pushes
+from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.scene import ArmPlacement, build_world_model
 
 # What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
@@ -233,6 +234,14 @@ class World:
         arm.hold_still()
         mujoco.mj_forward(self.model, self.data)
         arm.record_rest()
+
+    def intrusions(self, name: str, q0) -> list[Intrusion]:
+        """What arm `name` reset to q0 would be inside (physics/intrusions.py): the world as
+        `reset` leaves it (one arm) or as it is (`reset_arm`, several). Nothing changes."""
+        arm = self.arms[name]
+        qpos = (self.model.qpos0 if len(self._arms) == 1 else self.data.qpos).copy()
+        qpos[arm.qs] = q0
+        return intrusions(self.model, qpos, subtree(self.model, arm.tops))
 
     def touching_arms(self) -> list[tuple[str, str]]:
         """Pairs of arms whose bodies touch now (arms placed into each other), by name."""

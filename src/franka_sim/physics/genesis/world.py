@@ -24,6 +24,7 @@ import numpy as np
 from franka_sim.physics.drive import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount
+from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.genesis.arm import GenesisArm
 from franka_sim.physics.genesis.dynamics import (ArmDynamics, exact_inertials, flange_of,
                                                  quat_matrix)
@@ -86,6 +87,9 @@ class GenesisWorld:
         self._dofs = [int(entity.get_joint(n).dofs_idx_local[0]) for n in names]
         self._others = np.setdiff1d(np.arange(entity.n_dofs), self._dofs)  # the scene's
         self._qs = [int(entity.get_joint(n).qs_idx_local[0]) for n in names]
+        self._arm_qpos = [int(self.model.joint(n).qposadr[0]) for n in names[:7]]
+        first = placement.desc.joints[0]  # the arm's fixed first link, the chain from joint1
+        self._arm_tops = (prefix + first.parent, prefix + first.child)
         dynamics = ArmDynamics(placement, names)
         self._arm = GenesisArm(placement, dynamics, self.timestep, len(names) - 7)
         self.arms = {placement.name: self._arm}
@@ -205,6 +209,13 @@ class GenesisWorld:
 
     def touching_arms(self) -> list[tuple[str, str]]:
         return []  # one arm
+
+    def intrusions(self, name: str, q0) -> list[Intrusion]:
+        """What the arm reset to q0 would be inside, the world as at its start (`reset`), on
+        the MuJoCo model of the same document (physics/intrusions.py)."""
+        qpos = self.model.qpos0.copy()
+        qpos[self._arm_qpos] = q0
+        return intrusions(self.model, qpos, subtree(self.model, self._arm_tops))
 
     def positions(self) -> np.ndarray:
         """Every position of the world now (Genesis's qpos of the entity: a copy)."""

@@ -1,0 +1,60 @@
+"""What an arm put at a pose would be inside: its bodies' overlaps with the rest of the world.
+
+A real arm cannot be set down inside the table. A reset or a starting pose that would put it
+there is refused (the control API's 409, serve's start), rather than leaving MuJoCo's contact
+to push the arm out with hundreds of newtons in the first steps. Contacts are found on a data
+of their own (the world's state is not touched), from the model's collision pairs as the
+engine steps them: an overlap deeper than DEPTH counts; shallower is touching (a resting
+contact's own depth is well under a millimetre).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+DEPTH = 2e-3  # m of overlap beyond which a body is inside another, not touching it
+
+
+@dataclass(frozen=True)
+class Intrusion:
+    arm_body: str  # the arm's body (a link, the hand, a finger)
+    other: str  # what it would be inside (the table, an object, another arm's link)
+    depth: float  # m
+
+    def __str__(self) -> str:
+        return f"{self.arm_body} into {self.other} ({1e3 * self.depth:.0f} mm deep)"
+
+
+def subtree(model: mujoco.MjModel, tops) -> frozenset[int]:
+    """The bodies named in `tops` and every body below them (an arm's: its fixed first link
+    and the chain from its first joint, hand and fingers included)."""
+    found = {model.body(name).id for name in tops}
+    for body in range(1, model.nbody):  # (MuJoCo numbers a child after its parent)
+        if int(model.body_parentid[body]) in found:
+            found.add(body)
+    return frozenset(found)
+
+
+def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int]) -> list[Intrusion]:
+    """The overlaps deeper than DEPTH of the `arm`'s bodies with any other body, the world at
+    `qpos`: deepest first, one per pair of bodies."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_fwdPosition(model, data)
+    deepest: dict[tuple[int, int], float] = {}
+    for contact in data.contact[:data.ncon]:
+        a = int(model.geom_bodyid[contact.geom1])
+        b = int(model.geom_bodyid[contact.geom2])
+        if (a in arm) == (b in arm):
+            continue  # the arm's own bodies, or two others
+        if b in arm:
+            a, b = b, a
+        depth = -float(contact.dist)
+        if depth > DEPTH and depth > deepest.get((a, b), 0.0):
+            deepest[(a, b)] = depth
+    found = [Intrusion(model.body(a).name, model.body(b).name or "the world", depth)
+             for (a, b), depth in deepest.items()]
+    return sorted(found, key=lambda i: -i.depth)

@@ -1,0 +1,51 @@
+"""What an arm put at a pose would be inside (physics/intrusions.py): found on data of its
+own, the world untouched; refused at start (serve) as at a reset (the control API's tests)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from franka_sim.config import READY_POSE
+from franka_sim.description.urdf import default_urdf_text, load_arm_description
+from franka_sim.physics.engine_choice import make_physics
+from franka_sim.physics.fingers import FINGERS
+from franka_sim.physics.scene import ArmPlacement, SceneError, default_scene_path
+from franka_sim.physics.world import World
+
+DESC = load_arm_description(default_urdf_text())
+INTO_THE_TABLE = np.array([0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78])
+
+
+def _world(*placements: ArmPlacement) -> World:
+    return World(placements, {p.name: np.array(READY_POSE) for p in placements},
+                 scene_xml=default_scene_path())
+
+
+def test_the_hand_reaching_through_the_table_is_inside_it_and_nothing_moves():
+    world = _world(ArmPlacement(DESC, tool=FINGERS))
+    qpos = world.data.qpos.copy()
+    found = world.intrusions("", INTO_THE_TABLE)
+    assert {(i.arm_body, i.other) for i in found} == {("finger1", "scene/table"),
+                                                      ("finger2", "scene/table")}
+    assert all(0.02 < i.depth < 0.05 for i in found)
+    assert str(found[0]).startswith("finger") and "into scene/table (" in str(found[0])
+    np.testing.assert_array_equal(world.data.qpos, qpos)  # the world was not touched
+    assert world.intrusions("", np.array(READY_POSE)) == []  # the cube and table: not the arm's
+
+
+def test_in_a_world_of_two_arms_the_other_arm_is_where_it_stands():
+    left = ArmPlacement(DESC, name="left", base=(0.0, 0.3, 0.0, 0.0), tool=FINGERS)
+    right = ArmPlacement(DESC, name="right", base=(0.0, -0.3, 0.0, 0.0), tool=FINGERS)
+    world = _world(left, right)
+    towards_right = np.array([-1.57, 0.3, 0.0, -1.2, 0.0, 1.9, 0.78])
+    found = world.intrusions("left", towards_right)
+    assert found and all(i.arm_body.startswith("left/") and i.other.startswith("right/")
+                         for i in found)
+
+
+def test_an_arm_that_would_start_inside_the_table_is_refused_by_name():
+    placement = ArmPlacement(DESC, tool=FINGERS)
+    with pytest.raises(SceneError, match=r"arm fr3: its starting pose would put it inside "
+                                         r"another body: finger\d into scene/table"):
+        make_physics([placement], {"": INTO_THE_TABLE}, default_scene_path())
