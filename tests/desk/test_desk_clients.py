@@ -151,6 +151,26 @@ def test_the_control_api_locks_the_brakes_as_at_the_robot(sim):
     holder.finish()
 
 
+def test_brakes_locked_mid_motion_abort_it_and_the_log_says_why(sim):
+    control = Control(sim.host)
+    holder = Program("franky_desk", sim.host)
+    holder.expect("UP")
+    robot = connect(sim.host)
+    motion = robot.start_torque_control()
+    motion.readOnce()
+    motion.writeOnce(pylibfranka.Torques([0.0] * 7))
+    control.desk_arm(brakes="Locked")
+    with pytest.raises(pylibfranka.ControlException, match="aborted"):
+        for _ in range(10_000):  # (each cycle answered until the robot ends the motion)
+            motion.readOnce()
+            motion.writeOnce(pylibfranka.Torques([0.0] * 7))
+    assert any("Move aborted: the Desk locked the brakes" in line for line in sim.sync())
+    del robot
+    control.desk_arm(brakes="Unlocked")
+    holder.go()
+    holder.finish()
+
+
 def test_a_second_take_fails_until_released(sim):
     first = Program("franky_take", sim.host, "wait:5")
     assert first.expect("TOOK") == ["True"]

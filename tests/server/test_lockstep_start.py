@@ -121,6 +121,23 @@ def test_a_client_that_answers_the_first_held_state_is_awaited_after_it():
     assert clock.deadline == pytest.approx(now.now + LOCKSTEP_WINDOW)
 
 
+def test_a_start_ended_while_a_read_was_awaited_leaves_no_look_behind():
+    """The Desk locks the brakes (the motion aborted) or the client stops it mid-start: the
+    next tick sends what is due and forgets the read, even one that pauses the clock."""
+    clock, now, sent = _clock(2, seen=True)
+    assert clock.awaits_read == 0
+    clock.cycle.parts[0].core.request_stop(7)
+    clock.client_event()
+    clock.has_client = lambda: False  # and the client left
+    clock.tick(False, False, True)
+    assert clock.awaits_read is None
+    deadline = clock.deadline
+    while deadline is not None:  # the arm settles, nobody is there: the clock pauses
+        now.now = deadline
+        deadline = clock.tick(True, False, False)
+    assert clock.paused and clock.awaits_read is None
+
+
 class _Thread:
     def __init__(self) -> None:
         self.watched: list = []

@@ -46,7 +46,7 @@ class DeskOps:
         """The brakes and the operating mode as at the robot (neither given: as the Desk
         says now, which is how the Desk's own calls end here); the arm held or freed in one
         job, recorded with the Desk's whole arm state, which replay sets again."""
-        from franka_sim.desk.state import DeskRefusal
+        from franka_sim.desk.state import UNLOCKED, DeskRefusal
 
         desk = self.desk_state
         try:
@@ -54,10 +54,12 @@ class DeskOps:
         except DeskRefusal as refusal:
             raise BadRequest(refusal.message) from None
         held = not desk.arm_ready
+        why = ("the Desk locked the brakes" if desk.brakes != UNLOCKED
+               else f"the Desk left Execution ({desk.operating_mode})")
 
         def hold(world, arm) -> dict:
             with self.lock:
-                self.core.hold(held)
+                self.core.hold(held, why)
             self.driver.keep_running()
             return self.desk()
         return await self._job(hold, ("desk_arm", {

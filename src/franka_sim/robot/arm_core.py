@@ -260,10 +260,12 @@ class ArmCore(FciRobot):
         self.guard = None
         self.measured = measured
 
-    def hold(self, held: bool) -> None:
-        """The Desk locks the brakes or leaves Execution (held), or frees the arm again. A
-        running motion ends as one the robot stops itself (kAborted), the arm held where it is."""
+    def hold(self, held: bool, why: str = "the Desk holds the arm") -> None:
+        """The Desk locks the brakes or leaves Execution (held: `why`), or frees the arm again.
+        A running motion ends as one the robot stops itself (kAborted), the arm held where it
+        is, and the log says why."""
         if held and self.motion is not None:
+            log.warning("Move aborted: %s", why)
             self.status.answer_move(self.motion.command_id, MoveStatus.kAborted)
             self._end_motion(RobotMode.kIdle)
         self.status.held = held

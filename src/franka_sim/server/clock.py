@@ -181,6 +181,7 @@ class Clock:
         if not due and started and not self.paused and not (answered and awaited) \
                 and not requested:
             return self.deadline  # woken, but nothing to release
+        self.awaits_read = None  # (whatever this tick sends is read anew)
         if self.paused and lockstep and not requested:
             return None  # a connection alone is no event: its first request resumes lockstep
         self.paused = False
@@ -207,7 +208,6 @@ class Clock:
             return self._pause()
         if not cycle.in_motion and not moved:  # idle: the next command is the hold
             self.prepared = cycle.release()
-        self.awaits_read = None
         if lockstep and (cycle.first_motion_state or cycle.holds_start):
             self.deadline = self._start_deadline(sent_at)
         else:

@@ -155,7 +155,7 @@ class CycleDriver:
                     due = self._look_for_read()
                 if not due:  # (an answer, or an event, still wakes the tick at once)
                     self.thread.watch(self._sockets)
-                    return min(self.clock.deadline, time.monotonic() + READ_POLL)
+                    return self._looking(self.clock.deadline)
             with self.lock:
                 deadline = self._tick_locked(due)
             while self.clock.answer_awaited:
@@ -167,9 +167,7 @@ class CycleDriver:
                     break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
-            if self.clock.awaits_read is not None:
-                return min(deadline, time.monotonic() + READ_POLL)
-            return deadline
+            return self._looking(deadline)
         except BaseException:
             self._running = False  # the cycle thread logs it and stops the clock
             raise
@@ -202,6 +200,13 @@ class CycleDriver:
         if known is None or known[0] != target:
             known = self._probes[robot] = (target, self.find_probe(target))
         return known[1]
+
+    def _looking(self, deadline: float | None) -> float | None:
+        """The tick's deadline, or sooner while the clock awaits a client's read: the next
+        look at its socket."""
+        if self.clock.awaits_read is None or deadline is None:
+            return deadline
+        return min(deadline, time.monotonic() + READ_POLL)
 
     def _look_for_read(self) -> bool:
         """The clock awaits a client's read of the last state: look; True once the clock's
