@@ -160,6 +160,13 @@ def test_a_press_on_the_table_ends_in_the_reflex(sim, robot):
     _ended(sim, "press", robot.read_once().q)
 
 
+def test_a_reset_into_the_table_is_refused(sim):
+    from franka_sim.control import Conflict
+
+    with pytest.raises(Conflict, match=r"finger\d into scene/table"):
+        Control(sim.host).reset(q=[0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78])
+
+
 def test_the_hand_homes_and_grasps_the_cube(sim, robot):
     control = Control(sim.host)
     assert np.abs(np.array(control.pose("cube")["position"]) - pp.CUBE).max() < 1e-3
