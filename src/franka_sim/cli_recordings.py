@@ -40,7 +40,7 @@ def replay(
     until: int | None = typer.Option(None, min=0, help="Compare up to this cycle only."),
 ) -> None:
     """Run a recording again in a fresh simulator and compare every state, bit for bit: prints
-    `identical (N cycles, M tool states)`, or the first cycle that differs and its fields
+    `identical (N cycles[, M tool states])`, or the first cycle that differs and its fields
     (exit 1)."""
     import logging
 

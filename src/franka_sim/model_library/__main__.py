@@ -29,7 +29,7 @@ from franka_sim.model_library.build import (ZIG_TARGETS, CompileError, is_zig, p
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m franka_sim.model_library",
-                                     description=__doc__.splitlines()[0])
+                                     description=" ".join(__doc__.split("\n\n")[0].split()))
     parser.add_argument("directory", type=Path)
     parser.add_argument("--robot", action="append", choices=ROBOTS, default=[],
                         help="a packaged robot's description (repeatable)")
