@@ -53,6 +53,28 @@ def test_plot_window_from_to(lockstep_run, tmp_path):
     assert "no state in the window" in done.stderr
 
 
+def test_an_arm_that_trembles_plots_flat_at_its_values_not_its_tremble_at_full_scale():
+    """A joint held still trembles by ~1e-9 rad (a grasped cube's contacts): matplotlib alone
+    draws that at full scale, labelled with an offset; a panel shows at least its least span."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from franka_sim.playback.plot import LEAST_SPAN, _readable
+
+    t = np.arange(200) * 1e-3
+    held = 0.7853981634 + 1e-9 * np.sin(40 * t)
+    fig, (alone, readable) = plt.subplots(2, 1)
+    alone.plot(t, held)
+    readable.plot(t, held)
+    _readable(readable, LEAST_SPAN["q"])
+    fig.canvas.draw()
+    assert alone.yaxis.get_offset_text().get_text() != ""  # what a user saw: "+7.854e-1"
+    assert readable.yaxis.get_offset_text().get_text() == ""
+    low, high = readable.get_ylim()
+    assert high - low == pytest.approx(LEAST_SPAN["q"]) and low < held[0] < high
+    plt.close(fig)
+
+
 def test_render_writes_the_expected_number_of_frames(lockstep_run, tmp_path):
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
     path, _ = lockstep_run

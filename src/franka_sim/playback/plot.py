@@ -22,6 +22,9 @@ from franka_sim.playback.timeline import (
 )
 
 WIDTH, PANEL_HEIGHT, DPI = 12.0, 2.2, 100  # inches, inches per panel, dots per inch
+# The least span a panel's axis shows, in its unit: an arm at rest trembles by ~1e-9 rad, which
+# drawn at full scale (with an offset such as "1e-9 +7.854e-1") looks like a motion.
+LEAST_SPAN = {"q": 1e-3, "dq": 1e-3, "tau": 1e-2, "wrench": 1e-2}
 
 
 class PlotError(Exception):
@@ -69,6 +72,17 @@ def parse_fields(text: str | None) -> list[str]:
 def plot(recording: Recording, output: Path, *, joints: list[int], start: float | None = None,
          end: float | None = None, fields: list[str] = (), robot: str | None = None) -> int:
     """Write the PNG of one robot (None: the first, a lone arm); the number of panels."""
+    fig = figure(recording, joints=joints, start=start, end=end, fields=fields, robot=robot)
+    fig.savefig(output, dpi=DPI, format=output_format(output))
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return len(fig.axes)
+
+
+def figure(recording: Recording, *, joints: list[int], start: float | None = None,
+           end: float | None = None, fields: list[str] = (), robot: str | None = None):
+    """The figure `plot` writes (matplotlib's)."""
     try:
         import matplotlib
     except ImportError:
@@ -127,14 +141,25 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
             ax.set_ylabel(panel)
         if panel in ("q", "dq", "tau", "wrench") and len(ax.get_lines()) <= 14:
             ax.legend(loc="upper right", fontsize=6, ncol=7)
+        if panel != "timeline":
+            _readable(ax, LEAST_SPAN.get(panel, 0.0))
         _boundaries(ax, recording, window, robot)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
     axes[0].set_title(f"{recording.path.name}: {len(states)} states")
     fig.tight_layout()
-    fig.savefig(output, dpi=DPI, format=output_format(output))
-    plt.close(fig)
-    return len(panels)
+    return fig
+
+
+def _readable(ax, least: float) -> None:
+    """The values on the axis as they are (no offset), over at least `least` around them."""
+    ax.ticklabel_format(axis="y", useOffset=False)
+    values = [line.get_ydata() for line in ax.get_lines()]
+    values = np.concatenate(values) if values else np.empty(0)
+    values = values[np.isfinite(values)]
+    if least and len(values) and values.max() - values.min() < least:
+        middle = 0.5 * (values.max() + values.min())
+        ax.set_ylim(middle - 0.5 * least, middle + 0.5 * least)
 
 
 def _boundaries(ax, recording: Recording, window, robot) -> None:
