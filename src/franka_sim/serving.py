@@ -275,6 +275,8 @@ async def _serve(config: Config, viewer: bool = False) -> None:
         await sim.start()
     except OSError as exc:  # an address in use or that cannot be served: nothing is served
         raise _Failed(exc.strerror or str(exc)) from None
+    except SceneError as exc:  # (the world, built in its thread: an arm inside a body)
+        raise _Failed(str(exc)) from None
     _release_unused_heap()
     from franka_sim.server.status_line import show_status
 

@@ -34,6 +34,17 @@ def test_the_hand_reaching_through_the_table_is_inside_it_and_nothing_moves():
     assert world.intrusions("", np.array(READY_POSE)) == []  # the cube and table: not the arm's
 
 
+def test_the_fingers_are_where_the_reset_puts_them():
+    """Over the cube, the Hand open (as a reset leaves it) is clear of it; closed to 1 cm
+    (a reset's `gripper_width`) its fingers would be inside it."""
+    world = _world(ArmPlacement(DESC, tool=FINGERS))
+    over_the_cube = np.array([0.0, 0.3503, 0.0, -2.5381, 0.0, 2.8884, 0.7854])
+    assert world.intrusions("", over_the_cube) == []
+    closed = world.intrusions("", over_the_cube, 0.01)
+    assert {(i.arm_body, i.other) for i in closed} == {("finger1", "scene/cube"),
+                                                       ("finger2", "scene/cube")}
+
+
 def test_in_a_world_of_two_arms_the_other_arm_is_where_it_stands():
     left = ArmPlacement(DESC, name="left", base=(0.0, 0.3, 0.0, 0.0), tool=FINGERS)
     right = ArmPlacement(DESC, name="right", base=(0.0, -0.3, 0.0, 0.0), tool=FINGERS)

@@ -203,7 +203,7 @@ class ArmOps(DeskOps, FaultOps):
         """The reset itself (cycle thread, lock held, `_refuse_busy` passed), on this arm's
         body (physics/engine.py ArmBody)."""
         core, tool = self.core, self.tool
-        if inside := arm.intrusions(q):  # (a real arm cannot be set down in the table)
+        if inside := arm.intrusions(q, gripper_width):  # (a real arm cannot be in the table)
             raise Conflict(f"q {q.tolist()} would put the arm inside another body: "
                            + "; ".join(map(str, inside[:3])))
         last_sent = self.driver.withdraw_prepared()

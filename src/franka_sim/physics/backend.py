@@ -112,9 +112,9 @@ class Backend(Protocol):
     def reset(self, q0) -> None:
         """Put the arm at rest at q0 (dq = 0), clearing the torque history."""
 
-    def intrusions(self, q0) -> list:
-        """What `reset(q0)` would put the arm inside (physics/intrusions.py Intrusion), deepest
-        first; nothing changes."""
+    def intrusions(self, q0, tool_setting: object | None = None) -> list:
+        """What `reset(q0)` (its tool at its start, or at `tool_setting`) would put the arm
+        inside (physics/intrusions.py Intrusion), deepest first; nothing changes."""
 
     def gravity(self, q) -> np.ndarray:
         """(7,) torque that holds the arm (incl. end effector) still at q."""

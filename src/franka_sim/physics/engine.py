@@ -79,8 +79,9 @@ class World(Protocol):
     def reset_arm(self, name: str, q0, tool_setting: object | None = None) -> None:
         """One arm at rest at q0; the rest of the world as it is."""
 
-    def intrusions(self, name: str, q0) -> list:
-        """What arm `name` reset to q0 would be inside (physics/intrusions.py); no change."""
+    def intrusions(self, name: str, q0, tool_setting: object | None = None) -> list:
+        """What arm `name` reset to q0 (its tool at its start, or at `tool_setting`) would be
+        inside (physics/intrusions.py); no change."""
 
     def touching_arms(self) -> list[tuple[str, str]]:
         """Pairs of arms whose bodies touch now (placed into each other), by name."""

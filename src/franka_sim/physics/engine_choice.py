@@ -27,11 +27,11 @@ def make_physics(placements, q0s, scene, *, mobile_base: bool = False,
     else:
         raise ValueError(f"unknown physics engine {engine!r} (one of {', '.join(ENGINES)})")
     physics = make(placements, q0s, scene, mobile_base=mobile_base)
-    _refuse_intrusions(physics.world, placements, q0s)
+    _refuse_intrusions(physics.world, placements, q0s, scene)
     return physics
 
 
-def _refuse_intrusions(world, placements, q0s) -> None:
+def _refuse_intrusions(world, placements, q0s, scene) -> None:
     """SceneError if an arm starts inside another (their bases too close) or inside a body
     of the scene (its starting pose): a real arm cannot stand there."""
     from franka_sim.physics.scene import SceneError
@@ -42,4 +42,5 @@ def _refuse_intrusions(world, placements, q0s) -> None:
     for placement in placements:
         if inside := world.intrusions(placement.name, q0s[placement.name]):
             raise SceneError(f"arm {placement.name or 'fr3'}: its starting pose would put it "
-                             "inside another body: " + "; ".join(map(str, inside[:3])))
+                             "inside another body: " + "; ".join(map(str, inside[:3]))
+                             + (f" (scene {scene})" if scene is not None else ""))

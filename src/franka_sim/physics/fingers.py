@@ -229,6 +229,7 @@ class Fingers:
         if qadr[1] != qadr[0] + 1 or vadr[1] != vadr[0] + 1:
             raise RuntimeError("finger joints must be contiguous in qpos/qvel")
         fq, fv = slice(qadr[0], qadr[0] + 2), slice(vadr[0], vadr[0] + 2)
+        self._qadr = qadr[0]
         self._q, self._v = data.qpos[fq], data.qvel[fv]
         self._applied, self._gravity = data.qfrc_applied[fv], gravity[fv]
         self._palm = Palm(hand.HAND_MASS, hand.HAND_COM, hand.HAND_INERTIA)
@@ -278,6 +279,10 @@ class Fingers:
         (x1, x2), (v1, v2) = self._q.tolist(), self._v.tolist()
         f1, f2 = self._drive
         return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
+
+    def placed(self, width: float | None = None) -> dict[int, float]:
+        half = 0.5 * (OPEN_WIDTH if width is None else float(width))
+        return {self._qadr: half, self._qadr + 1: half}
 
     def place(self, width: float | None = None) -> None:
         """Open (or `width` apart), at rest, commanded to stay so, the palm matching (in freshly

@@ -68,9 +68,9 @@ class ArmBackend(WorldArmBody):
         else:
             self.world.reset_arm(self.arm.name, q0, tool_setting)
 
-    def intrusions(self, q0) -> list:
+    def intrusions(self, q0, tool_setting: object | None = None) -> list:
         """What a `reset` to q0 would put the arm inside (World.intrusions)."""
-        return self.world.intrusions(self.arm.name, q0)
+        return self.world.intrusions(self.arm.name, q0, tool_setting)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         """Replace the rigid body on the flange (see World.set_end_effector)."""

@@ -245,6 +245,9 @@ class Cup:
         part = None if self._part < 0 else self._model.body(self._part).name
         return CupState(self.vacuum, self._part >= 0, self._pumping, part, self.lost)
 
+    def placed(self, setting: object | None = None) -> dict[int, float]:
+        return {}  # the cup has no joint: it is part of the flange's rigid body
+
     def place(self, setting: object | None = None) -> None:
         """Idle, open to the air, holding nothing (in freshly reset data)."""
         if self._part >= 0:

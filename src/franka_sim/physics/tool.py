@@ -42,6 +42,9 @@ class ToolAttachment(Protocol):
     def place(self, setting: object | None) -> None:
         """At its start (or `setting`, e.g. an opening), at rest, in freshly reset data."""
 
+    def placed(self, setting: object | None) -> dict[int, float]:
+        """Where `place(setting)` puts its joints: qpos address → value (nothing changes)."""
+
     def hold(self) -> None:
         """Its share of the idle drive at rest (its gravity load)."""
 

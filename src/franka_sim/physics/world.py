@@ -235,12 +235,16 @@ class World:
         mujoco.mj_forward(self.model, self.data)
         arm.record_rest()
 
-    def intrusions(self, name: str, q0) -> list[Intrusion]:
-        """What arm `name` reset to q0 would be inside (physics/intrusions.py): the world as
-        `reset` leaves it (one arm) or as it is (`reset_arm`, several). Nothing changes."""
+    def intrusions(self, name: str, q0, tool_setting: object | None = None) -> list[Intrusion]:
+        """What arm `name` reset to q0 (its tool at its start, or at `tool_setting`) would be
+        inside (physics/intrusions.py): the world as `reset` leaves it (one arm: the bodies
+        where they started) or as it is (`reset_arm`, several). Nothing changes."""
         arm = self.arms[name]
         qpos = (self.model.qpos0 if len(self._arms) == 1 else self.data.qpos).copy()
         qpos[arm.qs] = q0
+        if arm.tool is not None:
+            for address, value in arm.tool.placed(tool_setting).items():
+                qpos[address] = value
         return intrusions(self.model, qpos, subtree(self.model, arm.tops))
 
     def touching_arms(self) -> list[tuple[str, str]]:

@@ -26,8 +26,8 @@ class GenesisArmBody(WorldArmBody):
         settings = None if tool_setting is None else {self.arm.name: tool_setting}
         self.world.reset({self.arm.name: q0}, settings)
 
-    def intrusions(self, q0) -> list:
-        return self.world.intrusions(self.arm.name, q0)
+    def intrusions(self, q0, tool_setting: object | None = None) -> list:
+        return self.world.intrusions(self.arm.name, q0, tool_setting)
 
     def set_end_effector(self, mass: float, com, inertia) -> None:
         self.world.set_end_effector(self.arm.name, mass, com, inertia)

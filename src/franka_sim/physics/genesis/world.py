@@ -23,7 +23,7 @@ import numpy as np
 
 from franka_sim.physics.drive import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
-from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount
+from franka_sim.physics.fingers import FINGER_JOINTS, OPEN_WIDTH, FingersMount
 from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.genesis.arm import GenesisArm
 from franka_sim.physics.genesis.dynamics import (ArmDynamics, exact_inertials, flange_of,
@@ -88,6 +88,7 @@ class GenesisWorld:
         self._others = np.setdiff1d(np.arange(entity.n_dofs), self._dofs)  # the scene's
         self._qs = [int(entity.get_joint(n).qs_idx_local[0]) for n in names]
         self._arm_qpos = [int(self.model.joint(n).qposadr[0]) for n in names[:7]]
+        self._finger_qpos = [int(self.model.joint(n).qposadr[0]) for n in names[7:]]
         first = placement.desc.joints[0]  # the arm's fixed first link, the chain from joint1
         self._arm_tops = (prefix + first.parent, prefix + first.child)
         dynamics = ArmDynamics(placement, names)
@@ -210,11 +211,15 @@ class GenesisWorld:
     def touching_arms(self) -> list[tuple[str, str]]:
         return []  # one arm
 
-    def intrusions(self, name: str, q0) -> list[Intrusion]:
-        """What the arm reset to q0 would be inside, the world as at its start (`reset`), on
-        the MuJoCo model of the same document (physics/intrusions.py)."""
+    def intrusions(self, name: str, q0, tool_setting: object | None = None) -> list[Intrusion]:
+        """What the arm reset to q0 (the Hand open, or `tool_setting` apart) would be inside,
+        the world as at its start (`reset`), on the MuJoCo model of the same document
+        (physics/intrusions.py)."""
         qpos = self.model.qpos0.copy()
         qpos[self._arm_qpos] = q0
+        if self._finger_qpos:
+            width = OPEN_WIDTH if tool_setting is None else float(tool_setting)
+            qpos[self._finger_qpos] = 0.5 * width
         return intrusions(self.model, qpos, subtree(self.model, self._arm_tops))
 
     def positions(self) -> np.ndarray:
