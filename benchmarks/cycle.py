@@ -17,7 +17,8 @@ slack) and also prints the thread's CPU time per cycle, the wait's included (and
 encoding, a few µs of the client's part): what the same work costs when the thread sleeps
 between cycles, still without sockets or a client.
 
-    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint|cartesian] [--floor] [--sleep 800]
+    python benchmarks/cycle.py [--cycles 5000] [--mode torque|joint|cartesian] [--floor]
+                               [--sleep 800]
 """
 
 from __future__ import annotations
