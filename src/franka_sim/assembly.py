@@ -122,6 +122,7 @@ class WorldParts:
         self.scene = resolve_scene(config.scene) if config.scene is not None \
             else default_scene_path()
         self.placements = self._place(specs, [d for _, d in described])
+        self._names = tuple(spec.name for spec in specs)  # (the arms', as the server says them)
         self._check()
         self.arms = [ArmParts(config, spec, described[i][1], described[i][0], robot_events[i])
                      for i, spec in enumerate(specs)]
@@ -180,7 +181,8 @@ class WorldParts:
     def _check(self) -> None:
         check_world(self.placements, self.scene)
         if len(self.placements) > 1:  # (arms placed into each other: SceneError now, not in
-            make_physics(self.placements, self._q0s(), self.scene)  # the cycle thread)
+            make_physics(self.placements, self._q0s(), self.scene,  # the cycle thread)
+                         names=self._names)
 
     def _q0s(self) -> dict:
         q0 = np.array(self.config.q0, dtype=float)
@@ -190,7 +192,8 @@ class WorldParts:
         """The world (in the thread that will own it) and each robot's body in it, by index
         (physics/engine.py)."""
         return make_physics(self.placements, self._q0s(), self.scene,
-                            mobile_base=self.base is not None, engine=self.config.physics)
+                            mobile_base=self.base is not None, engine=self.config.physics,
+                            names=self._names)
 
     def make_cycle(self, physics: Physics, tool_state_wanted) -> WorldCycle:
         """The world's cycle: every robot's part around the world's one step.

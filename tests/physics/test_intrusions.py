@@ -57,6 +57,24 @@ def test_in_a_world_of_two_arms_the_other_arm_is_where_it_stands():
 
 def test_an_arm_that_would_start_inside_the_table_is_refused_by_name():
     placement = ArmPlacement(DESC, tool=FINGERS)
-    with pytest.raises(SceneError, match=r"arm fr3: its starting pose would put it inside "
+    with pytest.raises(SceneError, match=r"the arm: at its starting pose it would be inside "
                                          r"another body: finger\d into scene/table"):
         make_physics([placement], {"": INTO_THE_TABLE}, default_scene_path())
+
+
+def test_an_arm_on_the_mobile_base_is_checked_where_the_base_drove():
+    import mujoco
+
+    from franka_sim.assembly import WorldParts
+    from franka_sim.config import ArmSpec, Config
+
+    config = Config(scene="mobile_duo", arms=(ArmSpec("left", "127.0.0.2"),
+                                              ArmSpec("right", "127.0.0.3")),
+                    mobile_base="127.0.0.4")
+    world = WorldParts(config).make_physics().world
+    towards_the_table = np.array([-1.571, 1.6, 0.0, -0.9, 0.0, 2.5, 0.78])
+    assert world.intrusions("left", towards_the_table) == []  # at the start: clear of it
+    world.data.mocap_pos[0][:2] = (0.9, 0.0)  # the base drove 0.9 m ahead, to the table
+    mujoco.mj_forward(world.model, world.data)
+    found = world.intrusions("left", towards_the_table)
+    assert ("left/hand", "scene/table") in {(i.arm_body, i.other) for i in found}

@@ -89,7 +89,7 @@ def test_scene_from_the_environment(tmp_path):
     # (a real arm cannot stand inside a body: its Hand at the ready pose is in this box)
     ("<mujoco><worldbody><body name='slab' pos='0.31 0 0.5'><geom type='box' "
      "size='0.04 0.04 0.04'/></body></worldbody></mujoco>",
-     "arm fr3: its starting pose would put it inside another body: hand into scene/slab"),
+     "arm fr3: at its starting pose it would be inside another body: hand into scene/slab"),
 ])
 def test_a_scene_that_cannot_load_is_refused_on_one_line(tmp_path, text, what):
     path = tmp_path / "broken.xml"

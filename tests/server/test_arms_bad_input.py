@@ -87,6 +87,13 @@ def test_arms_placed_into_each_other():
     assert "arm left: placed into arm right" in err
 
 
+def test_an_arm_standing_inside_the_mobile_base_is_refused_by_its_name():
+    arm, base = fresh_loopback_address(), fresh_loopback_address()
+    err = said(serve("--arm", f"solo={arm}", "--mobile-base", base))  # no site: at its column
+    assert "arm solo: at its starting pose it would be inside another body: link2 into " \
+           "mobile_base" in err and "stand it elsewhere" in err
+
+
 def test_a_host_given_beside_arms_is_said_to_serve_nothing():
     from franka_sim.testing import ServerProcess
 

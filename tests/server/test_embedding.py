@@ -73,6 +73,24 @@ def test_settings_serve_refuses_are_refused_by_name_in_embedding_too(settings, s
         FrankaSim(host=fresh_loopback_address(), **settings)
 
 
+def test_an_arm_that_would_start_inside_a_body_is_refused_and_leaves_no_thread(tmp_path):
+    import threading
+
+    from franka_sim.physics.scene import SceneError
+
+    scene = tmp_path / "slab.xml"  # a box where the Hand is at the ready pose
+    scene.write_text("<mujoco><worldbody><body name='slab' pos='0.31 0 0.5'><geom type='box' "
+                     "size='0.04 0.04 0.04'/></body></worldbody></mujoco>")
+
+    async def app():
+        async with FrankaSim(host=fresh_loopback_address(), scene=str(scene), control_port=0):
+            pass
+
+    with pytest.raises(SceneError, match="hand into scene/slab"):
+        asyncio.run(app())
+    assert not [t for t in threading.enumerate() if t.name == "franka-sim-cycle"]
+
+
 def test_a_stopped_simulator_says_so_instead_of_waiting():
     host = fresh_loopback_address()
 

@@ -38,11 +38,15 @@ def subtree(model: mujoco.MjModel, tops) -> frozenset[int]:
     return frozenset(found)
 
 
-def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int]) -> list[Intrusion]:
+def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
+               mocap: tuple[np.ndarray, np.ndarray] | None = None) -> list[Intrusion]:
     """The overlaps deeper than DEPTH of the `arm`'s bodies with any other body, the world at
-    `qpos`: deepest first, one per pair of bodies."""
+    `qpos` and its mocap bodies (the mobile base) at `mocap` (positions, quaternions; None:
+    where the model puts them): deepest first, one per pair of bodies."""
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
+    if mocap is not None:
+        data.mocap_pos[:], data.mocap_quat[:] = mocap
     mujoco.mj_fwdPosition(model, data)
     deepest: dict[tuple[int, int], float] = {}
     for contact in data.contact[:data.ncon]:

@@ -238,14 +238,17 @@ class World:
     def intrusions(self, name: str, q0, tool_setting: object | None = None) -> list[Intrusion]:
         """What arm `name` reset to q0 (its tool at its start, or at `tool_setting`) would be
         inside (physics/intrusions.py): the world as `reset` leaves it (one arm: the bodies
-        where they started) or as it is (`reset_arm`, several). Nothing changes."""
-        arm = self.arms[name]
-        qpos = (self.model.qpos0 if len(self._arms) == 1 else self.data.qpos).copy()
+        where they started) or as it is (`reset_arm`, several: a mobile base where it drove).
+        Nothing changes."""
+        arm, d = self.arms[name], self.data
+        alone = len(self._arms) == 1
+        qpos = (self.model.qpos0 if alone else d.qpos).copy()
         qpos[arm.qs] = q0
         if arm.tool is not None:
             for address, value in arm.tool.placed(tool_setting).items():
                 qpos[address] = value
-        return intrusions(self.model, qpos, subtree(self.model, arm.tops))
+        mocap = None if alone else (d.mocap_pos, d.mocap_quat)
+        return intrusions(self.model, qpos, subtree(self.model, arm.tops), mocap)
 
     def touching_arms(self) -> list[tuple[str, str]]:
         """Pairs of arms whose bodies touch now (arms placed into each other), by name."""

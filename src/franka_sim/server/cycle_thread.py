@@ -80,7 +80,11 @@ class CycleThread:
         if on_failure is not None:
             self._on_failure = (on_failure, asyncio.get_running_loop())
         self._thread.start()
-        await self.call(lambda backend: None)
+        try:
+            await self.call(lambda backend: None)
+        except BaseException:  # the world could not be built: the thread ends with the start
+            await self.stop()
+            raise
 
     def submit(self, fn: Callable, args: tuple, done: Callable[[Any], None],
                loop: asyncio.AbstractEventLoop) -> None:

@@ -51,7 +51,8 @@ class FrankaSim(EmbeddedOperations):
         # What a recording hears, from everyone who has something to record (inert until a
         # recording is attached: server/recorder/live.py).
         self.taps = Taps(len(config.arm_specs()) + (config.mobile_base is not None))
-        # SceneError / DescriptionError: said now, before anything is served.
+        # SceneError / DescriptionError: said now, before anything is served (a lone arm that
+        # would start inside a body: by start(), as it builds the world, before serving).
         self.parts = parts = WorldParts(config, self.taps)
         self.urdf_text, self.description, self.scene = (
             parts.urdf_text, parts.description, parts.scene)
