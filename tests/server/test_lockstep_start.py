@@ -21,7 +21,7 @@ from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.clock import READ_MARGIN, START_SPACING, Clock, ClockWatcher
 from franka_sim.server.cycle_driver import READ_POLL, CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW
-from franka_sim.server.read_probe import probe_for
+from franka_sim.server.read_probe import LOOK_BUDGET, probe_for
 from franka_sim.testing import fresh_loopback_address
 
 from support.harness import Harness
@@ -204,9 +204,36 @@ def test_the_driver_looks_at_the_clients_socket_until_it_read_the_state():
     thread.tick(None, True)
     assert endpoint.sent[first:] == [endpoint.sent[first - 1] + 1]  # the first held state
     assert driver.clock.awaits_read == 0
-    probe.queued = None  # the client's socket closed: the clock's deadline stands
+    probe.queued = None  # the client's socket closed: spaced as an unseen client's
     thread.tick(None, True)
     assert driver.clock.awaits_read is None and len(endpoint.sent) == first + 1
+    assert driver.clock.deadline <= time.monotonic() + START_SPACING
+
+
+class _SlowProbe(_Probe):
+    """A look at a table of thousands of sockets."""
+
+    def unread(self) -> int | None:
+        time.sleep(2 * LOOK_BUDGET)
+        return self.queued
+
+
+def test_a_look_that_takes_too_long_ends_looking_at_that_client():
+    harness, thread, endpoint, probe = Harness(), _Thread(), _Endpoint(), _SlowProbe()
+    _learned(harness, 2)
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
+                         deliver=lambda replies: None, has_client=lambda: True,
+                         watcher=ClockWatcher(), find_probe=lambda target: probe)
+    asyncio.run(driver.start([endpoint]))
+    thread.tick(None, True)
+    assert harness.move(*TORQUE) == MoveStatus.kMotionStarted
+    driver.client_event()
+    thread.tick(None, True)  # the motion's first state: its read awaited
+    assert driver.clock.awaits_read == 0
+    thread.tick(None, True)  # the look took too long: no more looks at this client
+    assert driver.clock.awaits_read is None and not driver._reads_seen(0)
+    assert driver.clock.deadline <= time.monotonic() + START_SPACING
 
 
 def test_faults_on_the_link_make_the_reads_unseen():

@@ -70,7 +70,8 @@ START_SPACING = 0.02
 # Lockstep, a client whose reads the server sees (server/read_probe.py) and whose last start
 # showed how many of the start's states it reads before it answers one: each of those goes
 # READ_MARGIN after the client read the one before (past the instant its read looks for a
-# newer one), and the state it answers waits for its answer (a lockstep window).
+# newer one, however long the machine keeps it from that look), and the state it answers
+# waits for its answer (a lockstep window).
 READ_MARGIN = 0.002
 
 
@@ -154,6 +155,14 @@ class Clock:
         self.awaits_read = None
         if self.deadline is not None:
             self.deadline = min(self.deadline, now + READ_MARGIN)
+
+    def reads_unseen(self, now: float) -> None:
+        """The reads `awaits_read` waited for can no longer be seen (the client's socket went,
+        or looking grew too slow): the next state goes START_SPACING after `now` at the
+        latest, as for a client never seen."""
+        self.awaits_read = None
+        if self.deadline is not None:
+            self.deadline = min(self.deadline, now + START_SPACING)
 
     # -- questions the driver asks -----------------------------------------------------------------
     @property

@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 
 from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.read_probe import probe_for
+from franka_sim.server.read_probe import LOOK_BUDGET, probe_for
 
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the sockets before it sleeps
 READ_POLL = 250e-6  # s between looks at a client's socket while the clock awaits its read
@@ -151,8 +151,7 @@ class CycleDriver:
     def _tick(self, _physics, due: bool) -> float | None:
         try:
             if due and self.clock.awaits_read is not None:
-                with self.lock:
-                    due = self._look_for_read()
+                due = self._look_for_read()
                 if not due:  # (an answer, or an event, still wakes the tick at once)
                     self.thread.watch(self._sockets)
                     return self._looking(self.clock.deadline)
@@ -209,17 +208,23 @@ class CycleDriver:
         return min(deadline, time.monotonic() + READ_POLL)
 
     def _look_for_read(self) -> bool:
-        """The clock awaits a client's read of the last state: look; True once the clock's
-        deadline came (lock held)."""
+        """The clock awaits a client's read of the last state: look (the lock not held, so
+        the loop's requests go on meanwhile); True once the clock's deadline came."""
         clock = self.clock
-        probe = self._probe(clock.awaits_read)
+        with self.lock:
+            robot = clock.awaits_read
+            probe = self._probe(robot)
+        began = time.monotonic()
         unread = None if probe is None else probe.unread()
         now = time.monotonic()
-        if unread is None:  # its socket closed: the deadline stands
-            clock.awaits_read = None
-        elif not unread:
-            clock.client_read(now)
-        return now >= clock.deadline
+        with self.lock:
+            if unread is None or now - began > LOOK_BUDGET:  # its socket went, or too slow
+                if unread is not None:
+                    self._probes[robot] = (self._probes[robot][0], None)
+                clock.reads_unseen(now)
+            elif not unread:
+                clock.client_read(now)
+            return now >= clock.deadline
 
     def _read(self, limit: int | None = None) -> bool:
         """Hand every robot's commands that arrived to the cycle (lock held); True if the

@@ -9,15 +9,20 @@ spaces them by a wall-clock time long enough for a loaded machine.
 
 Only a client on a loopback address in this network namespace can be seen: one in a container
 or across a network has its socket elsewhere (`probe_for` answers None, and the clock waits as
-for any client it cannot see). The table is read whole at each look (~10-30 µs here); a
-motion's start looks a few times.
+for any client it cannot see). What is seen is the socket bound to the client's port: a relay
+on this host that forwards the states elsewhere is taken for the client. The table is read
+whole at each look (~10-40 µs here, a motion's start looks a few times); on a host with
+thousands of UDP sockets a look takes milliseconds, and a look over LOOK_BUDGET ends looking
+(the client is spaced as an unseen one).
 """
 
 from __future__ import annotations
 
 import socket
+import time
 
 UDP_TABLE = "/proc/net/udp"
+LOOK_BUDGET = 1e-3  # s: a look that takes longer is not worth its wait
 
 
 def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadProbe | None:
@@ -36,7 +41,9 @@ def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadPro
     keys = (f": {packed[::-1].hex().upper()}:{port:04X} ".encode(),
             f": 00000000:{port:04X} ".encode())  # bound to every address
     probe = ReadProbe(keys, table)
-    return probe if probe.unread() is not None else None
+    began = time.monotonic()
+    seen = probe.unread() is not None
+    return probe if seen and time.monotonic() - began <= LOOK_BUDGET else None
 
 
 class ReadProbe:
