@@ -44,7 +44,7 @@ def test_a_start_after_the_first_goes_at_the_clients_pace_and_reads_the_same_sta
     host = fresh_loopback_address()
 
     async def app() -> list:
-        async with FrankaSim(host=host, clock="lockstep"):
+        async with FrankaSim(host=host, clock="lockstep") as sim:
             proc = await asyncio.create_subprocess_exec(
                 sys.executable, "-c", CLIENT, host, stdin=asyncio.subprocess.PIPE,
                 stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
@@ -60,6 +60,10 @@ def test_a_start_after_the_first_goes_at_the_clients_pace_and_reads_the_same_sta
             monkeypatch.setattr(clock, "START_SPACING", 3600.0)
             later = await motions()
             await asyncio.wait_for(proc.wait(), 60)
+            learned = sim.core.start_reads
+            await sim.reset()  # the robot as freshly started: how a client starts, unknown
+            forgotten = sim.core.start_reads is None
+        assert learned == 2 and forgotten  # (it read two states after the first: its answer's)
         return first + later
 
     motions = asyncio.run(app())

@@ -47,7 +47,10 @@ def test_the_robot_keeps_how_many_start_states_its_client_read_before_answering(
     _learned(harness, 1)
     assert harness.core.start_reads == 1  # the last start counts
     harness.core.client_connected()
-    assert harness.core.start_reads == 1  # a suite's next client starts as its last did
+    assert harness.core.start_reads == 1  # a program's next connection starts as its last
+    measured = harness.backend.measure()
+    harness.core.reset(measured.q, measured)
+    assert harness.core.start_reads is None  # a reset: as freshly powered up
     assert harness.move(*TORQUE) == MoveStatus.kMotionStarted
     first = int(harness.cycle()["message_id"])
     harness.send(message_id=first - 3, tau_J_d=[0.0] * 7)  # an id from before the start

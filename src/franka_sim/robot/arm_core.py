@@ -244,6 +244,7 @@ class ArmCore(FciRobot):
             raise ValueError("a motion or an error recovery is under way")
         if message_id is not None:
             self.message_id = message_id
+        self.start_reads = None  # (how a client starts is yet to be seen, as when powered up)
         defaults = RobotSettings()
         for setting in dataclasses.fields(defaults):
             if setting.init:

@@ -74,7 +74,8 @@ class FciRobot:
         self._beyond = 0  # commands with values beyond COMMAND_RANGE
         # How many states after its motion's first the client read before it answered one, at
         # the robot's last start (None: none yet): a lockstep clock's guide to the next. Kept
-        # across connections: a test suite's clients, one per test, start alike.
+        # across connections (a program's, one after another, start alike), forgotten by a
+        # reset: after it the robot is as freshly started, and a run the same as on a fresh one.
         self.start_reads: int | None = None
 
     # -- questions the server asks -----------------------------------------------------------
