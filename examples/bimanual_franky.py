@@ -55,7 +55,9 @@ def arm_program(name: str, host: str, barrier: threading.Barrier) -> None:
     gripper.move(0.08, 0.05)
     go(x + MOVE, grip + LIFT)
     barrier.wait(TIMEOUT)
-    print(f"{name}: set the {what} down at x = {x + MOVE:.2f} m", flush=True)
+    # One write for the whole line: the other arm's process prints to the same stream.
+    sys.stdout.write(f"{name}: set the {what} down at x = {x + MOVE:.2f} m\n")
+    sys.stdout.flush()
 
 
 def _run(name: str, host: str, barrier: threading.Barrier) -> None:

@@ -1,8 +1,10 @@
 """Rehearses a network outage: a burst of lost cycles in the middle of a motion trips
 communication_constraints_violation; the program recovers and runs the motion again.
 
-Serve the burst where the motion will be (a fresh simulator's clock stands at about 2 s until
-a client comes, so 3 s of simulated time falls within the first motion):
+Serve the burst where the motion will be: 3 s of simulated time falls within the first 4 s
+motion (a fresh lockstep simulator's clock stands near 0 s until a client comes, a realtime
+one's at about 2 s). The burst is keyed on the robot's clock, which a reset does not rewind:
+serve a fresh simulator for each rehearsal.
 
     franka-sim serve --clock lockstep --enforce-comm-constraints --inject burst=25@3s
     python rehearse_network_faults.py HOST [SECONDS]
@@ -51,6 +53,7 @@ def main(host: str, seconds: float = 4.0) -> int:
         print(f"the motion from t={start:.3f} s met no fault: serve a burst within it")
         return 1
     robot.automatic_error_recovery()
+    robot.read_once()  # (what the socket kept while the recovery ran: up to ~100 ms old)
     print(f"recovered: mode={robot.read_once().robot_mode.name}")
     start, rate = swing(robot, seconds)
     print(f"Finished motion (from t={start:.3f} s), success_rate={rate:.2f}, "

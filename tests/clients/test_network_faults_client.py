@@ -131,6 +131,16 @@ def test_the_rehearsal_example_trips_the_violation_and_recovers():
         assert report["spec"] == "burst=25@3s" and 20 < report["states"]["dropped"] <= 25
 
 
+def test_the_rehearsal_reads_the_robot_recovered_in_realtime_too():
+    """The recovery of a swinging arm takes ~250 ms, in which the client's socket filled and
+    kept its oldest states: the example reads past them (docs/clients.md)."""
+    with running_sim("--enforce-comm-constraints", "--inject", "burst=25@3s") as sim:
+        done = subprocess.run([sys.executable, str(EXAMPLES / "rehearse_network_faults.py"),
+                               sim.host], capture_output=True, text=True, timeout=240)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "recovered: mode=Idle" in done.stdout
+
+
 def test_every_arm_of_a_world_meets_its_own_faults_and_both_finish():
     """Two arms, one pylibfranka program each, at once: each arm's answers are lost on their
     own plan (its index is part of the key), and lockstep waits for both without stalling."""
