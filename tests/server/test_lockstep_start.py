@@ -180,8 +180,10 @@ class _Probe:
         return self.queued
 
 
-def test_the_driver_looks_at_the_clients_socket_until_it_read_the_state():
-    harness, thread, endpoint, probe = Harness(), _Thread(), _Endpoint(), _Probe()
+def _driver_at_a_start(probe: _Probe) -> tuple[CycleDriver, _Thread, _Endpoint]:
+    """A lockstep driver on a fake thread whose robot's client read two states before
+    answering at its last start, a Move of it just admitted (its first state is next)."""
+    harness, thread, endpoint = Harness(), _Thread(), _Endpoint()
     _learned(harness, 2)
     world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
     driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
@@ -191,6 +193,12 @@ def test_the_driver_looks_at_the_clients_socket_until_it_read_the_state():
     thread.tick(None, True)
     assert harness.move(*TORQUE) == MoveStatus.kMotionStarted
     driver.client_event()
+    return driver, thread, endpoint
+
+
+def test_the_driver_looks_at_the_clients_socket_until_it_read_the_state():
+    probe = _Probe()
+    driver, thread, endpoint = _driver_at_a_start(probe)
     before = time.monotonic()
     deadline = thread.tick(None, True)  # the motion's first state
     assert driver.clock.awaits_read == 0
@@ -222,16 +230,7 @@ class _SlowProbe(_Probe):
 
 
 def test_a_look_that_takes_too_long_ends_looking_at_that_client():
-    harness, thread, endpoint, probe = Harness(), _Thread(), _Endpoint(), _SlowProbe()
-    _learned(harness, 2)
-    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
-    driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
-                         deliver=lambda replies: None, has_client=lambda: True,
-                         watcher=ClockWatcher(), find_probe=lambda target: probe)
-    asyncio.run(driver.start([endpoint]))
-    thread.tick(None, True)
-    assert harness.move(*TORQUE) == MoveStatus.kMotionStarted
-    driver.client_event()
+    driver, thread, _ = _driver_at_a_start(_SlowProbe())
     thread.tick(None, True)  # the motion's first state: its read awaited
     assert driver.clock.awaits_read == 0
     thread.tick(None, True)  # the look took too long: no more looks at this client
