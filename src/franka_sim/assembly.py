@@ -123,7 +123,9 @@ class WorldParts:
             else default_scene_path()
         self.placements = self._place(specs, [d for _, d in described])
         self._names = tuple(spec.name for spec in specs)  # (the arms', as the server says them)
-        self._check()
+        # (An arm inside another or a body: SceneError when the world is built, in the cycle
+        # thread: engine_choice.make_physics.)
+        check_world(self.placements, self.scene)
         self.arms = [ArmParts(config, spec, described[i][1], described[i][0], robot_events[i])
                      for i, spec in enumerate(specs)]
         self.base = None if config.mobile_base is None else BaseParts(
@@ -177,12 +179,6 @@ class WorldParts:
             return {kind: load_look(self.config.meshes, kind) for kind in kinds}
         except MeshError as exc:
             raise SceneError(f"--meshes: {exc}") from None
-
-    def _check(self) -> None:
-        check_world(self.placements, self.scene)
-        if len(self.placements) > 1:  # (arms placed into each other: SceneError now, not in
-            make_physics(self.placements, self._q0s(), self.scene,  # the cycle thread)
-                         names=self._names)
 
     def _q0s(self) -> dict:
         q0 = np.array(self.config.q0, dtype=float)

@@ -156,3 +156,16 @@ def test_an_unwritable_record_target_stops_serve_at_start(tmp_path):
     assert done.stderr.strip().splitlines()[-1] == (
         f"franka-sim: cannot record to {tmp_path / 'missing' / 'run.mcap'}: "
         "No such file or directory")
+
+
+def test_a_start_refused_leaves_no_recording_behind(tmp_path):
+    """The arms placed into each other: serve stops as it builds the world, and the file
+    --record opened, which would hold nothing of a run, goes."""
+    from franka_sim.testing import fresh_loopback_address
+
+    left, right, out = fresh_loopback_address(), fresh_loopback_address(), tmp_path / "run.mcap"
+    done = subprocess.run(
+        [sys.executable, "-m", "franka_sim", "serve", "--arm", f"left={left}", "--arm",
+         f"right={right}", "--record", str(out)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and "arm left: placed into arm right" in done.stderr
+    assert not out.exists()

@@ -21,7 +21,7 @@ from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.clock import READ_MARGIN, START_SPACING, Clock, ClockWatcher
 from franka_sim.server.cycle_driver import READ_POLL, CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW
-from franka_sim.server.read_probe import LOOK_BUDGET, probe_for
+from franka_sim.server.read_probe import LOOK_BUDGET, probe_for, too_slow
 from franka_sim.testing import fresh_loopback_address
 
 from support.harness import Harness
@@ -173,6 +173,8 @@ class _Endpoint:
 
 
 class _Probe:
+    table = "/nowhere/udp"  # (what a real probe reads)
+
     def __init__(self) -> None:
         self.queued: int | None = 1  # bytes the client has not read (None: socket gone)
 
@@ -268,6 +270,20 @@ def test_the_probe_sees_a_loopback_clients_unread_datagrams(bound_to):
         client.recv(200)
         assert probe.unread() == 0
     assert probe.unread() is None  # closed
+
+
+def test_a_table_too_slow_to_read_is_not_read_again(tmp_path):
+    """Each new connection's first look would hold the cycle thread as long as the last."""
+    table = tmp_path / "udp"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+        client.bind(("127.0.0.1", 0))
+        target = ("127.0.0.1", client.getsockname()[1])
+        port = f"{target[1]:04X}"
+        table.write_text("  sl  local_address rem_address   st tx_queue rx_queue\n"
+                         f"   0: 0100007F:{port} 00000000:0000 07 00000000:00000000\n")
+        assert probe_for(target, table=str(table)) is not None
+        too_slow(str(table))
+        assert probe_for(target, table=str(table)) is None
 
 
 def test_a_client_the_probe_cannot_see_has_none():

@@ -58,8 +58,7 @@ class Arm:
                  gravity: np.ndarray, placement: ArmPlacement) -> None:
         self.name, self.desc = placement.name, placement.desc
         prefix = placement.prefix
-        first = self.desc.joints[0]  # its fixed first link, and the chain from its first joint
-        self.tops = (prefix + first.parent, prefix + first.child)
+        self.tops = placement.tops
         jids = [model.joint(prefix + j.name).id for j in self.desc.joints]
         qadr, vadr = model.jnt_qposadr[jids], model.jnt_dofadr[jids]
         if not (np.diff(qadr) == 1).all() or not (np.diff(vadr) == 1).all():

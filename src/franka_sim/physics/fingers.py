@@ -214,6 +214,11 @@ def _clip(f: float, limit: float) -> float:
     return limit if f > limit else (-limit if f < -limit else f)
 
 
+def opening(width: float | None = None) -> float:
+    """The fingers' opening a reset leaves (None: open), each finger at half of it."""
+    return OPEN_WIDTH if width is None else float(width)
+
+
 class Fingers:
     """One Hand's two finger joints in the world's data: their drive, their standstill and the
     palm that keeps palm + fingers the reported end effector.
@@ -281,13 +286,13 @@ class Fingers:
         return FingerState(width=x1 + x2, speed=v1 + v2, force=-0.5 * (f1 + f2))
 
     def placed(self, width: float | None = None) -> dict[int, float]:
-        half = 0.5 * (OPEN_WIDTH if width is None else float(width))
+        half = 0.5 * opening(width)
         return {self._qadr: half, self._qadr + 1: half}
 
     def place(self, width: float | None = None) -> None:
         """Open (or `width` apart), at rest, commanded to stay so, the palm matching (in freshly
         reset data)."""
-        width = OPEN_WIDTH if width is None else float(width)
+        width = opening(width)
         self._q[:] = 0.5 * width
         self._v[:] = 0.0
         self.command = FingerCommand(width, 0.0, MAX_FINGER_FORCE)

@@ -59,6 +59,7 @@ def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
         depth = -float(contact.dist)
         if depth > DEPTH and depth > deepest.get((a, b), 0.0):
             deepest[(a, b)] = depth
-    found = [Intrusion(model.body(a).name, model.body(b).name or "the world", depth)
+    found = [Intrusion(model.body(a).name, model.body(b).name if b else "the world's geometry",
+                       depth)
              for (a, b), depth in deepest.items()]
     return sorted(found, key=lambda i: -i.depth)

@@ -52,6 +52,13 @@ class ArmPlacement:
     def prefix(self) -> str:
         return f"{self.name}/" if self.name else ""
 
+    @property
+    def tops(self) -> tuple[str, str]:
+        """Its bodies' tops in the world's model: its fixed first link, and the chain from its
+        first joint (hand and tool below it)."""
+        first = self.desc.joints[0]
+        return self.prefix + first.parent, self.prefix + first.child
+
     def base_frame(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(R, p): the base's rotation and position in the world frame; None at the origin."""
         if self.base is None:

@@ -212,7 +212,8 @@ class FciRobot:
                             "(%d so far)", message_id, ", ".join(beyond),
                             COMMAND_RANGE, COMMAND_RANGE, self._beyond)
             command = clipped_command(command, COMMAND_RANGE)
-        if self.awaiting_first_command and motion.first_state is not None:
+        if motion.last_command is None and self.awaiting_first_command \
+                and motion.first_state is not None:
             reads = message_id - motion.first_state  # (an id before the start's: unknown)
             self.start_reads = reads if reads >= 0 else None
         on_time = self.window.take(message_id, command)

@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 
 from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.read_probe import LOOK_BUDGET, probe_for
+from franka_sim.server.read_probe import LOOK_BUDGET, probe_for, too_slow
 
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the sockets before it sleeps
 READ_POLL = 250e-6  # s between looks at a client's socket while the clock awaits its read
@@ -166,7 +166,7 @@ class CycleDriver:
                     break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
-            return self._looking(deadline)
+            return deadline if self.clock.awaits_read is None else self._looking(deadline)
         except BaseException:
             self._running = False  # the cycle thread logs it and stops the clock
             raise
@@ -221,6 +221,7 @@ class CycleDriver:
             if unread is None or now - began > LOOK_BUDGET:  # its socket went, or too slow
                 if unread is not None:
                     self._probes[robot] = (self._probes[robot][0], None)
+                    too_slow(probe.table)
                 clock.reads_unseen(now)
             elif not unread:
                 clock.client_read(now)

@@ -23,12 +23,13 @@ import time
 
 UDP_TABLE = "/proc/net/udp"
 LOOK_BUDGET = 1e-3  # s: a look that takes longer is not worth its wait
+_too_slow: set[str] = set()  # tables a look at took longer: not read again by this process
 
 
 def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadProbe | None:
     """The probe of the socket states go to at `target` (ip, port), if it is a loopback
     address and its socket is in `table`; else None."""
-    if target is None:
+    if target is None or table in _too_slow:
         return None
     ip, port = target[0], target[1]
     try:
@@ -43,7 +44,16 @@ def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadPro
     probe = ReadProbe(keys, table)
     began = time.monotonic()
     seen = probe.unread() is not None
-    return probe if seen and time.monotonic() - began <= LOOK_BUDGET else None
+    if time.monotonic() - began > LOOK_BUDGET:
+        too_slow(table)
+        return None
+    return probe if seen else None
+
+
+def too_slow(table: str = UDP_TABLE) -> None:
+    """A look at `table` took longer than LOOK_BUDGET: no client's reads are looked for in it
+    again (each new connection's first look would hold the cycle thread as long)."""
+    _too_slow.add(table)
 
 
 class ReadProbe:

@@ -51,8 +51,9 @@ class FrankaSim(EmbeddedOperations):
         # What a recording hears, from everyone who has something to record (inert until a
         # recording is attached: server/recorder/live.py).
         self.taps = Taps(len(config.arm_specs()) + (config.mobile_base is not None))
-        # SceneError / DescriptionError: said now, before anything is served (a lone arm that
-        # would start inside a body: by start(), as it builds the world, before serving).
+        # SceneError / DescriptionError: said now, before anything is served (an arm that would
+        # start inside a body or another arm: by start(), as it builds the world, before
+        # serving).
         self.parts = parts = WorldParts(config, self.taps)
         self.urdf_text, self.description, self.scene = (
             parts.urdf_text, parts.description, parts.scene)
@@ -97,7 +98,11 @@ class FrankaSim(EmbeddedOperations):
         if self._served:
             raise RuntimeError("a FrankaSim serves once: make a new one to serve again")
         self._served = True
-        await self.worker.start(on_failure=lambda reason: self.failed.set())
+        try:
+            await self.worker.start(on_failure=lambda reason: self.failed.set())
+        except BaseException:  # (the world could not be built: an arm inside a body)
+            self._discard_recording()
+            raise
         config = self.config
         started = []
         try:
@@ -114,6 +119,7 @@ class FrankaSim(EmbeddedOperations):
                 await robot.stop_endpoints()
                 robot.udp.close()
             await self.worker.stop()
+            self._discard_recording()
             raise
         self._started = True
         if self.recorder is not None:
@@ -129,6 +135,12 @@ class FrankaSim(EmbeddedOperations):
         if switches := self._switches():
             log.info("serving with: %s", "; ".join(switches))
         return self
+
+    def _discard_recording(self) -> None:
+        """A start that failed: --record's file, which holds nothing of a run, goes."""
+        if self.recorder is not None:
+            self.recordings.discard(self.recorder)
+            self.recorder = None
 
     def _switches(self) -> list[str]:
         """What this server does beyond serving the robot as it is, for its start's log: a

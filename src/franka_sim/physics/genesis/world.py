@@ -23,7 +23,7 @@ import numpy as np
 
 from franka_sim.physics.drive import SETTLE
 from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
-from franka_sim.physics.fingers import FINGER_JOINTS, OPEN_WIDTH, FingersMount
+from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount, opening
 from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.genesis.arm import GenesisArm
 from franka_sim.physics.genesis.dynamics import (ArmDynamics, exact_inertials, flange_of,
@@ -89,8 +89,7 @@ class GenesisWorld:
         self._qs = [int(entity.get_joint(n).qs_idx_local[0]) for n in names]
         self._arm_qpos = [int(self.model.joint(n).qposadr[0]) for n in names[:7]]
         self._finger_qpos = [int(self.model.joint(n).qposadr[0]) for n in names[7:]]
-        first = placement.desc.joints[0]  # the arm's fixed first link, the chain from joint1
-        self._arm_tops = (prefix + first.parent, prefix + first.child)
+        self._arm_tops = placement.tops
         dynamics = ArmDynamics(placement, names)
         self._arm = GenesisArm(placement, dynamics, self.timestep, len(names) - 7)
         self.arms = {placement.name: self._arm}
@@ -218,8 +217,7 @@ class GenesisWorld:
         qpos = self.model.qpos0.copy()
         qpos[self._arm_qpos] = q0
         if self._finger_qpos:
-            width = OPEN_WIDTH if tool_setting is None else float(tool_setting)
-            qpos[self._finger_qpos] = 0.5 * width
+            qpos[self._finger_qpos] = 0.5 * opening(tool_setting)
         return intrusions(self.model, qpos, subtree(self.model, self._arm_tops))
 
     def positions(self) -> np.ndarray:
