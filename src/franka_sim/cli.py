@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import os
 import signal
 from pathlib import Path
@@ -362,6 +363,17 @@ def check(
 # The commands that read a recording (replay, plot, render, view) live beside.
 for _command in cli_recordings.COMMANDS:
     app.command()(_command)
+
+
+def _one_line_summaries() -> None:
+    """`franka-sim --help` lists each command by its docstring's first paragraph as one line,
+    which the terminal wraps: rich markup would keep the docstring's own line breaks there."""
+    for info in app.registered_commands:
+        paragraph = inspect.cleandoc(info.callback.__doc__ or "").split("\n\n")[0]
+        info.short_help = " ".join(paragraph.split())
+
+
+_one_line_summaries()
 
 
 def main() -> None:

@@ -63,6 +63,36 @@ def test_every_help_text_is_shown_as_written(command):
         assert f"franka-sim[{command}]" in shown
 
 
+def test_the_command_list_is_wrapped_by_the_terminal_alone():
+    """`franka-sim --help` lists each command by its docstring's first paragraph, broken into
+    lines only where the next word would not fit (not where the docstring's lines end)."""
+    import inspect
+
+    import typer.main
+
+    from franka_sim.cli import app
+
+    out = subprocess.run([sys.executable, "-m", "franka_sim", "--help"], capture_output=True,
+                         text=True, timeout=60, env={**os.environ, "COLUMNS": "80"}).stdout
+    rows: dict[str, list[str]] = {}
+    for line in out[out.index("Commands"):].splitlines()[1:]:
+        if not line.startswith("│"):
+            break
+        inner = line[1:-1]  # "│ name    text …   │"
+        if inner[1] != " ":
+            name = inner.split()[0]
+            start = inner.index(inner.split()[1], len(name) + 1)  # where the texts begin
+            rows[name] = []
+        rows[name].append(inner[start:].strip())
+    width = len(inner) - 1 - start  # the texts' column, less its right padding
+    for name, command in typer.main.get_command(app).commands.items():
+        paragraph = inspect.cleandoc(command.callback.__doc__).split("\n\n")[0]
+        lines = rows[name]
+        assert " ".join(lines) == " ".join(paragraph.replace("\\[", "[").split()), name
+        for line, following in zip(lines, lines[1:]):
+            assert len(line) + 1 + len(following.split()[0]) > width, (name, line)
+
+
 def test_host_from_the_environment_and_sigterm_stops_cleanly():
     host = fresh_loopback_address()
     proc = subprocess.Popen([sys.executable, "-m", "franka_sim", "serve"],
