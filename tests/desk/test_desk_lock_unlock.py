@@ -6,7 +6,6 @@ the Hand homed through the control API."""
 
 from __future__ import annotations
 
-import base64
 import json
 import os
 import signal

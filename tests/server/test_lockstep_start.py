@@ -15,7 +15,7 @@ import time
 
 import pytest
 
-from franka_sim.protocol.codec import decode_state, encode_command
+from franka_sim.protocol.codec import decode_state
 from franka_sim.protocol.enums import MoveStatus
 from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.clock import READ_MARGIN, START_SPACING, Clock, ClockWatcher
