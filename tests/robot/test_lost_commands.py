@@ -285,5 +285,62 @@ def test_a_gap_carries_the_cartesian_signals_on_within_their_limits():
     assert (target.twist[0] - before[0]) / DT == pytest.approx(FR3.translation.acceleration)
     elbow = ElbowCommand(0.0, -1.0, max_acceleration=FR3.elbow.acceleration)
     elbow.follow(0.01, -1.0)  # 10 rad/s in one cycle
-    elbow.extrapolate(False)
+    elbow.extrapolate()
     assert elbow.position == pytest.approx(0.01 + (10.0 + FR3.elbow.acceleration * DT) * DT)
+
+
+def test_after_a_gap_the_stream_is_differenced_over_the_cycles_between():
+    """The client's next point after a gap is differenced against its last one over the
+    cycles between, not against what the gap carried on: a stream at 0.1 rad/s stays at
+    0.1 rad/s (differenced against the extrapolation it read 0.07 rad/s and −50 rad/s²)."""
+    from franka_sim.robot.motion import JointReference
+
+    reference = JointReference(np.zeros(7), 10.0, 2.62)
+    reference.follow_position(np.full(7, 1e-4))  # 0.1 rad/s from rest: 100 rad/s² carried on
+    reference.extrapolate()
+    reference.extrapolate()
+    reference.follow_position(np.full(7, 4e-4))  # three cycles on, still 0.1 rad/s
+    np.testing.assert_allclose(reference.dq_d, 0.1)
+    np.testing.assert_allclose(reference.ddq_d, 0.0, atol=1e-9)
+    reference.follow_position(np.full(7, 5e-4))  # and the next cycle as ever
+    np.testing.assert_allclose(reference.dq_d, 0.1)
+
+
+def test_a_gap_carries_the_reference_on_within_the_velocity_limit():
+    """A step the robot let through (5 rad/s in one cycle) is carried on at the joints'
+    velocity limit at most."""
+    from franka_sim.robot.motion import JointReference
+
+    limits = np.array([2.62, 2.62, 2.62, 2.62, 5.26, 4.18, 5.26])
+    reference = JointReference(np.zeros(7), 10.0, limits)
+    reference.follow_position(np.full(7, 5e-3))
+    reference.extrapolate()
+    assert np.all(np.abs(reference.dq_d) <= limits)
+
+
+def test_after_a_gap_the_cartesian_stream_is_differenced_over_the_cycles_between():
+    """The same for the Cartesian pose and the elbow: a client at 0.1 m/s and 0.1 rad/s is
+    read at that speed after two cycles carried on."""
+    from franka_sim.robot.cartesian import CartesianTarget
+    from franka_sim.robot.checks.figures import FR3
+    from franka_sim.robot.motion import ElbowCommand
+
+    target = CartesianTarget(np.eye(4), np.repeat([FR3.translation.acceleration,
+                                                   FR3.rotation.acceleration], 3))
+    elbow = ElbowCommand(0.0, -1.0, max_acceleration=FR3.elbow.acceleration)
+    for k in (1, 2):  # 0.1 m/s from rest, 0.1 rad/s
+        pose = np.eye(4)
+        pose[0, 3] = k * 1e-4
+        target.set_pose(pose)
+        elbow.follow(k * 1e-4, -1.0)
+    for _ in range(2):
+        target.extrapolate()
+        elbow.extrapolate()
+    pose[0, 3] = 5e-4
+    target.set_pose(pose)
+    elbow.follow(5e-4, -1.0)
+    assert target.twist[0] == pytest.approx(0.1)
+    target.extrapolate()  # at 0.1 m/s, not accelerating
+    assert target.pose[0, 3] == pytest.approx(6e-4) and target.twist[0] == pytest.approx(0.1)
+    elbow.extrapolate()
+    assert elbow.position == pytest.approx(6e-4)

@@ -33,7 +33,8 @@ def admit_move(desc: ArmDescription, command_id: int, request, *, running: bool,
     if spec.generator in CARTESIAN_GENERATORS:
         _check_not_singular(desc, q, F_T_EE)
     O_T_EE = (O_T_F if O_T_F is not None else flange_pose(desc, q)) @ F_T_EE
-    return Motion(command_id, spec, q, O_T_EE, F_T_EE, figures=motion_figures(desc))
+    return Motion(command_id, spec, q, O_T_EE, F_T_EE, figures=motion_figures(desc),
+                  joint_velocity=desc.limit_array("velocity"))
 
 
 def _check_not_singular(desc: ArmDescription, q: np.ndarray, F_T_EE: np.ndarray) -> None:

@@ -66,19 +66,24 @@ class CartesianTarget:
     IK tracks a pose and never drifts; a missed cycle continues the twist at constant
     acceleration, as the robot extrapolates every motion signal. For the pose interface the
     twist (and its rate) is the poses' backward difference, which only a gap needs: it is
-    worked out from the last three poses when one occurs, not on every cycle.
+    worked out from the last three poses when one occurs, not on every cycle. After a gap the
+    client's next pose or twist is differenced against its last, over the cycles between, not
+    against what the gap carried on (motion.py JointReference says why).
     """
 
-    def __init__(self, O_T_EE_start: np.ndarray,
-                 max_twist_rate: np.ndarray | float = np.inf) -> None:
+    def __init__(self, O_T_EE_start: np.ndarray, max_twist_rate: np.ndarray | float = np.inf,
+                 max_twist: np.ndarray | float = np.inf) -> None:
         self.pose = np.array(O_T_EE_start, dtype=float)
-        # m/s², rad/s² per axis (6,): what a gap carries on, as the joint reference's (motion.py)
-        self.max_twist_rate = max_twist_rate
+        # m/s², rad/s² and m/s, rad/s per axis (6,): what a gap carries on, as the joint
+        # reference's (motion.py)
+        self.max_twist_rate, self.max_twist = max_twist_rate, max_twist
         self._twist = np.zeros(6)
         self._twist_rate = np.zeros(6)
         # The poses since the twist above was last brought up to date (it is the first one's),
         # the last three at most: the twist and its rate at the newest need no more.
         self._poses = [self.pose]
+        self._stream = (self.pose, self._twist)  # the client's last pose and twist
+        self._missed = 0  # cycles without a command since
 
     @property
     def twist(self) -> np.ndarray:
@@ -87,6 +92,13 @@ class CartesianTarget:
 
     def set_pose(self, O_T_EE_c: np.ndarray) -> None:
         self.pose = np.array(O_T_EE_c, dtype=float)
+        if self._missed:
+            cycles = self._missed + 1
+            pose, twist = self._stream
+            self._twist = _pose_rate(self.pose, pose) / cycles
+            self._twist_rate = (self._twist - twist) / (cycles * DT)
+            self._poses, self._missed = [self.pose], 0
+            return
         poses = self._poses
         poses.append(self.pose)
         if len(poses) > 3:
@@ -105,15 +117,26 @@ class CartesianTarget:
 
     def set_twist(self, O_dP_EE_c: np.ndarray) -> None:
         twist = np.asarray(O_dP_EE_c, dtype=float)
-        self._twist_rate = (twist - self.twist) / DT
+        if self._missed:
+            self._twist_rate = (twist - self._stream[1]) / ((self._missed + 1) * DT)
+            self._missed = 0
+        else:
+            self._twist_rate = (twist - self.twist) / DT
         self._twist = twist.copy()
         self._integrate()
 
-    def extrapolate(self) -> None:
+    def skip(self) -> None:
+        """A cycle without a command (the robot carries on, or brakes the joints)."""
         self._settle()
-        limit = self.max_twist_rate
+        if not self._missed:
+            self._stream = (self.pose.copy(), self._twist.copy())
+        self._missed += 1
+
+    def extrapolate(self) -> None:
+        self.skip()
+        limit, fastest = self.max_twist_rate, self.max_twist
         self._twist_rate = np.clip(self._twist_rate, -limit, limit)
-        self._twist = self._twist + self._twist_rate * DT
+        self._twist = np.clip(self._twist + self._twist_rate * DT, -fastest, fastest)
         self._integrate()
 
     def _integrate(self) -> None:

@@ -99,41 +99,68 @@ def parse_move(request) -> MoveSpec:
 
 
 class JointReference:
-    """Desired joint signals of a joint-space generator, with the FCI's gap filling."""
+    """Desired joint signals of a joint-space generator, with the FCI's gap filling.
 
-    def __init__(self, q_start: np.ndarray, max_acceleration: np.ndarray | float = np.inf) -> None:
+    The client's stream is followed as the robot follows it, q_d = q_c differenced cycle by
+    cycle. After a gap (cycles carried on or braked without a command) the next command's
+    differences are the stream's own, over the cycles since its last command: differenced
+    against what the robot carried on meanwhile, a smooth client's next point read as a step
+    (a few mrad in one cycle: rad/s), which the next gap then carried on at that speed, gap
+    after gap, under a jittered link (the arm thrown about, up to 8000 rad off). Where the
+    real robot meets such a step it aborts (`--enforce-motion-limits`; the checks difference
+    the stream over the same cycles); a robot that lets the motion go on stays on the stream.
+    """
+
+    def __init__(self, q_start: np.ndarray, max_acceleration: np.ndarray | float = np.inf,
+                 max_velocity: np.ndarray | float = np.inf) -> None:
         self.q_d = np.array(q_start, dtype=float)
         self.dq_d = np.zeros(7)
         self.ddq_d = np.zeros(7)
-        self.max_acceleration = max_acceleration  # rad/s², per joint: what a gap carries on
+        # rad/s², rad/s per joint: what a gap carries on
+        self.max_acceleration, self.max_velocity = max_acceleration, max_velocity
+        # The stream's last point and velocity, and the cycles without a command since
+        self._q_c, self._dq_c, self._missed = self.q_d, self.dq_d, 0
 
     def follow_position(self, q_c: np.ndarray) -> None:
         """q_d = q_c, its first two differences (fresh arrays: a drive command keeps them)."""
         signals = np.empty(21)
-        joint_follow(q_c, self.q_d, self.dq_d, DT, signals)
+        if self._missed:
+            joint_follow(q_c, self._q_c, self._dq_c, (self._missed + 1) * DT, signals)
+        else:
+            joint_follow(q_c, self.q_d, self.dq_d, DT, signals)
         self.q_d, self.dq_d, self.ddq_d = signals.reshape(3, 7)
+        self._q_c, self._dq_c, self._missed = self.q_d, self.dq_d, 0
 
     def follow_velocity(self, dq_c: np.ndarray) -> None:
         dq = np.array(dq_c, dtype=float)
-        self.ddq_d = (dq - self.dq_d) / DT
-        self.dq_d = dq
+        if self._missed:
+            self.ddq_d = (dq - self._dq_c) / ((self._missed + 1) * DT)
+        else:
+            self.ddq_d = (dq - self.dq_d) / DT
+        self.dq_d = self._dq_c = dq
+        self._missed = 0
         self.q_d = self.q_d + dq * DT
+
+    def restart(self, q: np.ndarray, dq: np.ndarray) -> None:
+        """The robot's own stop begins from the arm as measured (the stream's memory kept)."""
+        self.q_d, self.dq_d = np.array(q, dtype=float), np.array(dq, dtype=float)
+        self.ddq_d = np.zeros(7)
 
     def extrapolate(self) -> None:
         """A missed cycle: continue at the acceleration frozen when the gap began, within the
-        robot's joint acceleration limit. q_c differenced against an extrapolated q_d (the
-        cycle after a gap) can exceed it for a client whose own stream is smooth (one whose
-        answers land a cycle off: a jittered network); carried on unbounded, gap after gap, the
-        reference grew without end (10⁹ rad/s² within 30 cycles)."""
-        limit = self.max_acceleration
+        robot's joint acceleration and velocity limits (a client's own stream may exceed
+        them: what a gap carries on may not)."""
+        limit, fastest = self.max_acceleration, self.max_velocity
         self.ddq_d = np.clip(self.ddq_d, -limit, limit)
-        self.dq_d = self.dq_d + self.ddq_d * DT
+        self.dq_d = np.clip(self.dq_d + self.ddq_d * DT, -fastest, fastest)
         self.q_d = self.q_d + self.dq_d * DT
+        self._missed += 1
 
     def brake(self) -> None:
         """One cycle of the robot's stop: every joint slows by the same share, so they reach
         rest together and the arm stays on its way, none slowing faster than
         BRAKE_DECELERATION."""
+        self._missed += 1
         dq = self.dq_d
         to_rest = float(np.max(np.abs(dq))) / BRAKE_DECELERATION  # s
         if to_rest == 0.0:
@@ -187,28 +214,43 @@ class ElbowCommand:
     """The commanded elbow (elbow_c) as the robot holds it: the client's, or on a missed cycle
     extrapolated at constant acceleration like every motion signal. Published as elbow_c, it is
     what libfranka's filter and rate limiter anchor the next command on, so a missed cycle must
-    leave it where the stream was heading, not where the client last was."""
+    leave it where the stream was heading, not where the client last was. After a gap the
+    client's next elbow is differenced against its last, over the cycles between (as q_c is:
+    JointReference)."""
 
-    __slots__ = ("position", "flag", "_velocity", "_acceleration", "max_acceleration")
+    __slots__ = ("position", "flag", "_velocity", "_acceleration", "max_acceleration",
+                 "max_velocity", "_stream", "_missed")
 
     def __init__(self, position: float, flag: float, velocity: float = 0.0,
-                 max_acceleration: float = math.inf) -> None:
+                 max_acceleration: float = math.inf, max_velocity: float = math.inf) -> None:
         self.position, self.flag = position, flag
         self._velocity, self._acceleration = velocity, 0.0
-        self.max_acceleration = max_acceleration  # rad/s²: what a gap carries on (as q_d's)
+        # rad/s², rad/s: what a gap carries on (as q_d's)
+        self.max_acceleration, self.max_velocity = max_acceleration, max_velocity
+        self._stream, self._missed = (position, velocity), 0  # the client's last, cycles since
 
     def follow(self, position: float, flag: float) -> None:
-        velocity = (position - self.position) / DT
-        self._acceleration = (velocity - self._velocity) / DT
+        if self._missed:
+            before, velocity_before = self._stream
+        else:
+            before, velocity_before = self.position, self._velocity
+        interval = (self._missed + 1) * DT
+        velocity = (position - before) / interval
+        self._acceleration = (velocity - velocity_before) / interval
         self._velocity, self.position, self.flag = velocity, position, flag
+        self._missed = 0
 
-    def extrapolate(self, stand_still: bool) -> None:
-        if stand_still:
-            self._velocity = self._acceleration = 0.0
-            return
-        limit = self.max_acceleration
+    def skip(self) -> None:
+        """A cycle without a command (the robot carries on, or brakes the joints)."""
+        if not self._missed:
+            self._stream = (self.position, self._velocity)
+        self._missed += 1
+
+    def extrapolate(self) -> None:
+        self.skip()
+        limit, fastest = self.max_acceleration, self.max_velocity
         self._acceleration = min(max(self._acceleration, -limit), limit)
-        self._velocity += self._acceleration * DT
+        self._velocity = min(max(self._velocity + self._acceleration * DT, -fastest), fastest)
         self.position += self._velocity * DT
 
 
@@ -222,17 +264,19 @@ class Motion:
 
     def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
                  O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None, *,
-                 figures: MotionFigures) -> None:
+                 figures: MotionFigures, joint_velocity: np.ndarray | float = np.inf) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
         self.first_state: int | None = None  # message_id of that cycle
-        # The robot's limits (its kind's figures) bound what a gap carries on.
-        self._elbow_acceleration = figures.elbow.acceleration
-        self.reference = JointReference(q_start, figures.joint_acceleration)
+        # The robot's limits (its kind's figures, its URDF's joint velocities) bound what a
+        # gap carries on.
+        self._elbow = figures.elbow
+        self.reference = JointReference(q_start, figures.joint_acceleration, joint_velocity)
         self.cartesian = (
             CartesianTarget(O_T_EE_start, np.repeat(
-                [figures.translation.acceleration, figures.rotation.acceleration], 3))
+                [figures.translation.acceleration, figures.rotation.acceleration], 3),
+                np.repeat([figures.translation.velocity, figures.rotation.velocity], 3))
             if spec.generator in CARTESIAN_GENERATORS else None
         )
         self.F_T_EE = np.eye(4) if F_T_EE is None else F_T_EE
@@ -299,7 +343,8 @@ class Motion:
             position, flag = command["elbow_c"].tolist()
             if self.elbow is None:
                 self.elbow = ElbowCommand(position, flag,
-                                          max_acceleration=self._elbow_acceleration)
+                                          max_acceleration=self._elbow.acceleration,
+                                          max_velocity=self._elbow.velocity)
             else:
                 self.elbow.follow(position, flag)
         self._solve()
@@ -314,19 +359,23 @@ class Motion:
             if not self.braking:
                 self.braking = True
                 if measured is not None:  # the stop starts from the arm as measured, any mode
-                    self.reference = JointReference(measured.q, self.reference.max_acceleration)
-                    self.reference.dq_d = np.array(measured.dq, dtype=float)
+                    self.reference.restart(measured.q, measured.dq)
             self.reference.brake()
+            if self.cartesian is not None:
+                self.cartesian.skip()
+                if self.elbow is not None:
+                    self.elbow.skip()
         elif self.spec.generator in JOINT_GENERATORS:
             self.reference.extrapolate()
         elif self.cartesian is not None:
             self.cartesian.extrapolate()
             if self.elbow is not None:
-                self.elbow.extrapolate(False)
-            self._solve()
+                self.elbow.extrapolate()
+            self._solve(carried_on=True)
 
-    def _solve(self) -> None:
-        """One IK step from q_d toward the Cartesian target (kinematics evaluated at q_d)."""
+    def _solve(self, carried_on: bool = False) -> None:
+        """One IK step from q_d toward the Cartesian target (kinematics evaluated at q_d); a
+        step the robot takes on its own (`carried_on`: a gap) within its joint velocities."""
         if self.kinematics is None:
             return
         O_T_F_d, J_F_d = self.kinematics
@@ -335,6 +384,9 @@ class Motion:
         q_d = self.reference.q_d
         elbow_error = None if self.elbow is None else self.elbow.position - q_d[2]
         dq = dls_step(J, pose_error(self.cartesian.pose, O_T_EE_d), elbow_error)
+        if carried_on:
+            fastest = self.reference.max_velocity * DT
+            dq = np.clip(dq, -fastest, fastest)
         self.reference.follow_position(q_d + dq)
 
     def still_moving(self) -> bool:
