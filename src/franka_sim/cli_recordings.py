@@ -65,6 +65,10 @@ def replay(
             typer.echo(f"recorded with other numerical kernels ({'; '.join(differ)}): their "
                        "last bits differ, and so does a replay (docs/recording.md, Across "
                        "machines)")
+        elif not recorded:
+            typer.echo("the recording does not say which numerical kernels it ran on (an "
+                       "older one): on another machine or OpenBLAS core their last bits differ, "
+                       "and so does a replay (docs/recording.md, Across machines)")
         raise typer.Exit(1)
 
 

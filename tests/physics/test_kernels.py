@@ -27,6 +27,7 @@ from hypothesis.extra.numpy import arrays
 from franka_sim import kernels
 from franka_sim.kernels import reference
 from franka_sim.testing import ServerProcess, fresh_loopback_address
+from support.replayed import replay_committed
 
 REPO = Path(__file__).resolve().parents[2]
 RECORDINGS = Path(__file__).resolve().parents[1] / "data" / "older_libfranka" / "0.21.2"
@@ -273,10 +274,8 @@ def test_a_server_on_the_numpy_kernels_says_so_at_start(pick):
 def test_the_reference_replays_a_recording_identical(name):
     """Recorded on the compiled kernels (or before they existed): the numpy reference gives
     the same states, bit for bit, through a whole client's run."""
-    env = {**os.environ, "FRANKA_SIM_KERNELS": "numpy"}
-    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay",
-                           str(RECORDINGS / f"{name}.mcap")],
-                          capture_output=True, text=True, timeout=300, env=env)
+    done = replay_committed(RECORDINGS / f"{name}.mcap",
+                            env={**os.environ, "FRANKA_SIM_KERNELS": "numpy"})
     assert done.returncode == 0 and done.stdout.startswith("identical"), done.stdout + done.stderr
 
 

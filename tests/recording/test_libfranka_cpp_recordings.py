@@ -25,14 +25,13 @@ record_older_libfranka.py.
 
 from __future__ import annotations
 
-import subprocess
-import sys
 
 import pytest
 
 from franka_sim.recording.reader import open_recording
 from support import libfranka_cpp as cpp
 from support.libfranka_cpp_checks import CHECKS, connect_versions, requests
+from support.replayed import replay_committed
 from support.record_older_libfranka import CUTS, DATA
 
 TAGS = ("0.9.2", "0.12.1", "0.13.6", "0.14.1", "0.15.3", "0.21.2")
@@ -52,8 +51,7 @@ def test_every_tag_and_example_is_recorded():
 @pytest.mark.parametrize("tag,name", FILES)
 def test_it_replays_identical(tag, name):
     path = DATA / tag / f"{name}.mcap"
-    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
-                          capture_output=True, text=True, timeout=300)
+    done = replay_committed(path)
     assert done.returncode == 0 and done.stdout.startswith("identical"), \
         f"{done.stdout}{done.stderr}\n{path.name} of {tag} no longer replays: {REGENERATE}"
 
@@ -67,3 +65,15 @@ def test_the_client_spoke_its_tags_protocol_and_the_robot_moved(tag, name):
     assert connect_versions(recording) == expected
     assert all("command" in request for request in requests(recording))  # each one read
     CHECKS[name](recording, complete=name not in CUTS)
+
+
+def test_a_replay_on_other_kernels_says_the_recording_does_not_name_its_own():
+    """These files predate recordings that keep their numerical kernels: a replay on another
+    OpenBLAS core diverges, and says why it may."""
+    other = subprocess.run([sys.executable, "-m", "franka_sim", "replay",
+                            str(DATA / "0.21.2" / "generate_joint_position_motion.mcap")],
+                           capture_output=True, text=True, timeout=300,
+                           env={**os.environ, "OPENBLAS_CORETYPE": "Prescott"})
+    lines = other.stdout.splitlines()
+    assert other.returncode == 1 and lines[0].startswith("diverged at cycle ")
+    assert lines[1].startswith("the recording does not say which numerical kernels it ran on")
