@@ -25,6 +25,9 @@ record_older_libfranka.py.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 
 import pytest
 
