@@ -21,7 +21,8 @@ from franka_sim.robot.world_cycle import WorldCycle
 from franka_sim.server.clock import READ_MARGIN, START_SPACING, Clock, ClockWatcher
 from franka_sim.server.cycle_driver import READ_POLL, CycleDriver
 from franka_sim.server.pacing import LOCKSTEP_WINDOW
-from franka_sim.server.read_probe import LOOK_BUDGET, probe_for, too_slow
+from franka_sim.server import read_probe
+from franka_sim.server.read_probe import LOOK_BUDGET, probe_for
 from franka_sim.testing import fresh_loopback_address
 
 from support.harness import Harness
@@ -174,6 +175,7 @@ class _Endpoint:
 
 class _Probe:
     table = "/nowhere/udp"  # (what a real probe reads)
+    sockets = 20  # in that table
 
     def __init__(self) -> None:
         self.queued: int | None = 1  # bytes the client has not read (None: socket gone)
@@ -253,7 +255,8 @@ def test_faults_on_the_link_make_the_reads_unseen():
 
 
 @pytest.mark.parametrize("bound_to", ["host", "any"])
-def test_the_probe_sees_a_loopback_clients_unread_datagrams(bound_to):
+def test_the_probe_sees_a_loopback_clients_unread_datagrams(bound_to, monkeypatch):
+    monkeypatch.setattr(read_probe, "LOOK_BUDGET", 60.0)  # (whatever this machine's load)
     host = fresh_loopback_address()
     client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -272,18 +275,27 @@ def test_the_probe_sees_a_loopback_clients_unread_datagrams(bound_to):
     assert probe.unread() is None  # closed
 
 
-def test_a_table_too_slow_to_read_is_not_read_again(tmp_path):
-    """Each new connection's first look would hold the cycle thread as long as the last."""
+@pytest.mark.parametrize("sockets", [3, read_probe.CROWDED + 1])
+def test_a_crowded_table_too_slow_to_read_is_not_read_again(sockets, tmp_path, monkeypatch):
+    """A slow look at a crowded table: each new connection's first look would hold the cycle
+    thread as long, so none is made. A small one read slowly: the machine was busy, the next
+    connection's client is looked for."""
     table = tmp_path / "udp"
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
         client.bind(("127.0.0.1", 0))
         target = ("127.0.0.1", client.getsockname()[1])
         port = f"{target[1]:04X}"
+        rows = [f"   0: 0100007F:{port} 00000000:0000 07 00000000:00000000\n"] + [
+            f"{k:4d}: 0100007F:0001 00000000:0000 07 00000000:00000000\n"
+            for k in range(1, sockets)]
         table.write_text("  sl  local_address rem_address   st tx_queue rx_queue\n"
-                         f"   0: 0100007F:{port} 00000000:0000 07 00000000:00000000\n")
-        assert probe_for(target, table=str(table)) is not None
-        too_slow(str(table))
+                         + "".join(rows))
+        monkeypatch.setattr(read_probe, "LOOK_BUDGET", -1.0)  # every look too slow
         assert probe_for(target, table=str(table)) is None
+        monkeypatch.setattr(read_probe, "LOOK_BUDGET", 60.0)
+        probe = probe_for(target, table=str(table))
+        assert (probe is None) == (sockets > read_probe.CROWDED)
+        assert probe is None or probe.sockets == sockets
 
 
 def test_a_client_the_probe_cannot_see_has_none():

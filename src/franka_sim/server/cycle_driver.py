@@ -25,7 +25,8 @@ from typing import Callable, Sequence
 
 from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_thread import CycleThread
-from franka_sim.server.read_probe import LOOK_BUDGET, probe_for, too_slow
+from franka_sim.server import read_probe
+from franka_sim.server.read_probe import probe_for, too_slow
 
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the sockets before it sleeps
 READ_POLL = 250e-6  # s between looks at a client's socket while the clock awaits its read
@@ -218,10 +219,10 @@ class CycleDriver:
         unread = None if probe is None else probe.unread()
         now = time.monotonic()
         with self.lock:
-            if unread is None or now - began > LOOK_BUDGET:  # its socket went, or too slow
+            if unread is None or now - began > read_probe.LOOK_BUDGET:  # it went, or too slow
                 if unread is not None:
                     self._probes[robot] = (self._probes[robot][0], None)
-                    too_slow(probe.table)
+                    too_slow(probe)
                 clock.reads_unseen(now)
             elif not unread:
                 clock.client_read(now)

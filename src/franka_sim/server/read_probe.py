@@ -12,8 +12,10 @@ or across a network has its socket elsewhere (`probe_for` answers None, and the 
 for any client it cannot see). What is seen is the socket bound to the client's port: a relay
 on this host that forwards the states elsewhere is taken for the client. The table is read
 whole at each look (~10-40 µs here, a motion's start looks a few times); on a host with
-thousands of UDP sockets a look takes milliseconds, and a look over LOOK_BUDGET ends looking
-(the client is spaced as an unseen one).
+thousands of UDP sockets a look takes milliseconds. A look over LOOK_BUDGET ends looking at
+that client (spaced as an unseen one from then on); over a crowded table (CROWDED sockets) it
+ends looking at any, since every look would take as long. A small table read slowly says the
+machine was busy at that moment, not that the next client's looks will be slow.
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ import time
 
 UDP_TABLE = "/proc/net/udp"
 LOOK_BUDGET = 1e-3  # s: a look that takes longer is not worth its wait
-_too_slow: set[str] = set()  # tables a look at took longer: not read again by this process
+CROWDED = 1000  # sockets: a table a look at took longer is not read again by this process
+_too_slow: set[str] = set()
 
 
 def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadProbe | None:
@@ -45,21 +48,23 @@ def probe_for(target: tuple[str, int] | None, table: str = UDP_TABLE) -> ReadPro
     began = time.monotonic()
     seen = probe.unread() is not None
     if time.monotonic() - began > LOOK_BUDGET:
-        too_slow(table)
+        too_slow(probe)
         return None
     return probe if seen else None
 
 
-def too_slow(table: str = UDP_TABLE) -> None:
-    """A look at `table` took longer than LOOK_BUDGET: no client's reads are looked for in it
-    again (each new connection's first look would hold the cycle thread as long)."""
-    _too_slow.add(table)
+def too_slow(probe: ReadProbe) -> None:
+    """A look took longer than LOOK_BUDGET. Over a crowded table no client's reads are looked
+    for in it again: each new connection's first look would hold the cycle thread as long."""
+    if probe.sockets > CROWDED:
+        _too_slow.add(probe.table)
 
 
 class ReadProbe:
     def __init__(self, keys: tuple[bytes, ...], table: str = UDP_TABLE) -> None:
         self.keys = keys
         self.table = table
+        self.sockets = 0  # in the table at the last look
 
     def unread(self) -> int | None:
         """Bytes waiting in the client's socket; None: its socket is not there (closed)."""
@@ -68,6 +73,7 @@ class ReadProbe:
                 rows = f.read()
         except OSError:
             return None
+        self.sockets = rows.count(b"\n") - 1  # (its first line names the columns)
         for key in self.keys:
             at = rows.find(key)
             if at >= 0:
