@@ -66,7 +66,9 @@ class SimHandle:
 
     @property
     def log(self) -> list[str]:
-        return self.server.sync()[self._log_start:]
+        from franka_sim.testing.server_pool import at_level, shown_level
+
+        return at_level(self.server.sync()[self._log_start:], shown_level(os.environ))
 
     def __repr__(self) -> str:
         return f"<franka_sim at {self.host} {self.settings}>"

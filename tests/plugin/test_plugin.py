@@ -12,6 +12,7 @@ import socket
 import subprocess
 import sys
 import time
+import textwrap
 import tomllib
 from collections import defaultdict
 from importlib.metadata import entry_points
@@ -174,3 +175,32 @@ def test_a_packaged_scene_name_beside_a_folder_of_that_name_stays_the_packaged_s
     assert _absolute("default", tmp_path) == "default"
     (tmp_path / "mine.xml").write_text("<mujoco/>")
     assert _absolute("mine.xml", tmp_path) == str(tmp_path / "mine.xml")
+
+
+def test_a_log_level_above_info_keeps_the_tests_and_their_reports_to_it(tmp_path):
+    """FRANKA_SIM_LOG_LEVEL=warning exported: the tests' servers still start (the plugin waits
+    for their info start line; before, each test waited a minute and erred with an empty log),
+    and a failing test's report and `log` show warnings and above only."""
+    (tmp_path / "test_quiet.py").write_text(textwrap.dedent('''
+        import pylibfranka
+
+        def test_a_failing_one(franka_sim):
+            robot = pylibfranka.Robot(franka_sim.host, pylibfranka.RealtimeConfig.kIgnore)
+            robot.read_once()
+            try:
+                franka_sim.control.pose("no_such_body")  # refused: a warning line
+            except Exception:
+                pass
+            assert not franka_sim.log, franka_sim.log
+    '''))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    env["FRANKA_SIM_LOG_LEVEL"] = "warning"
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *([] if installed else ["-p", "franka_sim.pytest_plugin"]),
+         "-p", "no:cacheprovider", "-q", "-p", "no:randomly", "test_quiet.py"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    output = done.stdout + done.stderr
+    assert _outcomes(output) == {"failed": 1}, output
+    section = output.split("franka-sim log (", 1)[1].split("short test summary", 1)[0]
+    assert " WARNING " in section and " INFO " not in section, section

@@ -64,9 +64,39 @@ KEPT_VARIABLES = ("FRANKA_SIM_CONTROL_TOKEN", "FRANKA_SIM_LOG_LEVEL", "FRANKA_SI
 
 
 def unset_settings(environment) -> dict:
-    """The environment's FRANKA_SIM_* settings a test's server must not read, as None (unset)."""
-    return {name: None for name in environment
-            if name.startswith("FRANKA_SIM_") and name not in KEPT_VARIABLES}
+    """The environment's FRANKA_SIM_* settings a test's server must not read, as None (unset),
+    and a log level above info lowered to it (see shown_level)."""
+    unset = {name: None for name in environment
+             if name.startswith("FRANKA_SIM_") and name not in KEPT_VARIABLES}
+    if shown_level(environment) is not None:
+        unset["FRANKA_SIM_LOG_LEVEL"] = "info"
+    return unset
+
+
+LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
+
+
+def shown_level(environment) -> str | None:
+    """An exported FRANKA_SIM_LOG_LEVEL above info. A test's server still logs its info lines,
+    since the pool waits for its start line ("serving on"); the tests' `log` and their reports
+    keep the lines at this level and above."""
+    level = (environment.get("FRANKA_SIM_LOG_LEVEL") or "").upper()
+    return level if level in LEVELS[2:] else None
+
+
+def at_level(lines: list[str], level: str | None) -> list[str]:
+    """The log lines at `level` and above (None: all); a line that is no record (a traceback's)
+    is kept."""
+    if level is None:
+        return lines
+    below = set(LEVELS[:LEVELS.index(level)])
+    return [line for line in lines if _level_of(line) not in below]
+
+
+def _level_of(line: str) -> str | None:
+    """"2026-12-07 05:12:57,972 INFO franka_sim.server.sim: …": INFO."""
+    words = line.split(None, 3)
+    return words[2] if len(words) > 2 else None
 
 
 def worker_address(worker: str | None, pid: int, n: int) -> str:
