@@ -285,7 +285,8 @@ async def _serve(config: Config, viewer: bool = False) -> None:
 
     # The robot serves while the viewer's window opens (software GL may take seconds): a stop
     # meanwhile is taken at once, and a window that opens after it is closed.
-    opening = asyncio.create_task(_open_viewer(sim)) if viewer else None
+    viewers: list = []  # the one whose window opens
+    opening = asyncio.create_task(_open_viewer(sim, viewers)) if viewer else None
     live = announced = cannot_view = None
     try:
         if opening is not None:
@@ -307,7 +308,7 @@ async def _serve(config: Config, viewer: bool = False) -> None:
         failed.cancel()
         status.cancel()
         if opening is not None and not opening.done():
-            opening.add_done_callback(_close_late_window)
+            await _abandon(opening, viewers)
         if live is not None:
             live.stop()
         if cannot_view is not None:
@@ -335,21 +336,30 @@ async def _stop_within(sim, seconds: float) -> None:
         pass
 
 
-async def _open_viewer(sim):
+async def _open_viewer(sim, viewers: list):
     import asyncio
 
     from franka_sim.server.viewer import LiveViewer
 
     world = await sim.worker.call(lambda physics: physics.world)
     viewer = LiveViewer(world.model, world.data)
+    viewers.append(viewer)
     await asyncio.to_thread(viewer.start)  # RuntimeError: it cannot open (the caller says so)
     return viewer
 
 
-def _close_late_window(opening) -> None:
-    """The viewer's window opened after the server was told to stop: closed."""
+async def _abandon(opening, viewers: list) -> None:
+    """The server stops while the viewer's window opens: its process is ended, and waited
+    for, before the server exits (none outlives it)."""
+    import asyncio
+
+    if not viewers:  # (still asking for the world)
+        opening.cancel()
+    for viewer in viewers:
+        viewer.abandon()
+    await asyncio.wait({opening})  # (its start returns at once, refused)
     if not opening.cancelled() and opening.exception() is None:
-        opening.result().stop()
+        opening.result().stop()  # (it had opened just before)
 
 
 if __name__ == "__main__":

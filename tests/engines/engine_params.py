@@ -11,7 +11,9 @@ from franka_sim.physics.genesis.runtime import genesis_missing
 from franka_sim.testing import ServerProcess, fresh_loopback_address
 
 GENESIS_MISSING = genesis_missing()
-START_TIMEOUT = 180.0  # s for a server to serve: Genesis compiles its kernels at a first start
+# s for a server to serve: Genesis compiles its kernels at a machine's first start, niced, while
+# the other worker runs (over 180 s on a busy two-core machine)
+START_TIMEOUT = 900.0
 ENGINES = [
     pytest.param("mujoco", id="mujoco"),
     pytest.param("genesis", id="genesis", marks=[

@@ -59,6 +59,8 @@ class LiveViewer:
         self._child: subprocess.Popen | None = None
         self._sock: socket.socket | None = None
         self._stderr = None
+        self._starting = threading.Lock()  # the child is started under it
+        self._abandoned = False  # the server stopped before the window opened
 
     def start(self, timeout: float = OPEN_WITHIN) -> None:
         """Open the window, or raise RuntimeError saying why not."""
@@ -71,10 +73,13 @@ class LiveViewer:
         self._sock = ours  # (closed by _end_child, however the start ends)
         try:
             mujoco.mj_saveModel(self.model, path, None)
-            self._child = subprocess.Popen(
-                [sys.executable, "-P", "-m", "franka_sim.server.viewer", path,
-                 str(theirs.fileno())], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, stderr=self._stderr)
+            with self._starting:
+                if self._abandoned:
+                    raise RuntimeError("the viewer cannot open: the server is stopping")
+                self._child = subprocess.Popen(
+                    [sys.executable, "-P", "-m", "franka_sim.server.viewer", path,
+                     str(theirs.fileno())], pass_fds=(theirs.fileno(),),
+                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=self._stderr)
             ours.settimeout(timeout)
             said = ours.recv(4096)
         except TimeoutError:
@@ -94,6 +99,16 @@ class LiveViewer:
         ours.setblocking(False)
         self._thread.start()
         log.info("the viewer shows the world")
+
+    def abandon(self) -> None:
+        """The server stops while the window opens (another thread waits in `start`): its
+        child is ended now, so `start` returns at once (with its RuntimeError) and no window
+        outlives the server."""
+        with self._starting:
+            self._abandoned = True
+            child = self._child
+        if child is not None and child.poll() is None:
+            child.kill()
 
     def stop(self) -> None:
         """Close the window: the child ends once its socket closes."""
