@@ -107,6 +107,30 @@ def test_grasps_the_cube_lifts_it_and_stop_lets_go(sim):
     assert not states[-1].is_grasped
 
 
+def test_in_lockstep_a_gripper_connecting_to_a_held_cube_costs_no_settling():
+    """A grasped cube's contacts tremble for ever: lockstep gives such a world its settling
+    cycles once, and a Gripper that connects later costs its own cycles only. (Each request
+    got 2000 more, no state sent meanwhile: on a busy machine a new Gripper's first read
+    timed out, and each one moved the robot's clock on by seconds.)"""
+    with running_sim("--clock", "lockstep") as sim:
+        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
+        gripper = pylibfranka.Gripper(sim.host)
+        above, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)
+        pick_and_place.move_joints(robot, above)
+        pick_and_place.move_joints(robot, at, max_speed=0.3)
+        assert gripper.grasp(0.05, 0.1, 20.0) is True
+        pick_and_place.move_joints(robot, above, max_speed=0.3)
+        del gripper
+        times = []
+        for _ in range(3):
+            newcomer = pylibfranka.Gripper(sim.host)
+            state = newcomer.read_once()
+            assert state.is_grasped
+            times.append(seconds(state))
+            del newcomer
+    assert all(0 < later - earlier <= 1.1 for earlier, later in zip(times, times[1:])), times
+
+
 # -- bad input -----------------------------------------------------------------------------------
 @pytest.mark.parametrize("call", [
     lambda g: g.move(-0.01, 0.1),

@@ -24,8 +24,12 @@ reproduces to the bit however long the client takes between them:
   is at rest (WorldCycle.at_rest); no request is taken meanwhile (the driver holds the lock),
   only the tick's first state and the last are sent, and the replies of all those cycles go out
   after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
-  grasped object's contacts tremble for ever) is taken as it is. A tool's action runs on the
-  wall clock, a cycle each ms as in realtime: a client may watch the Hand's states and stop it;
+  grasped object's contacts tremble for ever) is taken as it is, and a client's request then
+  does not give it them again (a motion's end, a tool's action and a change through the
+  control API do): a request that changes nothing (a Gripper connecting, a read) costs one
+  cycle, not 2000 in which no state goes (a new Gripper's first read timed out on a busy
+  machine). A tool's action runs on the wall clock, a cycle each ms as in realtime: a client
+  may watch the Hand's states and stop it;
 - then the world is left as it is (`_frozen`) and the clock holds: the client's next event
   releases the next cycle at once, and only after LOCKSTEP_WINDOW without one does a state go
   out each ms of wall time, the last one again under the next message_id, nothing stepped
@@ -125,6 +129,7 @@ class Clock:
         self._held = 0  # lockstep: held states since the last step (a motion's start)
         self._gap_watched = False  # a client was connected through it
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
+        self._changed = False  # lockstep: the control API changed the world since the last tick
         # Lockstep: the server itself keeps its client waiting (the control API's HTTP server
         # being loaded on its first connection): no cycle goes without its answer meanwhile.
         self.server_busy = 0
@@ -141,6 +146,7 @@ class Clock:
         self._unwatched = 0
         if self.lockstep:
             self._events += 1
+            self._changed = True
 
     def withdraw_prepared(self) -> int | None:
         """Before a reset: forget the idle cycle released ahead, whose state has not left; the
@@ -209,8 +215,11 @@ class Clock:
         sent_at = self.send(released.states)
         replies = cycle.complete(released)
         if lockstep and not cycle.client_driven:
-            if moved or requested:
-                self._trembling = 0  # what a motion or a request disturbed gets to settle
+            # What a motion, a change or a request disturbed gets to settle; a world already
+            # left trembling, not again for a request alone (see the module docstring).
+            if moved or self._changed or (requested and self._trembling < TREMBLE_CYCLES):
+                self._trembling = 0
+            self._changed = False
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         self.post(released.message_id, replies)
         if self._count_unwatched():
@@ -298,8 +307,9 @@ class Clock:
         settled, more = 0, False
         paused = self._count_unwatched()
         while not paused and not cycle.at_rest:
-            if cycle.tool_busy:
-                break  # a tool's action takes its time (a client may watch it and stop it)
+            if cycle.tool_busy:  # a tool's action takes its time (a client may watch it and
+                self._trembling = 0  # stop it); what it moved then gets to settle
+                break
             if cycle.busy:
                 self._trembling = 0
             elif self._trembling == TREMBLE_CYCLES:
