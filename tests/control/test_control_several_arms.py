@@ -56,3 +56,33 @@ def test_a_push_on_one_arm_is_felt_by_that_arm_only():
         left_q = np.array(Control(left).state()["q"])
     assert np.abs(right_q - READY_POSE).max() > 1e-4  # the right arm gave way
     np.testing.assert_array_equal(left_q, READY_POSE)
+
+
+def test_in_realtime_a_reset_of_one_arm_keeps_one_message_id_for_all(tmp_path):
+    """A realtime world's idle cycle is released ahead; a reset takes it back. Every robot's
+    clock goes back with it (the reset arm's alone did: each reset put the other arm's ids one
+    ahead, and the recording no longer replayed)."""
+    import pylibfranka
+
+    from franka_sim.recording.reader import open_recording
+
+    path = tmp_path / "run.mcap"
+    with two_arms("--record", str(path), clock="realtime") as (server, left, right):
+        robots = [pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+                  for host in (left, right)]
+        for _ in range(3):
+            Control(left).reset()
+        for robot in robots:
+            robot.read_once()
+        del robots
+    recording = open_recording(path)
+    # A world cycle's states are written one after the other, left's then right's (each
+    # robot's while its client is connected).
+    states = [e for e in recording.entries if e.key == "robot_state"]
+    pairs = [(int.from_bytes(a.data[:8], "little"), int.from_bytes(b.data[:8], "little"))
+             for a, b in zip(states, states[1:])
+             if (a.robot, b.robot) == (0, 1) and b.wall - a.wall < 500_000]
+    assert len(pairs) > 10 and all(left == right for left, right in pairs), pairs
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.stdout.startswith("identical"), done.stdout + done.stderr

@@ -326,7 +326,9 @@ class _Driver:
         if replayer.released is None:
             return None
         replayer.released = None  # released ahead, never sent: taken back
-        return replayer.cycle.message_id - 1
+        last = replayer.cycle.message_id - 1
+        replayer.cycle.rewind(last)
+        return last
 
     def keep_running(self) -> None:
         pass

@@ -169,4 +169,7 @@ class Cycle(Protocol):
     def skip(self, cycles: int) -> None:
         """The clock moves on `cycles` ids, no state sent, nothing stepped (idle only)."""
 
+    def rewind(self, message_id: int) -> None:
+        """Every robot's clock back to `message_id`: a cycle released ahead was not sent."""
+
     def complete(self, released): ...

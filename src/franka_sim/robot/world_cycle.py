@@ -197,6 +197,13 @@ class WorldCycle:
             part.skip(cycles)
         self.events.skipped(first, first + cycles - 1)
 
+    def rewind(self, message_id: int) -> None:
+        """Every robot's clock back to `message_id`, the last state that left: a cycle released
+        ahead (realtime, idle) is taken back before a reset, its state never sent. All robots
+        alike: their states of a cycle carry one message_id."""
+        for part in self.parts:
+            part.core.message_id = message_id
+
     def hold(self) -> WorldReleased | None:
         """A motion awaits its client's first command: its window closes as at any release
         (the miss is counted, and enforcement may end the motion); while that changes nothing,

@@ -153,7 +153,10 @@ class Clock:
         next tick releases one anew. The message_id of the last state that left (None: nothing
         was prepared)."""
         prepared, self.prepared = self.prepared, None
-        return None if prepared is None else prepared.message_id - 1
+        if prepared is None:
+            return None
+        self.cycle.rewind(prepared.message_id - 1)
+        return prepared.message_id - 1
 
     def client_read(self, now: float) -> None:
         """The client `awaits_read` named has read the last state (at `now`): the next goes
