@@ -169,3 +169,25 @@ def test_a_start_refused_leaves_no_recording_behind(tmp_path):
          f"right={right}", "--record", str(out)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 1 and "arm left: placed into arm right" in done.stderr
     assert not out.exists()
+
+
+def test_a_second_server_given_a_recording_under_way_is_refused_and_the_first_is_whole(
+        tmp_path):
+    """Two `serve --record run.mcap`: the second is refused before it touches the file (it
+    emptied the first's recording, and removed it when its own start then failed)."""
+    from franka_sim.testing import ServerProcess, fresh_loopback_address
+
+    out, host = tmp_path / "run.mcap", fresh_loopback_address()
+    first = ServerProcess(host, "--clock", "lockstep", "--record", str(out)).wait_ready()
+    try:
+        for again in (host, fresh_loopback_address()):  # (its address in use, or another)
+            done = subprocess.run(
+                [sys.executable, "-m", "franka_sim", "serve", "--host", again, "--record",
+                 str(out)], capture_output=True, text=True, timeout=60)
+            assert done.returncode == 1
+            assert done.stderr.strip().splitlines()[-1] == (
+                f"franka-sim: cannot record to {out}: another process is recording to it")
+    finally:
+        first.stop()
+    replayed = franka_sim("replay", str(out))
+    assert replayed.returncode == 0 and replayed.stdout.startswith("identical"), replayed.stderr

@@ -130,6 +130,31 @@ def test_a_silent_client_is_not_waited_for_beside_a_streaming_one():
     assert cycle.waits_for == {0, 1}
 
 
+def test_a_silent_client_heard_only_late_is_waited_for_again():
+    """Not waited for, a resumed client answers each state after the other arm's answer has
+    released the next cycle: late every time. Heard late, it is waited for again, so its next
+    answer is on time and its motion goes on (it stayed braked to the motion's end)."""
+    cycle, parts = world()
+    step(cycle)
+    for arm in parts.arms:
+        arm.core.request_move(5, move_request(0, 1))
+    step(cycle)
+    states = step(cycle)
+    while not parts.arms[1].core.client_silent:  # the right client says nothing
+        assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+        states = step(cycle)
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    read, states = states, step(cycle)
+    assert not cycle.receive(*answer(1, read[1], dq_c=np.zeros(7)))  # its answer, late
+    assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    states = step(cycle)
+    assert cycle.waits_for == {0, 1}
+    assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
+    assert cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))  # on time: heard
+    step(cycle)
+    assert not parts.arms[1].core.client_silent
+
+
 def test_skipped_ids_count_as_completed():
     """Where an event lands (a recording's `position`) reads the same after a skip as replay
     puts it: between completed cycles."""

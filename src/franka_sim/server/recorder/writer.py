@@ -13,8 +13,12 @@ one after another are written as one run (first, last), before whatever came aft
 from __future__ import annotations
 
 import base64
+import errno
+import fcntl
 import json
 import logging
+import os
+import stat
 import threading
 import time
 from pathlib import Path
@@ -35,9 +39,28 @@ FLUSH_PERIOD = 1.0  # s: what a crash may lose at most
 DRAIN_PERIOD = 0.05  # s between two looks at the queue
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes of messages before a chunk closes by itself
 
+def _take(path: Path):
+    """The target, opened for writing and locked (flock) for as long as this process records
+    to it, then emptied. One another process records to (a second server given the same
+    --record) is refused before a byte of it changes: emptied, the first server's recording
+    was lost, and removed with it when the second's start failed."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            os.ftruncate(fd, 0)
+    except BlockingIOError:
+        os.close(fd)
+        raise OSError(errno.EBUSY, "another process is recording to it", str(path)) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    return os.fdopen(fd, "wb")
+
+
 class RecordingWriter:
     def __init__(self, path: Path, metadata: dict, robots: list[str], queue, owner) -> None:
-        self._file = open(path, "wb")  # OSError here: the caller says the target is unwritable
+        self._file = _take(path)  # OSError here: the caller says the target is unwritable
         self._queue, self._owner = queue, owner
         self._mcap = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._mcap.start(profile="", library=f"franka-sim recording v{FORMAT_VERSION}")
