@@ -86,3 +86,45 @@ def test_in_realtime_a_reset_of_one_arm_keeps_one_message_id_for_all(tmp_path):
     done = subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path)],
                           capture_output=True, text=True, timeout=300)
     assert done.stdout.startswith("identical"), done.stdout + done.stderr
+
+
+def test_each_line_about_an_arm_of_several_names_it_once():
+    """The Desk locking an arm's brakes mid-motion (through its control API, in the cycle
+    thread), a stranger's datagram to its UDP port (read in the cycle thread) and a refused
+    TLS handshake at its Desk: each line names the arm, once."""
+    import socket
+
+    from clients.test_several_arms import start
+
+    with two_arms("--desk-port", "8443") as (server, left, right):
+        program = start(left, [0.3] + [0] * 6, 5.0)
+        try:
+            deadline = time.monotonic() + 60
+            while Control(left).state()["robot_mode"] != "Move":
+                assert time.monotonic() < deadline and program.poll() is None
+                time.sleep(0.05)
+            local = socket.inet_aton(left)[::-1].hex().upper()  # (its UDP port: read mid-motion)
+            for row in open("/proc/net/udp").read().splitlines()[1:]:
+                address, port = row.split()[1].split(":")
+                if address == local:
+                    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as stranger:
+                        stranger.sendto(b"x" * 10, (left, int(port, 16)))
+            deadline = time.monotonic() + 10
+            while not server.log_matching("dropped UDP datagram from"):
+                assert time.monotonic() < deadline, "the stranger's datagram"
+                time.sleep(0.05)
+            Control(left).desk_arm(brakes="Locked")
+            program.communicate(timeout=60)
+        finally:
+            program.kill()
+        with socket.create_connection((left, 8443), timeout=10) as plain:
+            plain.sendall(b"GET / HTTP/1.1\r\n\r\n")  # (no TLS: its handshake is refused)
+            plain.recv(100)
+        for said in ("Move aborted: the Desk locked the brakes", "dropped UDP datagram from",
+                     "Desk: TLS handshake refused"):
+            deadline = time.monotonic() + 10
+            while not server.log_matching(said):
+                assert time.monotonic() < deadline, said
+                time.sleep(0.05)
+            (line,) = server.log_matching(said)[:1]
+            assert f": left: {said}" in line and line.count("left") == 1, line

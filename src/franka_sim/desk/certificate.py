@@ -100,7 +100,7 @@ def _with_cryptography(cert: Path, key: Path) -> None:
     cert.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
 
 
-def server_context(cert: Path, key: Path, label: str = "Desk"):
+def server_context(cert: Path, key: Path):
     """The TLS context the Desk serves with (CertificateError: unreadable or not a pair). A
     handshake it refuses (a client speaking plain HTTP, garbage) is one log line: the event
     loop drops that connection without a word."""
@@ -116,8 +116,8 @@ def server_context(cert: Path, key: Path, label: str = "Desk"):
             except (ssl.SSLWantReadError, ssl.SSLWantWriteError):
                 raise
             except ssl.SSLError as exc:
-                log.warning("%s: TLS handshake refused (%s): that connection is closed",
-                            label, exc.reason or exc)
+                log.warning("Desk: TLS handshake refused (%s): that connection is closed",
+                            exc.reason or exc)
                 raise
 
     context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)

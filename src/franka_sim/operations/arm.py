@@ -21,6 +21,7 @@ import numpy as np
 from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
+from franka_sim.log_names import about, current
 from franka_sim.operations.arm_desk import DeskOps
 from franka_sim.operations.faults import FaultOps
 from franka_sim.operations.ports import Jobs, Pacer
@@ -97,13 +98,14 @@ class ArmOps(DeskOps, FaultOps):
         refusal it raises comes back raised here (and is not logged there as a failed job).
         `call` (operation, arguments): recorded, with the point in the cycle sequence where it
         ran, for replay."""
-        index = self.arm_index
+        index, name = self.arm_index, current()  # (the arm of several this API serves)
 
         def job(physics):
             taps = self.taps if call is not None else None
             at = taps.position() if taps is not None else None
             try:
-                result = fn(physics.world, physics.arm(index))
+                with about(name):  # (what it logs in the cycle thread names the arm too)
+                    result = fn(physics.world, physics.arm(index))
             except ControlError as refusal:
                 result = refusal
             if taps is not None:

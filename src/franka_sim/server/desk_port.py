@@ -32,7 +32,7 @@ class DeskPort(LazyPort):
             cert, key = config.desk_cert, config.desk_key
         else:
             cert, key = await asyncio.to_thread(kept_certificate)
-        self._context = server_context(cert, key, f"Desk of {self.robot.label}")
+        self._context = server_context(cert, key)  # (a robot of several: its lines name it)
         await super().start(host, port)
 
     async def _load(self, sock):

@@ -35,6 +35,7 @@ from typing import Callable
 from franka_sim.protocol.codec import decode_command
 from franka_sim.protocol.framing import ProtocolError
 from franka_sim.protocol.robot_command import ROBOT_COMMAND_SIZE
+from franka_sim.log_names import about, current
 from franka_sim.server.binding import bound_socket
 from franka_sim.thinned_log import worth_logging
 
@@ -48,6 +49,7 @@ class UdpEndpoint:
         self.target: tuple[str, int] | None = None  # where states go (connect/disconnect)
         self.source: tuple[str, int] | None = None  # where commands are taken from
         self.sock: socket.socket | None = None
+        self.log_name: str | None = None  # the robot of several it serves (its lines name it)
         self._written: Callable[[bytes], bytes] | None = None  # an older client's state form
         self._read: Callable[[bytes], bytes] | None = None  # and its commands'
         # The first and the newest state sent to this connection: the message_ids between them
@@ -68,8 +70,14 @@ class UdpEndpoint:
         self.late: list = []  # commands faults held when they were cleared: the next read's
 
     def open(self, host: str) -> None:
-        """Bind a non-blocking UDP socket on `host` (an ephemeral port)."""
+        """Bind a non-blocking UDP socket on `host` (an ephemeral port). Its lines name the
+        robot it opens for (its datagrams are read in the cycle thread, outside that name)."""
         self.sock = bound_socket(host, 0, socket.SOCK_DGRAM)
+        self.log_name = current()
+
+    def _say(self, level: int, message: str, *args) -> None:
+        with about(self.log_name):
+            log.log(level, message, *args)
 
     def close(self) -> None:
         sock, self.sock = self.sock, None
@@ -170,7 +178,7 @@ class UdpEndpoint:
             self.dropped_malformed += 1
             if self.taps is not None:
                 self.taps.rejected(str(exc), addr, data)
-            log.warning("dropped UDP datagram from the client: %s", exc)
+            self._say(logging.WARNING, "dropped UDP datagram from the client: %s", exc)
             return None
 
     def _from_elsewhere(self, data: bytes, addr):
@@ -190,7 +198,8 @@ class UdpEndpoint:
             if self.taps is not None:
                 self.taps.rejected("not the connected client", addr, data)
             if worth_logging(self.dropped_foreign):
-                log.warning(
+                self._say(
+                    logging.WARNING,
                     "dropped UDP datagram from %s:%s: not the connected client (%d so far)",
                     addr[0], addr[1], self.dropped_foreign,
                 )
@@ -199,7 +208,8 @@ class UdpEndpoint:
         self.sources_moved += 1
         self._moves += 1
         if worth_logging(self._moves):
-            log.info(
+            self._say(
+                logging.INFO,
                 "UDP commands of the client at %s come from %s:%s (an address translation "
                 "between them?): taken from there; its states still go to %s:%s (move %d of this "
                 "connection)",
