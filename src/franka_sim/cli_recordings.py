@@ -18,11 +18,12 @@ MESHES = typer.Option(
 )
 
 
-def _open(path: Path):
-    """The recording at `path`, or its one-line error and exit 1."""
+def _open(path: Path, extra: str = "record"):
+    """The recording at `path`, or its one-line error and exit 1 (naming `extra`, the extra the
+    command needs: it brings mcap too)."""
     from franka_sim.recording import mcap_missing
 
-    if missing := mcap_missing():
+    if missing := mcap_missing(extra):
         typer.echo(f"franka-sim: {missing}", err=True)
         raise typer.Exit(1)
     from franka_sim.recording.reader import RecordingError, open_recording
@@ -94,7 +95,7 @@ def plot(
     try:
         output_format(output)
         chosen, extra = parse_joints(joints), parse_fields(fields)
-        loaded = _open(recording)
+        loaded = _open(recording, "plot")
         draw(loaded, output, joints=chosen, start=start, end=end, fields=extra, robot=robot)
     except (PlotError, RecordingError) as exc:
         typer.echo(f"franka-sim: {exc}", err=True)
@@ -124,7 +125,7 @@ def render(
         raise typer.Exit(1) from None
     from franka_sim.physics.scene import SceneError
 
-    loaded = _open(recording)
+    loaded = _open(recording, "render")
     try:
         frames = make_video(loaded, output, fps=fps, camera=camera, meshes=meshes)
     except (RenderError, SceneError) as exc:  # (SceneError: --meshes)
@@ -150,7 +151,7 @@ def view(
     from franka_sim.recording.metadata import Incompatible
     from franka_sim.web.recording_view import serve_recording
 
-    loaded = _open(recording)
+    loaded = _open(recording, "web")
     try:
         serve_recording(loaded, host, port, meshes)
     except Incompatible as exc:

@@ -30,12 +30,24 @@ def run(env, *args, timeout=60):
                           capture_output=True, text=True, timeout=timeout)
 
 
-@pytest.mark.parametrize("command", [["replay", "run.mcap"], ["plot", "run.mcap", "-o", "x.png"],
-                                     ["render", "run.mcap", "-o", "x.mp4"]])
-def test_readers_say_what_to_install(without_mcap, command):
+@pytest.mark.parametrize("command,extra", [
+    (["replay", "run.mcap"], "record"), (["plot", "run.mcap", "-o", "x.png"], "plot"),
+    (["render", "run.mcap", "-o", "x.mp4"], "render"), (["view", "run.mcap"], "web")])
+def test_readers_say_what_to_install(without_mcap, command, extra):
+    """Each names the extra the command needs, which brings mcap with it (one install, not
+    [record] and then [plot])."""
     done = run(without_mcap, *command)
     assert done.returncode == 1
-    assert done.stderr.strip() == f"franka-sim: {MCAP_HINT}"
+    assert done.stderr.strip() == "franka-sim: " + MCAP_HINT.replace("[record]", f"[{extra}]")
+
+
+def test_each_reading_extra_brings_mcap():
+    import tomllib
+
+    extras = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml")
+                           .read_text())["project"]["optional-dependencies"]
+    for extra in ("record", "plot", "render", "web"):
+        assert any(need.startswith("mcap") for need in extras[extra]), extra
 
 
 def test_serve_record_says_what_to_install(without_mcap, tmp_path):

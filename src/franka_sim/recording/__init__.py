@@ -11,11 +11,12 @@ FORMAT_VERSION = 2  # bumped when a reader of the previous format would misread 
 MCAP_HINT = "recording needs the mcap package: pip install 'franka-sim[record]'"
 
 
-def mcap_missing() -> str | None:
+def mcap_missing(extra: str = "record") -> str | None:
     """None when recordings can be written and read; else the one line that says what to
-    install (mcap is an extra: a server that records nothing never needs it)."""
+    install (mcap is an extra: a server that records nothing never needs it). `extra`: the one
+    the command needs, which brings mcap with it (plot, render, web)."""
     try:
         import mcap  # noqa: F401
     except ImportError:
-        return MCAP_HINT
+        return MCAP_HINT.replace("[record]", f"[{extra}]")
     return None
