@@ -108,7 +108,7 @@ def plot(
 def render(
     recording: Path = typer.Argument(..., metavar="RECORDING"),
     output: Path = typer.Option(..., "-o", "--output", dir_okay=False,
-                                help="The video to write (.mp4)."),
+                                help="The video to write: .mp4, .mkv, .mov or .avi."),
     camera: str | None = typer.Option(None, help="A camera of the scene, by name."),
     fps: float = typer.Option(30.0, min=1.0, max=240.0, help="Frames per second of robot time."),
     meshes: Path | None = MESHES,

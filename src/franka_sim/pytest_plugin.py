@@ -173,12 +173,18 @@ def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:
                         f"{', '.join(sorted(_MARKER_FIELDS))})", pytrace=False)
         if value is None and name in ("clock", "scene"):
             continue  # the command line's choice
-        if not isinstance(value, expected) or (name == "clock" and value not in _CLOCKS) or (
-                name == "desk_boot" and value not in _DESK_BOOTS) or (
-                name == "robot" and value not in ROBOTS):
-            pytest.fail(f"@pytest.mark.{MARKER}: {name}={value!r} is not valid", pytrace=False)
+        choices = {"clock": _CLOCKS, "desk_boot": _DESK_BOOTS, "robot": ROBOTS}.get(name)
+        if not isinstance(value, expected) or (choices is not None and value not in choices):
+            valid = (f" (one of {', '.join(map(repr, choices))})" if choices is not None
+                     else f" (a {' or '.join(t.__name__ for t in _types(expected))})")
+            pytest.fail(f"@pytest.mark.{MARKER}: {name}={value!r} is not valid{valid}",
+                        pytrace=False)
         values[name] = _absolute(value, test_dir) if name == "scene" else value
     return values
+
+
+def _types(expected) -> tuple:
+    return expected if isinstance(expected, tuple) else (expected,)
 
 
 def _absolute(path, base: Path) -> str | None:

@@ -204,3 +204,14 @@ def test_a_log_level_above_info_keeps_the_tests_and_their_reports_to_it(tmp_path
     assert _outcomes(output) == {"failed": 1}, output
     section = output.split("franka-sim log (", 1)[1].split("short test summary", 1)[0]
     assert " WARNING " in section and " INFO " not in section, section
+
+
+@pytest.mark.parametrize("setting,valid", [
+    ({"clock": "sometimes"}, "(one of 'lockstep', 'realtime')"),
+    ({"robot": "ur5"}, "(one of 'fr3', 'fer')"), ({"gripper": "yes"}, "(a bool)")])
+def test_a_marker_value_not_valid_says_what_is(setting, valid):
+    from franka_sim.pytest_plugin import _marker_values
+
+    with pytest.raises(pytest.fail.Exception) as failed:
+        _marker_values(pytest.mark.franka_sim(**setting).mark, Path("."))
+    assert str(failed.value).endswith(f"is not valid {valid}")

@@ -219,3 +219,12 @@ def test_faults_and_their_seed_from_the_environment():
             "serving with: network faults loss=0.01,delay=2ms,jitter=0.5ms (seed 7)")
     finally:
         server.stop()
+
+
+def test_render_help_names_every_video_it_writes():
+    from franka_sim.playback.render import VIDEO_SUFFIXES
+
+    out = subprocess.run([sys.executable, "-m", "franka_sim", "render", "--help"],
+                         capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "COLUMNS": "200"}).stdout
+    assert all(suffix in out for suffix in VIDEO_SUFFIXES), out
