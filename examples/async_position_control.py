@@ -37,6 +37,10 @@ def main(host: str) -> list:
             if feedback.error_message:
                 raise RuntimeError(feedback.error_message)
             time.sleep(0.01)
+        else:
+            handler.stop_control()
+            raise RuntimeError(f"target {target} not reached within 30 s "
+                               f"({feedback.status.name})")
         state = robot.read_once()
         reached.append([round(q, 4) for q in state.q])
         print("reached", reached[-1], feedback.status)
