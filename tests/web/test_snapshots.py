@@ -108,7 +108,19 @@ class Gui:
         return Field(initial_value)
 
     def add_uplot(self, data, series, **kwargs):
-        return Field(data)
+        return Plot(data)
+
+
+class Plot(Field):
+    """A uPlot's handle: its data is what it draws (`value` here)."""
+
+    @property
+    def data(self):
+        return self.value
+
+    @data.setter
+    def data(self, values) -> None:
+        self.value = values
 
 
 def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
@@ -168,6 +180,28 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
     t = panel.plots[0].value[0]  # the q plot's times: the recorded window before the end
     assert t[-1] == pytest.approx(end) and t[0] == pytest.approx(max(0.0, end - 10.0), abs=0.01)
     assert np.all(np.diff(t) > 0)
+
+
+def test_a_moment_with_no_state_of_the_arm_in_its_window_shows_its_plots_empty():
+    """Typed past the arm's last state by more than the plots' window (10 s): its plots show
+    that window empty, not the curves of the moment shown before (the state at both moments
+    is the arm's last, the one shown before)."""
+    from franka_sim.recording.reader import open_recording
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.recording_view import timeline_of
+
+    recording = open_recording(Path(__file__).resolve().parents[1] / "data" / "older_libfranka"
+                               / "0.13.6" / "generate_joint_position_motion.mcap")
+    timeline = timeline_of(recording)
+    end = timeline.duration
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    for seconds in (end, end + 30.0):
+        panel.show_recorded(timeline.at(seconds), timeline.rows(0, seconds),
+                            *timeline.events(0, seconds))
+    assert timeline.rows(0, end + 30.0) == []
+    for plot in panel.plots:
+        t, *values = plot.value
+        assert t[-1] - t[0] == pytest.approx(10.0) and np.isnan(values).all()
 
 
 def test_a_recordings_last_reflex_is_the_one_before_the_moment_shown(tmp_path):

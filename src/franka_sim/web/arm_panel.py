@@ -124,14 +124,17 @@ class ArmPanel:
     def show_recorded(self, snapshot, rows: list, events: list[str], reflex: str) -> None:
         """A recording's moment: the readouts as `show` gives them, the plots' rows, the events
         and the last reflex up to it as recorded (`rows`, `events`, `reflex`), not as shown
-        before: a scrubbed timeline shows its moments in any order."""
-        if self._read(snapshot) is None:
+        before: a scrubbed timeline shows its moments in any order. The state may be the one
+        shown last (the arm's last before a later moment): its rows and events still change."""
+        states = snapshot.states
+        if self.index >= len(states) or states[self.index] is None:
             return
+        self._read(snapshot)
         self.reflex.value = reflex
         self._rows = deque(rows)
         self._events = deque(events, maxlen=EVENTS)
         self.events.value = "\n".join(reversed(self._events))  # newest first
-        self._plot()
+        self._plot(until=snapshot.time - self._t0)
 
     def _read(self, snapshot):
         """(state, t, status) of this arm's state in the snapshot, its readouts set; None if
@@ -164,9 +167,15 @@ class ArmPanel:
         self._events.append(event_line(before, status, t))
         self.events.value = "\n".join(reversed(self._events))  # newest first
 
-    def _plot(self) -> None:
+    def _plot(self, until: float | None = None) -> None:
+        """The plots of `rows`; with fewer than two, those of a recording's moment (`until`)
+        show its window empty (not the curves of the moment shown before)."""
         rows, j = self._rows, int(self.joint.value) - 1
         if len(rows) < 2:
+            if self.plots is not None and until is not None:  # (a gap, not no data at all:
+                gap = (np.array([until - WINDOW, until]), np.full(2, np.nan))  # see above)
+                for plot, (_, labels) in zip(self.plots, _PLOTS):
+                    plot.data = gap + gap[1:] * (len(labels) - 1)
             return
         t = np.array([r[0] for r in rows])
         forces = np.array([r[5] for r in rows]).reshape(-1, 3)
