@@ -70,6 +70,8 @@ _PLOTS = (("q vs q_d (rad)", ("q", "q_d")), ("tau_J vs tau_J_d (Nm)", ("tau_J", 
           ("command success rate", ("success rate",)))
 # x is seconds, not a date (uPlot's default); y follows the data.
 _SCALES = {"x": {"time": False, "auto": True}, "y": {"auto": True}}
+# The y axis as wide as a value like "-0.3865" needs (uPlot's 50 px cut off its sign).
+_AXES = ({}, {"size": 64})
 
 
 def _series(*labels: str) -> tuple[dict, ...]:
@@ -188,7 +190,7 @@ class ArmPanel:
             with self._folder:
                 self.plots = tuple(
                     gui.add_uplot(values, _series(*labels), title=title, scales=_SCALES,
-                                  aspect=2.0)
+                                  axes=_AXES, aspect=2.0)
                     for values, (title, labels) in zip(data, _PLOTS))
             return
         for plot, values in zip(self.plots, data):
