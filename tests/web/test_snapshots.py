@@ -257,3 +257,17 @@ def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
     np.testing.assert_allclose(end.mocap_pos[m][:2], after[:2], atol=1e-4)
     yaw = 2 * math.atan2(end.mocap_quat[m][3], end.mocap_quat[m][0])
     assert yaw == pytest.approx(after[2], abs=1e-4) and abs(yaw) > 0.1
+
+
+def test_the_viewers_free_camera_orbits_to_the_web_views_first_view():
+    """The MuJoCo viewer's camera (distance, azimuth, elevation about look_at) stands where
+    the web view's first view does."""
+    import math
+
+    from franka_sim.physics.first_view import orbit
+
+    position, look_at = np.array([1.5, -1.2, 1.1]), np.array([0.3, 0.0, 0.35])
+    distance, azimuth, elevation = orbit(position, look_at)
+    a, e = math.radians(azimuth), math.radians(elevation)
+    forward = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+    np.testing.assert_allclose(look_at - distance * forward, position, atol=1e-12)

@@ -24,9 +24,9 @@ reproduces to the bit however long the client takes between them:
   is at rest (WorldCycle.at_rest); no request is taken meanwhile (the driver holds the lock),
   only the tick's first state and the last are sent, and the replies of all those cycles go out
   after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
-  grasped object's contacts tremble for ever) is taken as it is, and a client's request then
-  does not give it them again (a motion's end, a tool's action and a change through the
-  control API do): a request that changes nothing (a Gripper connecting, a read) costs one
+  grasped object's contacts tremble for ever) is taken as it is. A client's request gives it
+  them again, as do a motion's end, a tool's action and a change through the control API; a
+  client connecting or leaving does not (`client_event(disturbing=False)`): that costs one
   cycle, not 2000 in which no state goes (a new Gripper's first read timed out on a busy
   machine). A tool's action runs on the wall clock, a cycle each ms as in realtime: a client
   may watch the Hand's states and stop it;
@@ -129,15 +129,18 @@ class Clock:
         self._held = 0  # lockstep: held states since the last step (a motion's start)
         self._gap_watched = False  # a client was connected through it
         self._trembling = 0  # lockstep: settling cycles with nothing under way, in a row
-        self._changed = False  # lockstep: the control API changed the world since the last tick
+        self._disturbed = False  # lockstep: a request or a change came since the last tick
         # Lockstep: the server itself keeps its client waiting (the control API's HTTP server
         # being loaded on its first connection): no cycle goes without its answer meanwhile.
         self.server_busy = 0
 
     # -- events ------------------------------------------------------------------------------------
-    def client_event(self) -> None:
-        """A TCP request (to a robot or a tool) or a client's disconnect."""
+    def client_event(self, disturbing: bool = True) -> None:
+        """A TCP request (to a robot or a tool) or a client's disconnect; not `disturbing`: a
+        Connect alone, or a disconnect (whatever either sets going is a motion or a tool's
+        action, which the world's settling sees for itself)."""
         self._events += 1
+        self._disturbed = self._disturbed or disturbing
 
     def world_changed(self) -> None:
         """The world was changed from outside (the control API): the clock runs on, or again,
@@ -146,7 +149,7 @@ class Clock:
         self._unwatched = 0
         if self.lockstep:
             self._events += 1
-            self._changed = True
+            self._disturbed = True
 
     def withdraw_prepared(self) -> int | None:
         """Before a reset: forget the idle cycle released ahead, whose state has not left; the
@@ -218,11 +221,11 @@ class Clock:
         sent_at = self.send(released.states)
         replies = cycle.complete(released)
         if lockstep and not cycle.client_driven:
-            # What a motion, a change or a request disturbed gets to settle; a world already
-            # left trembling, not again for a request alone (see the module docstring).
-            if moved or self._changed or (requested and self._trembling < TREMBLE_CYCLES):
+            # What a motion, a request or a change disturbed gets to settle (not a client's
+            # coming or going: see the module docstring).
+            if moved or (requested and self._disturbed):
                 self._trembling = 0
-            self._changed = False
+            self._disturbed = False
             return self._idle_in_lockstep(released, sent_at, replies, requested or moved)
         self.post(released.message_id, replies)
         if self._count_unwatched():

@@ -91,9 +91,10 @@ class CycleDriver:
         """A client arrived: a paused clock starts again at once."""
         self.thread.wake()
 
-    def client_event(self) -> None:
-        """A TCP request (robot or tool) or a client's disconnect, lock held."""
-        self.clock.client_event()
+    def client_event(self, disturbing: bool = True) -> None:
+        """A TCP request (robot or tool) or a client's disconnect, lock held
+        (Clock.client_event)."""
+        self.clock.client_event(disturbing)
         if self.lockstep:
             self.thread.wake()
 

@@ -20,6 +20,7 @@ class FciEndpoint(SingleClientEndpoint):
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
                  lock: AbstractContextManager | None = None,
                  replaceable: Callable[[], bool] = lambda: False,
-                 on_request: Callable[[], None] = lambda: None, taps=None) -> None:
+                 on_request: Callable[[bool], None] = lambda disturbing: None,
+                 taps=None) -> None:
         super().__init__("FCI", make_session, on_handshake, on_disconnect, defer_replies, lock,
                          replaceable, on_request, taps=taps)

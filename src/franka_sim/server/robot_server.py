@@ -238,8 +238,8 @@ class RobotServer:
     def _on_disconnect(self) -> None:
         self.udp.disconnect()
         self.core.client_gone()
-        self.driver.client_event()
+        self.driver.client_event(disturbing=False)
 
     def _on_tool_disconnect(self) -> None:
         self.tool.client_gone()
-        self.driver.client_event()
+        self.driver.client_event(disturbing=False)

@@ -125,8 +125,8 @@ class ClientConnection(asyncio.Protocol):
         if not was_connected and self.session.handshake is not None:
             # before its Connect counts as an event: the cycle that follows sees a client
             self.owner.on_handshake(self.peer[0], self.session.handshake)
-        if self.session.requests != requests:
-            self.owner.on_request()
+        if self.session.requests != requests:  # (a Connect alone disturbs nothing)
+            self.owner.on_request(was_connected or self.session.requests - requests > 1)
         self._watch(restart=self.session.requests != requests)
         closed = self.session.closed
 
@@ -201,7 +201,7 @@ class SingleClientEndpoint:
         defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False,
         lock: "AbstractContextManager | None" = None,
         replaceable: Callable[[], bool] = lambda: False,
-        on_request: Callable[[], None] = lambda: None,
+        on_request: Callable[[bool], None] = lambda disturbing: None,
         keepalive: tuple[int, int, int] | None = KEEPALIVE,
         message_deadline: float = MESSAGE_DEADLINE,
         max_unsent: int = MAX_UNSENT,

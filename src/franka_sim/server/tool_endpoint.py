@@ -24,7 +24,7 @@ class ToolEndpoint(SingleClientEndpoint):
     def __init__(self, what: str, make_session: Callable[[], Session],
                  on_disconnect: Callable[[], None],
                  lock: AbstractContextManager | None = None,
-                 on_request: Callable[[], None] = lambda: None, taps=None,
+                 on_request: Callable[[bool], None] = lambda disturbing: None, taps=None,
                  defer_replies: Callable[[Callable[[], None]], bool] = lambda deliver: False
                  ) -> None:
         super().__init__(what, make_session, self._on_handshake, self._on_disconnect,

@@ -80,6 +80,7 @@ class LiveViewer:
                     [sys.executable, "-P", "-m", "franka_sim.server.viewer", path,
                      str(theirs.fileno())], pass_fds=(theirs.fileno(),),
                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=self._stderr)
+            theirs.close()  # (the child's alone now: its end reads as closed once it ends)
             ours.settimeout(timeout)
             said = ours.recv(4096)
         except TimeoutError:
@@ -203,6 +204,7 @@ def show(model_path: str, fd: int) -> int:
         sock.send(REFUSED + f"{type(failures[0]).__name__}: {failures[0]}".encode())
         return 1
     gui = [thread for thread in threading.enumerate() if thread not in before]
+    _open_on_the_arms(handle, model, data)
     sock.send(READY)
     nq, nmocap = model.nq, model.nmocap
     size, served = len(positions(data)), True
@@ -228,6 +230,20 @@ def show(model_path: str, fd: int) -> int:
     for thread in gui:  # (the process's exit ends GLFW: not while its GUI thread draws)
         thread.join(4.0)
     return 0
+
+
+def _open_on_the_arms(handle, model, data) -> None:
+    """The window's first view: every arm, as the web view opens on them."""
+    import mujoco
+
+    from franka_sim.physics.first_view import first_view, orbit
+
+    mujoco.mj_forward(model, data)
+    position, look_at = first_view(model, data)
+    with handle.lock():
+        camera = handle.cam
+        camera.lookat[:] = look_at
+        camera.distance, camera.azimuth, camera.elevation = orbit(position, look_at)
 
 
 def _glfw_refusal() -> str | None:

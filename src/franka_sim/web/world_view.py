@@ -14,6 +14,8 @@ import mujoco
 import numpy as np
 import trimesh
 
+from franka_sim.physics.first_view import first_view
+
 VISIBLE_GROUPS = (0, 1, 2)  # MuJoCo's default: group 3 and above (collision) hidden
 PLANE_EXTENT = 2.0  # m: half the side of the square an infinite plane is drawn as
 
@@ -88,15 +90,8 @@ class WorldView:
         self.show(None)
 
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
-        """(position, look_at) of a first view of every arm: from the front right, above the
-        middle of their bases, further back the further apart they stand."""
-        model, data = self.model, self.data
-        bases = np.array([data.xpos[b] for b in range(model.nbody)
-                          if model.body(b).name.split("/")[-1] == "link0"])
-        middle = bases.mean(axis=0) if len(bases) else np.zeros(3)
-        spread = float(np.ptp(bases, axis=0).max()) if len(bases) > 1 else 0.0
-        look_at = middle + (0.3, 0.0, 0.35)
-        return look_at + (0.95 + 0.4 * spread, -0.95 - 0.8 * spread, 0.5 + 0.3 * spread), look_at
+        """(position, look_at) of a first view of every arm (physics/first_view.py)."""
+        return first_view(self.model, self.data)
 
     def _frame(self, scene, body: int) -> str:
         name = f"/world/b{body}"
