@@ -14,7 +14,7 @@ from franka_sim.control import Control
 def test_a_placed_body_falls_and_a_pushed_arm_comes_back_without_a_client(engine):
     sim = engine_server(engine)
     try:
-        control = Control(sim.host)
+        control = Control(sim.host, timeout=300.0)  # (Genesis, niced, settles in its time)
         control.set_pose("cube", [0.45, 0.0, 0.3])
         assert control.pose("cube")["position"][2] < 0.03  # it fell onto the table at once
         before = control.state()

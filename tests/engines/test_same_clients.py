@@ -164,11 +164,11 @@ def test_a_reset_into_the_table_is_refused(sim):
     from franka_sim.control import Conflict
 
     with pytest.raises(Conflict, match=r"finger\d into scene/table"):
-        Control(sim.host).reset(q=[0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78])
+        Control(sim.host, timeout=300.0).reset(q=[0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78])
 
 
 def test_the_hand_homes_and_grasps_the_cube(sim, robot):
-    control = Control(sim.host)
+    control = Control(sim.host, timeout=300.0)
     assert np.abs(np.array(control.pose("cube")["position"]) - pp.CUBE).max() < 1e-3
     gripper = pylibfranka.Gripper(sim.host)
     assert gripper.homing() is True
