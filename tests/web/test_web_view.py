@@ -137,7 +137,7 @@ def test_motions_move_the_arm_on_screen_and_the_readouts_match_state(page, serve
         max(cols.min() - margin, 0):cols.max() + margin] = True
     assert changed[box].sum() >= 0.9 * changed.sum(), "pixels changed away from the arm"
     assert console_errors(page) == []
-    wait_for(lambda: plot_has_lines(page, "q vs q_d (rad)"), 30,
+    wait_for(lambda: plot_has_lines(page, "q vs q_d (rad)"), 120,
              "the q plot to draw its lines")  # (its next update, however busy the machine)
 
 
