@@ -86,16 +86,23 @@ def test_stop_when_idle_returns_true(gripper):
     assert gripper.stop() is True
 
 
-def test_grasps_the_cube_lifts_it_and_stop_lets_go(sim):
-    robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
-    gripper = pylibfranka.Gripper(sim.host)
+def _grasp_and_lift(host: str):
+    """The Hand brought down around the cube, grasping it, and lifted 15 cm: (the robot, the
+    gripper, its state while it held the cube on the table)."""
+    robot = pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
+    gripper = pylibfranka.Gripper(host)
     above, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)
     pick_and_place.move_joints(robot, above)
     pick_and_place.move_joints(robot, at, max_speed=0.3)
     assert gripper.grasp(0.05, 0.1, 20.0) is True
     held = gripper.read_once()
+    pick_and_place.move_joints(robot, above, max_speed=0.3)
+    return robot, gripper, held
+
+
+def test_grasps_the_cube_lifts_it_and_stop_lets_go(sim):
+    robot, gripper, held = _grasp_and_lift(sim.host)
     assert held.is_grasped and held.width == pytest.approx(0.05, abs=1e-3)
-    pick_and_place.move_joints(robot, above, max_speed=0.3)  # 15 cm up
     lifted = gripper.read_once()
     # Still between the fingers at the cube's width: the cube came up with the hand (had it
     # slipped out, the squeezing fingers would have closed on nothing).
@@ -109,17 +116,11 @@ def test_grasps_the_cube_lifts_it_and_stop_lets_go(sim):
 
 def test_in_lockstep_a_gripper_connecting_to_a_held_cube_costs_no_settling():
     """A grasped cube's contacts tremble for ever: lockstep gives such a world its settling
-    cycles once, and a Gripper that connects later costs its own cycles only. (Each request
-    got 2000 more, no state sent meanwhile: on a busy machine a new Gripper's first read
-    timed out, and each one moved the robot's clock on by seconds.)"""
+    cycles once, and a Gripper that connects later costs its own cycles only. (Each
+    connection got 2000 more, no state sent meanwhile: on a busy machine a new Gripper's
+    first read timed out, and each one moved the robot's clock on by seconds.)"""
     with running_sim("--clock", "lockstep") as sim:
-        robot = pylibfranka.Robot(sim.host, pylibfranka.RealtimeConfig.kIgnore)
-        gripper = pylibfranka.Gripper(sim.host)
-        above, at = pick_and_place.poses_over(pick_and_place.CUBE, pick_and_place.READY)
-        pick_and_place.move_joints(robot, above)
-        pick_and_place.move_joints(robot, at, max_speed=0.3)
-        assert gripper.grasp(0.05, 0.1, 20.0) is True
-        pick_and_place.move_joints(robot, above, max_speed=0.3)
+        robot, gripper, _ = _grasp_and_lift(sim.host)
         del gripper
         times = []
         for _ in range(3):

@@ -104,11 +104,9 @@ def test_beside_a_stream_a_motion_is_waited_for_from_its_second_state():
     assert cycle.receive(*answer(1, states[1], dq_c=np.zeros(7)))
 
 
-def test_a_silent_client_is_not_waited_for_beside_a_streaming_one():
-    """One arm's client paused (a debugger) for 20 cycles: its arm is braked and held, and the
-    other arm's answers alone release the cycles (a window each for the silent one would hold
-    the world to ten cycles a second); heard again, it is waited for again. Alone, a silent
-    client is still waited for."""
+def _right_silent():
+    """Both arms in a velocity motion; the right client says nothing until it counts as
+    silent: (the cycle, its parts, the last states, the cycles that took)."""
     cycle, parts = world()
     step(cycle)
     for arm in parts.arms:
@@ -116,10 +114,19 @@ def test_a_silent_client_is_not_waited_for_beside_a_streaming_one():
     step(cycle)
     states = step(cycle)
     waited = 0
-    while not parts.arms[1].core.client_silent:  # the right client says nothing
+    while not parts.arms[1].core.client_silent:
         assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))  # (right is owed)
         states = step(cycle)
         waited += 1
+    return cycle, parts, states, waited
+
+
+def test_a_silent_client_is_not_waited_for_beside_a_streaming_one():
+    """One arm's client paused (a debugger) for 20 cycles: its arm is braked and held, and the
+    other arm's answers alone release the cycles (a window each for the silent one would hold
+    the world to ten cycles a second); heard again, it is waited for again. Alone, a silent
+    client is still waited for."""
+    cycle, parts, states, waited = _right_silent()
     assert waited >= 18  # (20 cycles lost in a row make a client silent)
     assert cycle.waits_for == {0}
     assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
@@ -134,15 +141,7 @@ def test_a_silent_client_heard_only_late_is_waited_for_again():
     """Not waited for, a resumed client answers each state after the other arm's answer has
     released the next cycle: late every time. Heard late, it is waited for again, so its next
     answer is on time and its motion goes on (it stayed braked to the motion's end)."""
-    cycle, parts = world()
-    step(cycle)
-    for arm in parts.arms:
-        arm.core.request_move(5, move_request(0, 1))
-    step(cycle)
-    states = step(cycle)
-    while not parts.arms[1].core.client_silent:  # the right client says nothing
-        assert not cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
-        states = step(cycle)
+    cycle, parts, states, _ = _right_silent()
     assert cycle.receive(*answer(0, states[0], dq_c=np.zeros(7)))
     read, states = states, step(cycle)
     assert not cycle.receive(*answer(1, read[1], dq_c=np.zeros(7)))  # its answer, late
