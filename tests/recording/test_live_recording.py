@@ -131,6 +131,7 @@ def test_a_write_that_fails_stops_the_recording_with_one_line_and_the_robot_serv
         np.testing.assert_allclose(move_to(robot, target, 2.0), target, atol=1e-2)
         stopped = server.wait_for_log("stopped: File too large")
         assert len(stopped) == 1 and "the file keeps what reached it" in stopped[0]
+        assert f"recording to {tmp_path / 'big.mcap'} stopped" in stopped[0]  # (its path)
         del robot
         _client_gone(control)
         with pytest.raises(ControlError, match="stopped when a write failed") as failed:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -191,3 +192,21 @@ def test_a_second_server_given_a_recording_under_way_is_refused_and_the_first_is
         first.stop()
     replayed = franka_sim("replay", str(out))
     assert replayed.returncode == 0 and replayed.stdout.startswith("identical"), replayed.stderr
+
+
+def test_a_device_is_recorded_to_by_as_many_servers_as_ask():
+    """/dev/null takes any number of recordings at once: only a file is locked."""
+    from franka_sim.testing import ServerProcess, fresh_loopback_address
+
+    servers = [ServerProcess(fresh_loopback_address(), "--record", "/dev/null").wait_ready()
+               for _ in range(2)]
+    try:  # and a start that fails (its address in use) leaves the device where it is
+        done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                               servers[0].host, "--record", "/dev/null"],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 1 and "in use" in done.stderr
+        assert Path("/dev/null").is_char_device()
+    finally:
+        for server in servers:
+            server.stop()
+            assert server.proc.returncode == 0, server.lines

@@ -316,6 +316,8 @@ def test_a_gap_carries_the_reference_on_within_the_velocity_limit():
     reference.follow_position(np.full(7, 5e-3))
     reference.extrapolate()
     assert np.all(np.abs(reference.dq_d) <= limits)
+    # a joint held at its limit is not pushed on (its feed-forward, its published ddq_d)
+    np.testing.assert_array_equal(reference.ddq_d, np.where(limits < 5.0, 0.0, 10.0))
 
 
 def test_after_a_gap_the_cartesian_stream_is_differenced_over_the_cycles_between():

@@ -105,10 +105,8 @@ class ArmCore(FciRobot):
     @property
     def client_silent(self) -> bool:
         """The client went silent mid-motion and its arm is braked and held (enforcement off):
-        as far as the robot can tell it is gone, so a new client may take its place. One heard
-        in the last cycle, if only late, is not (beside another arm's stream a client not
-        waited for answers every state late: waited for again, it is on time)."""
-        return self.motion is not None and self._silent and self.window.late is None
+        as far as the robot can tell it is gone, so a new client may take its place."""
+        return self.motion is not None and self._silent
 
     # -- the cycle -----------------------------------------------------------------------------
     def _idle_release(self) -> None:

@@ -76,9 +76,8 @@ class BaseCore(FciRobot):
 
     @property
     def client_silent(self) -> bool:
-        """Its motion's client lost MAX_EXTRAPOLATED_CYCLES in a row, and was not heard late in
-        the last cycle either: a new one may take over (ArmCore.client_silent)."""
-        return (self.motion_running and self.window.late is None
+        """Its motion's client lost MAX_EXTRAPOLATED_CYCLES in a row: a new one may take over."""
+        return (self.motion_running
                 and self.window.consecutive_lost >= MAX_EXTRAPOLATED_CYCLES)
 
     # -- the cycle -----------------------------------------------------------------------------

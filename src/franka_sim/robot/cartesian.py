@@ -135,8 +135,10 @@ class CartesianTarget:
     def extrapolate(self) -> None:
         self.skip()
         limit, fastest = self.max_twist_rate, self.max_twist
-        self._twist_rate = np.clip(self._twist_rate, -limit, limit)
-        self._twist = np.clip(self._twist + self._twist_rate * DT, -fastest, fastest)
+        rate = np.clip(self._twist_rate, -limit, limit)
+        twist = self._twist + rate * DT
+        self._twist = np.clip(twist, -fastest, fastest)
+        self._twist_rate = np.where(self._twist == twist, rate, 0.0)  # (at its limit: held)
         self._integrate()
 
     def _integrate(self) -> None:

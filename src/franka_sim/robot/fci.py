@@ -97,6 +97,11 @@ class FciRobot:
                 and motion.first_state != self.message_id)
 
     @property
+    def answered_late(self) -> bool:
+        """Its client's answer to the last closed cycle came, but late: it is there."""
+        return self.window.late is not None
+
+    @property
     def first_motion_state(self) -> bool:
         motion = self.motion
         return motion is not None and motion.first_state == self.message_id

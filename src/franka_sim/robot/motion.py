@@ -107,8 +107,10 @@ class JointReference:
     against what the robot carried on meanwhile, a smooth client's next point read as a step
     (a few mrad in one cycle: rad/s), which the next gap then carried on at that speed, gap
     after gap, under a jittered link (the arm thrown about, up to 8000 rad off). Where the
-    real robot meets such a step it aborts (`--enforce-motion-limits`; the checks difference
-    the stream over the same cycles); a robot that lets the motion go on stays on the stream.
+    real robot meets such a step it aborts (`--enforce-motion-limits`; the checks, too,
+    difference the stream over the cycles between its commands); a robot that lets the motion
+    go on stays on the stream. (A Cartesian generator's IK feeds this reference every cycle,
+    gaps included: there the Cartesian target keeps the stream, robot/cartesian.py.)
     """
 
     def __init__(self, q_start: np.ndarray, max_acceleration: np.ndarray | float = np.inf,
@@ -151,8 +153,10 @@ class JointReference:
         robot's joint acceleration and velocity limits (a client's own stream may exceed
         them: what a gap carries on may not)."""
         limit, fastest = self.max_acceleration, self.max_velocity
-        self.ddq_d = np.clip(self.ddq_d, -limit, limit)
-        self.dq_d = np.clip(self.dq_d + self.ddq_d * DT, -fastest, fastest)
+        ddq = np.clip(self.ddq_d, -limit, limit)
+        dq = self.dq_d + ddq * DT
+        self.dq_d = np.clip(dq, -fastest, fastest)
+        self.ddq_d = np.where(self.dq_d == dq, ddq, 0.0)  # (held at its limit: no push on)
         self.q_d = self.q_d + self.dq_d * DT
         self._missed += 1
 
@@ -249,8 +253,10 @@ class ElbowCommand:
     def extrapolate(self) -> None:
         self.skip()
         limit, fastest = self.max_acceleration, self.max_velocity
-        self._acceleration = min(max(self._acceleration, -limit), limit)
-        self._velocity = min(max(self._velocity + self._acceleration * DT, -fastest), fastest)
+        acceleration = min(max(self._acceleration, -limit), limit)
+        velocity = self._velocity + acceleration * DT
+        self._velocity = min(max(velocity, -fastest), fastest)
+        self._acceleration = acceleration if self._velocity == velocity else 0.0
         self.position += self._velocity * DT
 
 

@@ -237,14 +237,17 @@ class WorldCycle:
         none, the robots whose motion's first state it is (an answer is taken at once). A
         client gone silent (its robot braked and held until it is heard again: paused in a
         debugger, stopped) is waited for only while no other robot's client streams: a window
-        a cycle for it would hold the others to ten cycles a second."""
+        a cycle for it would hold the others to ten cycles a second. Heard again, if only late
+        (not waited for, its answers come after the others' released the cycle), it is waited
+        for again, and its next answer is on time."""
         streaming, silent, first = set(), set(), set()
         for i, part in enumerate(self.parts):
             core = part.core
             if core.first_motion_state:
                 first.add(i)
             elif core.streams_commands:
-                (silent if core.client_silent else streaming).add(i)
+                (silent if core.client_silent and not core.answered_late
+                 else streaming).add(i)
         awaited = streaming or silent or first
         self.waits_for = frozenset(awaited)
         self._awaited = awaited

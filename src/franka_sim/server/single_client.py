@@ -218,7 +218,8 @@ class SingleClientEndpoint:
         self.lock = lock if lock is not None else nullcontext()
         # replaceable() → True: the active client counts as gone, and a newcomer replaces it.
         self.replaceable = replaceable
-        # on_request(): the active client's requests were handled (lock held): the clock's cue.
+        # on_request(disturbing): the active client's requests were handled (lock held): the
+        # clock's cue; not disturbing: its Connect alone (Clock.client_event).
         self.on_request = on_request
         # The bounds on dead and hostile peers (module docstring); a test may shorten them
         # on the instance before clients connect.

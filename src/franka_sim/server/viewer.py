@@ -92,9 +92,13 @@ class LiveViewer:
         finally:
             theirs.close()
             os.unlink(path)
-        if said != READY:
-            reason = said[len(REFUSED):].decode(errors="replace") if said.startswith(REFUSED) \
-                else self._last_words() or "its process ended"
+        if said != READY or self._abandoned:
+            if self._abandoned:  # (it opened just as the server stopped)
+                reason = "the server is stopping"
+            elif said.startswith(REFUSED):
+                reason = said[len(REFUSED):].decode(errors="replace")
+            else:
+                reason = self._last_words() or "its process ended"
             self._end_child()
             raise RuntimeError(f"the viewer cannot open: {reason}")
         ours.setblocking(False)
@@ -238,12 +242,15 @@ def _open_on_the_arms(handle, model, data) -> None:
 
     from franka_sim.physics.first_view import first_view, orbit
 
-    mujoco.mj_forward(model, data)
-    position, look_at = first_view(model, data)
-    with handle.lock():
-        camera = handle.cam
-        camera.lookat[:] = look_at
-        camera.distance, camera.azimuth, camera.elevation = orbit(position, look_at)
+    try:  # (a view it cannot place leaves MuJoCo's own: nothing to end the window for)
+        mujoco.mj_forward(model, data)
+        position, look_at = first_view(model, data)
+        with handle.lock():
+            camera = handle.cam
+            camera.lookat[:] = look_at
+            camera.distance, camera.azimuth, camera.elevation = orbit(position, look_at)
+    except Exception as exc:  # noqa: BLE001 - said on the child's stderr, the window opens
+        print(f"the viewer's first view: {exc}", file=sys.stderr)
 
 
 def _glfw_refusal() -> str | None:

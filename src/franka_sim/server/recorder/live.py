@@ -68,7 +68,8 @@ class Recordings:
             self.sim.taps.detach()
         self.live = None
         recorder.stop()
-        recorder.path.unlink(missing_ok=True)
+        if recorder.path.is_file():  # (a device given as the target, /dev/null, stays)
+            recorder.path.unlink(missing_ok=True)
 
     def close(self) -> None:
         """The simulator stops: a recording still under way is finished (a complete file),

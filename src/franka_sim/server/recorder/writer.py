@@ -40,27 +40,38 @@ DRAIN_PERIOD = 0.05  # s between two looks at the queue
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes of messages before a chunk closes by itself
 
 def _take(path: Path):
-    """The target, opened for writing and locked (flock) for as long as this process records
-    to it, then emptied. One another process records to (a second server given the same
-    --record) is refused before a byte of it changes: emptied, the first server's recording
-    was lost, and removed with it when the second's start failed."""
+    """The target, opened for writing; a file is locked (flock) for as long as this process
+    records to it, then emptied. One another process records to (a second server given the
+    same --record) is refused before a byte of it changes: emptied, the first server's
+    recording was lost, and removed with it when the second's start failed. A device (a FIFO,
+    /dev/null) is written as it is; a file system without locks records unlocked."""
     fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         if stat.S_ISREG(os.fstat(fd).st_mode):
+            _lock(fd, path)
             os.ftruncate(fd, 0)
-    except BlockingIOError:
-        os.close(fd)
-        raise OSError(errno.EBUSY, "another process is recording to it", str(path)) from None
     except BaseException:
         os.close(fd)
         raise
     return os.fdopen(fd, "wb")
 
 
+def _lock(fd: int, path: Path) -> None:
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise OSError(errno.EBUSY, "another process is recording to it", str(path)) from None
+    except OSError as exc:
+        if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
+            raise
+        log.warning("recording to %s unlocked (its file system has no locks: %s): another "
+                    "process given the same path would write over it", path, exc.strerror)
+
+
 class RecordingWriter:
     def __init__(self, path: Path, metadata: dict, robots: list[str], queue, owner) -> None:
         self._file = _take(path)  # OSError here: the caller says the target is unwritable
+        self._path = path
         self._queue, self._owner = queue, owner
         self._mcap = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
         self._mcap.start(profile="", library=f"franka-sim recording v{FORMAT_VERSION}")
@@ -111,7 +122,7 @@ class RecordingWriter:
         if self.failure is None:
             self.failure = exc
             log.error("recording to %s stopped: %s (the file keeps what reached it before)",
-                      self._file.name, exc.strerror or exc)
+                      self._path, exc.strerror or exc)
 
     # -- the thread ----------------------------------------------------------------------------------
     def _run(self) -> None:
@@ -131,7 +142,7 @@ class RecordingWriter:
                 errors += 1
                 if worth_logging(errors):
                     log.exception("recording to %s: an event could not be written (%d so far)",
-                                  self._file.name, errors)
+                                  self._path, errors)
 
     def _flush(self) -> None:
         if self._unflushed:
