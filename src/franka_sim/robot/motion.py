@@ -101,16 +101,14 @@ def parse_move(request) -> MoveSpec:
 class JointReference:
     """Desired joint signals of a joint-space generator, with the FCI's gap filling.
 
-    The client's stream is followed as the robot follows it, q_d = q_c differenced cycle by
-    cycle. After a gap (cycles carried on or braked without a command) the next command's
-    differences are the stream's own, over the cycles since its last command: differenced
-    against what the robot carried on meanwhile, a smooth client's next point read as a step
-    (a few mrad in one cycle: rad/s), which the next gap then carried on at that speed, gap
-    after gap, under a jittered link (the arm thrown about, up to 8000 rad off). Where the
-    real robot meets such a step it aborts (`--enforce-motion-limits`; the checks, too,
-    difference the stream over the cycles between its commands); a robot that lets the motion
-    go on stays on the stream. (A Cartesian generator's IK feeds this reference every cycle,
-    gaps included: there the Cartesian target keeps the stream, robot/cartesian.py.)
+    q_d = q_c, differenced cycle by cycle; after a gap (cycles carried on or braked without a
+    command) the next command is differenced against the stream's last, over the cycles
+    between: against what the robot carried on, a smooth client's next point read as a step
+    of rad/s, which the next gap carried on, gap after gap, under a jittered link (the arm
+    thrown about). The real robot aborts on such a step (`--enforce-motion-limits`; the checks
+    difference the stream between its commands too); one that lets the motion go on stays on
+    the stream. (A Cartesian generator's IK feeds this every cycle, gaps included: there the
+    Cartesian target keeps the stream, robot/cartesian.py.)
     """
 
     def __init__(self, q_start: np.ndarray, max_acceleration: np.ndarray | float = np.inf,
