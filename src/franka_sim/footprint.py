@@ -19,6 +19,12 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   entry points; ~13 ms and ~1.8 MiB, importlib.metadata and the parsers it brings). No
   packaged scene uses a plugin: both wait until a scene that is not packaged is loaded
   (`load_plugins`), which then finds them as `import mujoco` would have.
+- Modules imported and never used: construct imports `pdb` (for a debugging construct no
+  message uses) and `hashlib` (for checksums none has), MuJoCo `zipfile` (for its model
+  archives) and `ctypes.util` without calling it. With what they bring (bdb, cmd, code,
+  pprint; shutil, bz2, lzma, tempfile, random; the built-in digests) they are ~2.5 MiB
+  resident. They still import, and the real module loads on its first use
+  (`defer_unused_modules`), a `breakpoint()` included.
 """
 
 from __future__ import annotations
@@ -94,6 +100,38 @@ def load_plugins() -> None:
             entry.load()()
         except Exception as exc:  # noqa: BLE001 - as MuJoCo does: one broken plugin, a warning
             log.warning("MuJoCo plugin %s not loaded: %s", entry.name, exc)
+
+
+# Standard modules the core libraries import and a server never uses (module docstring).
+DEFERRED = ("pdb", "zipfile", "ctypes.util", "hashlib")
+
+
+def defer_unused_modules() -> None:
+    """Make an import of a DEFERRED module give a stand-in that imports the real module on its
+    first use; call before construct and MuJoCo are imported.
+    (importlib's LazyLoader would not do: `import` reads a module's `__spec__`, which loads a
+    lazy module at once.)"""
+    for name in DEFERRED:
+        if name not in sys.modules and (spec := importlib.util.find_spec(name)) is not None:
+            sys.modules[name] = stand_in = _stand_in(name, spec)
+            parent, _, child = name.rpartition(".")
+            if parent:  # (`import a.b` then reads a.b off the package)
+                setattr(sys.modules[parent], child, stand_in)
+
+
+def _stand_in(name: str, spec) -> types.ModuleType:
+    def __getattr__(attribute: str):
+        if attribute.startswith("__") and not (
+                attribute == "__path__" and spec.submodule_search_locations is not None):
+            raise AttributeError(attribute)  # (a package's submodule import: the real one)
+        if sys.modules.get(name) is stand_in:
+            del sys.modules[name]
+        return getattr(importlib.import_module(name), attribute)
+
+    stand_in = types.ModuleType(name, f"{name}, imported on its first use (footprint.py).")
+    stand_in.__spec__ = spec
+    stand_in.__getattr__ = __getattr__
+    return stand_in
 
 
 def leave_out_tls() -> None:

@@ -22,8 +22,8 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from franka_sim.footprint import (import_mujoco_without_plugins, leave_out_renderer,
-                                  leave_out_tls)
+from franka_sim.footprint import (defer_unused_modules, import_mujoco_without_plugins,
+                                  leave_out_renderer, leave_out_tls)
 from franka_sim.log_format import FORMAT, OneLine
 from franka_sim.log_names import RobotName
 
@@ -179,6 +179,7 @@ def import_for_serving(*, tls: bool) -> None:
 
 def _leave_out(*, tls: bool) -> None:
     leave_out_renderer()
+    defer_unused_modules()  # before construct and MuJoCo are imported
     if not tls and _KEEP_TLS not in os.environ:
         leave_out_tls()  # before asyncio, uvloop and construct are imported
     import_mujoco_without_plugins()

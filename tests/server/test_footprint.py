@@ -79,6 +79,30 @@ def test_a_process_that_already_loaded_tls_keeps_the_real_one():
     assert out.split() == ["True", "True"]
 
 
+def test_modules_the_libraries_import_and_a_server_never_uses_load_on_first_use():
+    out = _run("""
+        import sys
+        from franka_sim.footprint import (DEFERRED, defer_unused_modules,
+                                          import_mujoco_without_plugins, leave_out_tls)
+        defer_unused_modules()
+        leave_out_tls()
+        import construct, construct.debug
+        import_mujoco_without_plugins()
+        loaded = lambda names: sorted(name for name in names
+                                      if getattr(sys.modules.get(name), "__file__", None))
+        print(loaded((*DEFERRED, "bdb", "bz2", "lzma", "shutil", "tempfile", "random")))
+        import ctypes.util, hashlib, io, zipfile
+        archive = io.BytesIO()
+        with zipfile.ZipFile(archive, "w") as writing:
+            writing.writestr("a.txt", "b")
+        print(zipfile.is_zipfile(archive), ctypes.util.find_library("c") is not None,
+              hashlib.sha256(b"x").hexdigest()[:8], construct.debug.pdb.Pdb.__module__)
+        import pdb
+        print(pdb.set_trace.__module__, loaded(DEFERRED) == sorted(DEFERRED))
+    """)
+    assert out.split("\n")[:3] == ["[]", "True True 2d711642 pdb", "pdb True"]
+
+
 def test_a_uvloop_the_stand_in_does_not_satisfy_gets_the_real_tls(tmp_path):
     """A future uvloop might read something off `ssl` the stand-in lacks: the serving process
     then starts again with OpenSSL (one warning) instead of failing to serve."""
@@ -226,7 +250,8 @@ def test_a_server_serving_a_v10_client_and_its_hand_loads_nothing_it_did_not_mee
 
 def test_the_serving_process_keeps_the_libraries_behind_them_unmapped():
     """The same seen from outside, in the serving process under pylibfranka with a Gripper:
-    the compiled modules that statistics and the IDNA codec bring, and MuJoCo's own plugins."""
+    the compiled modules that statistics, the IDNA codec and the deferred modules bring
+    (franka_sim.footprint), and MuJoCo's own plugins."""
     import pylibfranka
     from franka_sim.testing import running_sim
 
@@ -237,6 +262,6 @@ def test_the_serving_process_keeps_the_libraries_behind_them_unmapped():
         assert gripper.read_once().max_width > 0.07
         maps = Path(f"/proc/{sim.pid}/maps").read_text()
         del robot, gripper
-    for library in ("_decimal.", "unicodedata.", "libsensor.so", "libactuator.so",
-                    "libsdf_plugin.so", "libmujoco"):
+    for library in ("_decimal.", "unicodedata.", "_bz2.", "_lzma.", "_random.", "_sha512.",
+                    "libsensor.so", "libactuator.so", "libsdf_plugin.so", "libmujoco"):
         assert (library in maps) == (library == "libmujoco"), library

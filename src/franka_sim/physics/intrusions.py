@@ -38,6 +38,17 @@ def subtree(model: mujoco.MjModel, tops) -> frozenset[int]:
     return frozenset(found)
 
 
+def contacts(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[int, int, float]]:
+    """(body, body, depth) of each contact `data` holds. Read through the contact arrays: the
+    bindings' per-contact objects would fault ~0.6 MiB of their code into every server, which
+    checks its arms at start."""
+    n = data.ncon
+    bodies = model.geom_bodyid
+    return [(int(bodies[g1]), int(bodies[g2]), -dist) for g1, g2, dist in zip(
+        data.contact.geom1[:n].tolist(), data.contact.geom2[:n].tolist(),
+        data.contact.dist[:n].tolist())]
+
+
 def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
                mocap: tuple[np.ndarray, np.ndarray] | None = None) -> list[Intrusion]:
     """The overlaps deeper than DEPTH of the `arm`'s bodies with any other body, the world at
@@ -49,14 +60,11 @@ def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
         data.mocap_pos[:], data.mocap_quat[:] = mocap
     mujoco.mj_fwdPosition(model, data)
     deepest: dict[tuple[int, int], float] = {}
-    for contact in data.contact[:data.ncon]:
-        a = int(model.geom_bodyid[contact.geom1])
-        b = int(model.geom_bodyid[contact.geom2])
+    for a, b, depth in contacts(model, data):
         if (a in arm) == (b in arm):
             continue  # the arm's own bodies, or two others
         if b in arm:
             a, b = b, a
-        depth = -float(contact.dist)
         if depth > DEPTH and depth > deepest.get((a, b), 0.0):
             deepest[(a, b)] = depth
     found = [Intrusion(model.body(a).name, model.body(b).name if b else "the world's geometry",

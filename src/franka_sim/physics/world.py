@@ -32,7 +32,7 @@ import numpy as np
 
 from franka_sim.physics.arm import Arm
 from franka_sim.physics.bodies import Bodies, BodyState, Immovable, Pushes
-from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
+from franka_sim.physics.intrusions import Intrusion, contacts, intrusions, subtree
 from franka_sim.physics.scene import ArmPlacement, build_world_model
 
 # What a step reads and writes, except the clock: positions, velocities, warm start, inputs.
@@ -261,9 +261,8 @@ class World:
                 if m.body(body).name.startswith(prefix):
                     owner[body] = name
         pairs = set()
-        for contact in d.contact[:d.ncon]:
-            a = owner.get(int(m.geom_bodyid[contact.geom1]))
-            b = owner.get(int(m.geom_bodyid[contact.geom2]))
+        for body_a, body_b, _ in contacts(m, d):
+            a, b = owner.get(body_a), owner.get(body_b)
             if a is not None and b is not None and a != b:
                 pairs.add(tuple(sorted((a, b))))
         return sorted(pairs)
