@@ -154,6 +154,39 @@ def test_the_panel_notes_each_change_of_mode_errors_and_reflex_once():
     assert panel.plots is not None and len(panel.plots[0].value[0]) >= 2  # (made, with data)
 
 
+def test_a_state_no_other_follows_holds_in_the_plots():
+    """A paused clock sends no state: a watcher who came then sees its one state drawn, held
+    up to now, and the plots go on from it once states flow again."""
+    from franka_sim.protocol.codec import STATE_DTYPE
+    from franka_sim.web.arm_panel import PLOT_PERIOD, WINDOW, ArmPanel
+    from franka_sim.web.snapshots import Snapshot
+
+    panel = ArmPanel(Gui(), "fr3", 0)
+    state = np.zeros(1, STATE_DTYPE)[0]
+    state["q"] = state["q_d"] = np.arange(7) / 10
+
+    def show(t: float) -> None:
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+
+    show(100.0)
+    panel.hold(100.0 + PLOT_PERIOD / 2)
+    assert panel.plots is None  # (one state, not yet held for a plot's period)
+    period = PLOT_PERIOD * 1.001  # (a period after, in floats)
+    panel.hold(100.0 + period)
+    t, q, q_d = panel.plots[0].value
+    assert list(t) == pytest.approx([0.0, period]) and list(q) == list(q_d) == [0.0, 0.0]
+    for now in np.arange(1, 60) * PLOT_PERIOD * 2:
+        panel.hold(100.0 + now)
+    t = panel.plots[0].value[0]
+    assert t[-1] == pytest.approx(59 * PLOT_PERIOD * 2) and t[-1] - t[0] <= WINDOW
+    state["q"][0] = 0.5
+    show(130.0)
+    panel.hold(130.0 + PLOT_PERIOD / 2)  # (a state came: nothing is held within a period)
+    panel.hold(130.0 + period)
+    t, q, _ = panel.plots[0].value
+    assert list(t[-2:]) == pytest.approx([30.0, 30.0 + period]) and list(q[-2:]) == [0.5, 0.5]
+
+
 def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_scrubbing():
     from franka_sim.recording.reader import open_recording
     from franka_sim.web.arm_panel import ArmPanel

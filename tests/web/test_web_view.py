@@ -153,19 +153,22 @@ def plot_has_lines(browser, title: str) -> bool:
             browser.execute_script("arguments[0].scrollIntoView()", plot)
             image = np.asarray(Image.open(io.BytesIO(plot.screenshot_as_png)).convert("RGB"))
             image = image[: int(image.shape[0] * 0.75)].astype(int)  # (not the legend's keys)
-            blue = (np.abs(image - (0x1F, 0x77, 0xB4)).max(axis=2) < 40).sum()
-            orange = (np.abs(image - (0xFF, 0x7F, 0x0E)).max(axis=2) < 40).sum()
+            # (60: a flat line's one row of pixels, blended with the white behind it)
+            blue = (np.abs(image - (0x1F, 0x77, 0xB4)).max(axis=2) < 60).sum()
+            orange = (np.abs(image - (0xFF, 0x7F, 0x0E)).max(axis=2) < 60).sum()
             return blue + orange > 100
     return False
 
 
 def test_a_watcher_who_comes_after_the_client_left_sees_the_arm_as_it_is():
     """The clock paused with nobody connected: the page shows the state the robot publishes
-    (what the last client was told, what the next will read first), not an empty panel."""
+    (what the last client was told, what the next will read first), not an empty panel, and
+    its plots draw that state held."""
     with running_sim("--web", str(WEB_PORT), "--clock", "lockstep") as server:
         client = Client(server.host)
         try:
             turned = list(READY_POSE)
+            turned[0] += 0.3  # (joint 1's plot: a line held off its axis)
             turned[1] += 0.3
             client.move(turned)
         finally:
@@ -178,3 +181,5 @@ def test_a_watcher_who_comes_after_the_client_left_sees_the_arm_as_it_is():
                              "the readouts to say what /state says")
             assert abs(shown_q(browser)[1] - turned[1]) < 1e-3
             assert shown["robot mode"] == "Idle"
+            wait_for(lambda: plot_has_lines(browser, "q vs q_d (rad)"), 60,
+                     "the q plot to draw the state held")  # (no state follows it)

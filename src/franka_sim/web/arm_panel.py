@@ -123,6 +123,22 @@ class ArmPanel:
             self._last_plot = snapshot.time
             self._plot()
 
+    def hold(self, now: float) -> None:
+        """No state came since the last one shown, up to `now` (time.monotonic()): a paused
+        clock sends none, the world having settled. The last state holds meanwhile, and the
+        plots show it held (a watcher who comes to a paused server sees its one state drawn)."""
+        rows = self._rows
+        if not rows or now - self._last_plot < PLOT_PERIOD:
+            return
+        t = now - self._t0
+        if t - rows[-1][0] < PLOT_PERIOD:
+            return
+        rows.append((t, *rows[-1][1:]))
+        while rows and rows[0][0] < t - WINDOW:
+            rows.popleft()
+        self._last_plot = now
+        self._plot()
+
     def show_recorded(self, snapshot, rows: list, events: list[str], reflex: str) -> None:
         """A recording's moment: the readouts as `show` gives them, the plots' rows, the events
         and the last reflex up to it as recorded (`rows`, `events`, `reflex`), not as shown

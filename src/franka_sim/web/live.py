@@ -16,6 +16,7 @@ import errno
 import io
 import logging
 import threading
+import time
 
 from franka_sim.web.arm_panel import ArmPanel
 from franka_sim.web.snapshots import SnapshotTap
@@ -112,13 +113,18 @@ class LiveView:
         while not self._stop.is_set():
             self._wake.wait()  # (nobody watching: asleep; stop() wakes it too)
             snapshot = self.tap.latest
-            if snapshot is not None and snapshot is not shown:
-                shown = snapshot
+            fresh = snapshot is not None and snapshot is not shown
+            if fresh or shown is not None:  # (else: no state yet)
+                shown = snapshot if fresh else shown
                 try:
                     with self.server.atomic():
-                        self.world.show(snapshot)
+                        if fresh:
+                            self.world.show(snapshot)
                         for panel in self.panels:
-                            panel.show(snapshot)
+                            if fresh:
+                                panel.show(snapshot)
+                            else:  # no state since the last (a paused clock): it holds
+                                panel.hold(time.monotonic())
                 except Exception:  # noqa: BLE001 - the view goes on; the robot never cares
                     if not failed:  # (once: not 30 tracebacks a second)
                         log.exception("the web view could not draw a frame")
