@@ -108,7 +108,9 @@ class Gui:
         return Field(initial_value)
 
     def add_uplot(self, data, series, **kwargs):
-        return Plot(data)
+        plot = Plot(data)
+        plot.scales = kwargs["scales"]
+        return plot
 
 
 class Plot(Field):
@@ -185,6 +187,31 @@ def test_a_state_no_other_follows_holds_in_the_plots():
     panel.hold(130.0 + period)
     t, q, _ = panel.plots[0].value
     assert list(t[-2:]) == pytest.approx([30.0, 30.0 + period]) and list(q[-2:]) == [0.5, 0.5]
+
+
+def test_a_plot_whose_values_are_all_zero_shows_them_about_zero():
+    """uPlot shows values that are all 0 on 0 to 100 (q at 0 rad, no external force): such a
+    plot gets -1 to 1 until a value is not 0."""
+    from franka_sim.protocol.codec import STATE_DTYPE
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.snapshots import Snapshot
+
+    panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
+    state = np.zeros(1, STATE_DTYPE)[0]
+    state["tau_J"][0] = state["tau_J_d"][0] = 1.5
+
+    def show(t: float) -> None:
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+
+    show(0.0)
+    show(1.0)
+    q, tau, force, rate = panel.plots
+    assert q.scales["y"] == force.scales["y"] == rate.scales["y"] == {
+        "auto": False, "range": [-1.0, 1.0]}
+    assert tau.scales["y"] == {"auto": True}
+    state["q"][0] = 0.25
+    show(2.0)
+    assert q.scales["y"] == {"auto": True} and force.scales["y"]["range"] == [-1.0, 1.0]
 
 
 def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_scrubbing():

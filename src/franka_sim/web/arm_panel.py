@@ -68,8 +68,10 @@ def row_of(state, t: float) -> tuple:
 _PLOTS = (("q vs q_d (rad)", ("q", "q_d")), ("tau_J vs tau_J_d (Nm)", ("tau_J", "tau_J_d")),
           ("external force at K (N)", ("Fx", "Fy", "Fz")),
           ("command success rate", ("success rate",)))
-# x is seconds, not a date (uPlot's default); y follows the data.
+# x is seconds, not a date (uPlot's default); y follows the data, except where every value is
+# 0 (an arm at rest at joint angle 0, no external force), which uPlot would show on 0 to 100.
 _SCALES = {"x": {"time": False, "auto": True}, "y": {"auto": True}}
+_ZERO_SCALES = {"x": _SCALES["x"], "y": {"auto": False, "range": [-1.0, 1.0]}}
 # The y axis as wide as a value like "-0.3865" needs (uPlot's 50 px cut off its sign).
 _AXES = ({}, {"size": 64})
 
@@ -107,6 +109,7 @@ class ArmPanel:
         # The plots are made with their first two points: a uPlot made empty keeps the empty
         # scale it started with (viser 1.1), whatever data follows.
         self.plots: tuple | None = None
+        self._zero: tuple = ()  # each plot's: all its values 0 (its scale _ZERO_SCALES)
 
     def show(self, snapshot) -> None:
         """Readouts from the snapshot's state of this arm; the plots every PLOT_PERIOD."""
@@ -201,13 +204,18 @@ class ArmPanel:
                 (t, np.array([r[3][j] for r in rows]), np.array([r[4][j] for r in rows])),
                 (t, forces[:, 0], forces[:, 1], forces[:, 2]),
                 (t, np.array([r[6] for r in rows])))
+        zero = tuple(not any(np.any(v) for v in values[1:]) for values in data)
         if self.plots is None:
             gui = self._gui
             with self._folder:
                 self.plots = tuple(
-                    gui.add_uplot(values, _series(*labels), title=title, scales=_SCALES,
-                                  axes=_AXES, aspect=2.0)
-                    for values, (title, labels) in zip(data, _PLOTS))
+                    gui.add_uplot(values, _series(*labels), title=title, aspect=2.0,
+                                  scales=_ZERO_SCALES if flat else _SCALES, axes=_AXES)
+                    for values, (title, labels), flat in zip(data, _PLOTS, zero))
+            self._zero = zero
             return
-        for plot, values in zip(self.plots, data):
+        for plot, values, flat, was in zip(self.plots, data, zero, self._zero):
+            if flat != was:
+                plot.scales = _ZERO_SCALES if flat else _SCALES
             plot.data = values
+        self._zero = zero
