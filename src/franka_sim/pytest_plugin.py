@@ -102,9 +102,15 @@ def pytest_configure(config: pytest.Config) -> None:
         "configuration (started on demand, shared by the tests that ask for the same)")
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
     directory = config.getoption("--franka-sim-record-dir")
-    if directory is not None and Path(config.invocation_params.dir, directory).exists() and \
-            not Path(config.invocation_params.dir, directory).is_dir():
-        raise pytest.UsageError(f"--franka-sim-record-dir {directory}: not a directory")
+    if directory is not None and config.getoption("--franka-sim-record") != "none":
+        path = Path(config.invocation_params.dir, directory)
+        if path.exists() and not path.is_dir():
+            raise pytest.UsageError(f"--franka-sim-record-dir {directory}: not a directory")
+        try:  # (said once here, not as every test's setup error)
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise pytest.UsageError(f"--franka-sim-record-dir {directory}: cannot be made "
+                                    f"({exc.strerror or exc})") from None
 
 
 @pytest.fixture(scope="session")

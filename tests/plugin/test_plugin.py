@@ -58,7 +58,7 @@ def _outcomes(output: str) -> dict[str, int]:
 
 def _check_run(code: int, output: str, seen) -> None:
     assert code == 1, output
-    assert _outcomes(output) == {"passed": 13, "failed": 1, "error": 1}, output
+    assert _outcomes(output) == {"passed": 15, "failed": 1, "error": 1}, output
     # The misspelt marker setting is named.
     assert "unknown setting 'grip'" in output
     # The failing test's report carries its own server log lines: its client, not the start.

@@ -90,7 +90,10 @@ def test_a_recording_is_named_after_its_test(nodeid, name):
     assert recording_name("t.py::test[a:b]") != recording_name("t.py::test[a;b]")
 
 
-def test_a_recording_directory_that_is_a_file_is_one_usage_error(tmp_path):
+@pytest.mark.parametrize("directory, said", [
+    ("runs", "--franka-sim-record-dir runs: not a directory"),
+    ("runs/sub", "--franka-sim-record-dir runs/sub: cannot be made (Not a directory)")])
+def test_a_recording_directory_that_cannot_be_one_is_one_usage_error(tmp_path, directory, said):
     project = tmp_path / "project"
     shutil.copytree(PROJECT, project)
     (project / "runs").write_text("not a directory")
@@ -98,8 +101,8 @@ def test_a_recording_directory_that_is_a_file_is_one_usage_error(tmp_path):
     plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
     done = subprocess.run(
         [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q",
-         "--franka-sim-record-dir", "runs"], cwd=project, capture_output=True, text=True,
+         "--franka-sim-record-dir", directory], cwd=project, capture_output=True, text=True,
         env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}, timeout=600)
     assert done.returncode == 4  # pytest's usage error: no test ran
-    assert "--franka-sim-record-dir runs: not a directory" in done.stderr
+    assert said in done.stderr
     assert "Traceback" not in done.stdout + done.stderr

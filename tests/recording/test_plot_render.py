@@ -175,7 +175,8 @@ def test_a_start_refused_leaves_no_recording_behind(tmp_path):
 def test_a_second_server_given_a_recording_under_way_is_refused_and_the_first_is_whole(
         tmp_path):
     """Two `serve --record run.mcap`: the second is refused before it touches the file (it
-    emptied the first's recording, and removed it when its own start then failed)."""
+    emptied the first's recording, and removed it when its own start then failed). Read
+    meanwhile, the file is said to be still recorded, not truncated."""
     from franka_sim.testing import ServerProcess, fresh_loopback_address
 
     out, host = tmp_path / "run.mcap", fresh_loopback_address()
@@ -188,6 +189,10 @@ def test_a_second_server_given_a_recording_under_way_is_refused_and_the_first_is
             assert done.returncode == 1
             assert done.stderr.strip().splitlines()[-1] == (
                 f"franka-sim: cannot record to {out}: another process is recording to it")
+        for command in (["replay"], ["plot", "-o", str(tmp_path / "p.png")]):  # (not "recover
+            done = franka_sim(command[0], str(out), *command[1:])  # it": it has no end yet)
+            assert done.returncode == 1 and done.stderr.count("\n") == 1, done.stderr
+            assert f"{out}: still being recorded (" in done.stderr, done.stderr
     finally:
         first.stop()
     replayed = franka_sim("replay", str(out))

@@ -80,6 +80,21 @@ def tcp_data(value: dict) -> bytes:
 MCAP_MAGIC = b"\x89MCAP0\r\n"  # what every MCAP file starts with
 
 
+def _being_written(stream) -> bool:
+    """Whether a server records to this file now: its writer holds an exclusive lock on it
+    (server/recorder/writer.py) for as long as it records."""
+    import fcntl
+
+    try:
+        fcntl.flock(stream.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:  # a file system without locks: nothing can be told
+        return False
+    fcntl.flock(stream.fileno(), fcntl.LOCK_UN)
+    return False
+
+
 def open_recording(path: str | Path) -> Recording:
     from mcap.exceptions import EndOfFile, InvalidMagic, McapError
     from mcap.records import Channel, Message, Metadata
@@ -105,6 +120,13 @@ def open_recording(path: str | Path) -> Recording:
         except InvalidMagic:
             raise RecordingError(f"{path}: not an MCAP file") from None
         except (EndOfFile, struct.error):  # (a record cut inside its header: struct's error)
+            if _being_written(stream):
+                states = sum(channel_topics.get(r.channel_id, "").endswith("/robot_state")
+                             for r in pending)
+                raise RecordingError(
+                    f"{path}: still being recorded ({states} states so far): its end is "
+                    "written when the server recording it stops or finishes it "
+                    "(DELETE /recording)") from None
             if metadata is None and not pending:
                 stream.seek(0)
                 if stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC:

@@ -88,6 +88,17 @@ def test_after_a_hand_client_was_left_the_hand_serves_this_one(franka_sim):
     assert gripper.homing()
 
 
+def test_leaves_network_faults_injected(franka_sim):
+    record(franka_sim, "default")
+    franka_sim.control.set_faults("loss=0.3,dir=commands", seed=3)
+    assert franka_sim.control.faults()["spec"] == "loss=0.3,dir=commands"
+
+
+def test_after_faults_were_left_none_are_injected(franka_sim):
+    record(franka_sim, "default")
+    assert franka_sim.control.faults()["spec"] is None
+
+
 @pytest.mark.parametrize("k", range(2))
 @pytest.mark.franka_sim(gripper=False, scene="dual_arm_table")  # (a packaged scene's name)
 def test_without_a_hand_port_1338_refuses(franka_sim, k):
