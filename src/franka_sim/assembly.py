@@ -159,6 +159,10 @@ class WorldParts:
                 raise SceneError(f"arm {spec.name}: the mobile base's name (its log lines, "
                                  "its recording's channels): call the arm otherwise")
         mounts = scene_mounts(self.scene)
+        # Arms the scene has sites for, yet none of those names: at the origin (said at start).
+        self.unplaced = [] if not mounts else [
+            spec.name for spec in specs if spec.base is None and spec.name not in mounts]
+        self.sites = sorted(mounts)
         rides = self.config.mobile_base is not None
         kinds = [tool_kind(self.config.tool_of(spec)) for spec in specs]
         looks = self._looks(specs)

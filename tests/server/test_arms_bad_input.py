@@ -105,3 +105,24 @@ def test_a_host_given_beside_arms_is_said_to_serve_nothing():
             socket.create_connection((host, 1337), timeout=5).close()
     finally:
         server.stop()
+
+
+@pytest.mark.parametrize("arms, unplaced", [((), "fr3"), (("left", "middle"), "middle")])
+def test_an_arm_a_scene_has_no_site_for_is_said_to_stand_at_the_origin(arms, unplaced):
+    """A scene of arm sites with an arm named for none of them (one arm without --arm: `fr3`)
+    serves it at the world origin, as docs/several_arms.md says, and says so at start."""
+    from franka_sim.testing import ServerProcess
+
+    host = fresh_loopback_address()
+    flags = [flag for name in arms for flag in ("--arm", f"{name}={fresh_loopback_address()}")]
+    server = ServerProcess(host, "--scene", "dual_arm_table", *flags).wait_ready()
+    try:
+        said = server.wait_for_log("stands at the world origin")
+        assert len(said) == 1 and f"arm {unplaced}, named for none" in said[0]
+        assert "arm/left, arm/right" in said[0]
+    finally:
+        server.stop()
+    placed = ServerProcess(fresh_loopback_address(), "--scene", "dual_arm_table", "--arm",
+                           f"left={fresh_loopback_address()}").wait_ready()
+    placed.stop()  # (its start's lines all logged before it stops)
+    assert not placed.log_matching("origin")

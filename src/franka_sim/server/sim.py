@@ -134,6 +134,12 @@ class FrankaSim(EmbeddedOperations):
                          robot.describe(), config.clock.value, self.scene)
         if switches := self._switches():
             log.info("serving with: %s", "; ".join(switches))
+        if unplaced := self.parts.unplaced:  # (what the user may have meant is in the scene)
+            sites = self.parts.sites
+            log.warning("the scene stands arms at its sites %s; arm %s, named for none, "
+                        "stands at the world origin (--arm %s puts an arm at its site)",
+                        ", ".join(f"arm/{name}" for name in sites), ", ".join(unplaced),
+                        " --arm ".join(f"{name}=ADDRESS" for name in sites))
         return self
 
     def _discard_recording(self) -> None:
