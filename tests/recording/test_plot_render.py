@@ -54,6 +54,31 @@ def test_plot_window_from_to(lockstep_run, tmp_path):
     assert "no state in the window" in done.stderr
 
 
+def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):
+    """A lockstep world settling after a motion sends only its first state and its last: the
+    curves break between them rather than draw a straight line no state said."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from franka_sim.playback.plot import figure
+
+    path, _ = lockstep_run
+    recording = open_recording(path)
+    ids = recording.states()["message_id"].astype(np.int64)
+    gaps = int((np.diff(ids) > 1).sum())
+    assert gaps > 0  # (the session's motions end, and the world settles unsent)
+    fig = figure(recording, joints=[0, 3])
+    for ax in fig.axes[:5]:  # q, dq, tau, wrench, success
+        curves = [line for line in ax.get_lines() if len(line.get_xdata()) > 2]
+        assert curves  # (not only the motions' boundaries)
+        for line in curves:
+            x = np.asarray(line.get_xdata(), dtype=float)
+            assert np.isnan(x).sum() == gaps
+            runs = np.split(x, np.flatnonzero(np.isnan(x)))
+            assert all(np.all(np.diff(run[np.isfinite(run)]) < 1.5e-3) for run in runs)
+    plt.close(fig)
+
+
 def test_an_arm_that_trembles_plots_flat_at_its_values_not_its_tremble_at_full_scale():
     """A joint held still trembles by ~1e-9 rad (a grasped cube's contacts): matplotlib alone
     draws that at full scale, labelled with an offset; a panel shows at least its least span."""

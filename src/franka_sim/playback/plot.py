@@ -103,6 +103,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
         raise PlotError("no state in the window --from/--to")
     states, t = states[keep], t[keep]
     window = (t[0], t[-1])
+    cut = _breaks(states["message_id"])
+    tc = cut(t)
 
     panels = ["q", "dq", "tau", "wrench", "success", "timeline", *fields]
     fig, axes = plt.subplots(len(panels), 1, sharex=True,
@@ -112,32 +114,33 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
         if panel == "q":
             for j in joints:
                 c = colors[j % len(colors)]
-                ax.plot(t, states["q"][:, j], color=c, label=f"q{j + 1}")
-                ax.plot(t, states["q_d"][:, j], color=c, ls=":", label=f"q_d{j + 1}")
+                ax.plot(tc, cut(states["q"][:, j]), color=c, label=f"q{j + 1}")
+                ax.plot(tc, cut(states["q_d"][:, j]), color=c, ls=":", label=f"q_d{j + 1}")
             ax.set_ylabel("q, q_d [rad]")
         elif panel == "dq":
             for j in joints:
-                ax.plot(t, states["dq"][:, j], color=colors[j % len(colors)], label=f"dq{j + 1}")
+                ax.plot(tc, cut(states["dq"][:, j]), color=colors[j % len(colors)],
+                        label=f"dq{j + 1}")
             ax.set_ylabel("dq [rad/s]")
         elif panel == "tau":
             for j in joints:
                 c = colors[j % len(colors)]
-                ax.plot(t, states["tau_J"][:, j], color=c, label=f"tau_J{j + 1}")
-                ax.plot(t, states["tau_J_d"][:, j], color=c, ls=":", label=f"tau_J_d{j + 1}")
+                ax.plot(tc, cut(states["tau_J"][:, j]), color=c, label=f"tau_J{j + 1}")
+                ax.plot(tc, cut(states["tau_J_d"][:, j]), color=c, ls=":", label=f"tau_J_d{j + 1}")
             ax.set_ylabel("tau_J, tau_J_d [Nm]")
         elif panel == "wrench":
             for i, name in enumerate(("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")):
-                ax.plot(t, states["O_F_ext_hat_K"][:, i], label=name)
+                ax.plot(tc, cut(states["O_F_ext_hat_K"][:, i]), label=name)
             ax.set_ylabel("O_F_ext_hat_K")
         elif panel == "success":
-            ax.plot(t, states["control_command_success_rate"], color="k")
+            ax.plot(tc, cut(states["control_command_success_rate"]), color="k")
             ax.set_ylim(-0.05, 1.05)
             ax.set_ylabel("success rate")
         elif panel == "timeline":
             _timeline(ax, recording, states, t, window, robot)
         else:
             values = np.asarray(states[panel], dtype=float).reshape(len(t), -1)
-            ax.plot(t, values)
+            ax.plot(tc, cut(values))
             ax.set_ylabel(panel)
         if panel in ("q", "dq", "tau", "wrench") and len(ax.get_lines()) <= 14:
             ax.legend(loc="upper right", fontsize=6, ncol=7)
@@ -149,6 +152,18 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     axes[0].set_title(f"{recording.path.name}: {len(states)} states")
     fig.tight_layout()
     return fig
+
+
+def _breaks(message_ids):
+    """A function that puts a NaN wherever states were not sent between two recorded ones (a
+    lockstep world settling, a clock paused), so that no line is drawn across what no state
+    said."""
+    gaps = np.flatnonzero(np.diff(np.asarray(message_ids, dtype=np.int64)) > 1) + 1
+
+    def cut(values):
+        return np.insert(np.asarray(values, dtype=float), gaps, np.nan, axis=0)
+
+    return cut
 
 
 def _readable(ax, least: float) -> None:
