@@ -106,3 +106,29 @@ def test_a_stopped_simulator_says_so_instead_of_waiting():
             await sim.start()
 
     asyncio.run(asyncio.wait_for(app(), 60))
+
+
+def test_a_stop_ends_the_robots_before_it_waits_for_the_web_view():
+    """The web view's stop may wait on its open page; meanwhile no robot is served (a client
+    connected after "stopping" and ran a whole motion while a page was open)."""
+    import socket
+
+    host = fresh_loopback_address()
+    seen = []
+
+    class SlowWebView:  # (what FrankaSim.stop asks of web/live.py's LiveView)
+        def stop(self):
+            for port in (1337, 1338, 1340):
+                try:
+                    socket.create_connection((host, port), timeout=2).close()
+                    seen.append((port, "served"))
+                except ConnectionRefusedError:
+                    seen.append((port, "refused"))
+
+    async def app():
+        sim = await FrankaSim(host=host).start()
+        sim.web = SlowWebView()
+        await sim.stop()
+
+    asyncio.run(app())
+    assert seen == [(1337, "refused"), (1338, "refused"), (1340, "refused")]

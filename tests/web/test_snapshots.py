@@ -331,3 +331,27 @@ def test_the_viewers_free_camera_orbits_to_the_web_views_first_view():
     a, e = math.radians(azimuth), math.radians(elevation)
     forward = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
     np.testing.assert_allclose(look_at - distance * forward, position, atol=1e-12)
+
+
+def test_a_stop_does_not_wait_for_the_pages_connection_to_end():
+    """viser's stop waits seconds for an open page's connection; the view's stop waits for it
+    at most STOP_WAIT, and the rest of viser's stop goes on in the background."""
+    import time
+
+    from franka_sim.web.live import STOP_WAIT, LiveView
+
+    data = data_of_a_free_box()
+    view = LiveView("127.0.0.1", 0, data.model, data, [], attach=lambda tap: None,
+                    refresh=lambda tap: None)
+    ended = threading.Event()
+
+    class Server:  # viser's, with a page whose connection takes long to end
+        def stop(self):
+            ended.wait(30)
+
+    view.server = Server()
+    began = time.monotonic()
+    view.stop()
+    took = time.monotonic() - began
+    ended.set()
+    assert STOP_WAIT <= took < 10 and view.server is None

@@ -178,16 +178,16 @@ class FrankaSim(EmbeddedOperations):
         if not self._started:
             return
         self._started = False
-        if self.web is not None:
-            await asyncio.to_thread(self.web.stop)
-            self.web = None
-        for robot in self.robots:
+        for robot in self.robots:  # the robots first: nobody is served once stopping began
             await robot.stop_control_api()
         for robot in self.robots:
             await robot.stop_endpoints()
         await self.driver.stop()
         for robot in self.robots:
             robot.udp.close()
+        if self.web is not None:  # (its page may take a while to let go: web/live.py)
+            await asyncio.to_thread(self.web.stop)
+            self.web = None
         await self.worker.stop()
         self.recordings.close()
 

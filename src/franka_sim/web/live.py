@@ -25,6 +25,7 @@ from franka_sim.web.world_view import WorldView
 log = logging.getLogger(__name__)
 
 FRAME_PERIOD = 1 / 30  # s between two drawn frames while someone watches
+STOP_WAIT = 1.0  # s a stop waits for viser's server to end
 TITLE = "franka-sim"
 
 
@@ -76,13 +77,19 @@ class LiveView:
             log.info("the web view is on http://%s:%d", self.host, self.port)
 
     def stop(self) -> None:
+        """Stop drawing and serving the page, within about STOP_WAIT: with a page open, viser's
+        own stop waits seconds for its connection's end, which the rest of its stop then goes on
+        waiting for in the background (a daemon thread: an exit does not wait for it)."""
         self._stop.set()
         self._wake.set()
         self._attach(None)
         if self._thread.is_alive():
             self._thread.join(2.0)
         if self.server is not None:
-            stop_quietly(self.server)
+            stopping = threading.Thread(target=stop_quietly, args=(self.server,),
+                                        name="fsim-web-stop", daemon=True)
+            stopping.start()
+            stopping.join(STOP_WAIT)
             self.server = None
 
     @property
