@@ -52,3 +52,12 @@ def test_the_viewers_timeline_spans_the_worlds_poses(hand_only):
     timeline = timeline_of(open_recording(hand_only))
     assert timeline.duration > 0.5  # the homing and the move, in robot time
     assert timeline.at(timeline.duration).states == (None,)  # no arm state to show
+
+
+def test_render_draws_the_fingers_over_the_time_the_poses_span(hand_only, tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="render needs franka-sim[render]")
+    done = franka_sim("render", str(hand_only), "-o", str(tmp_path / "h.mp4"), "--fps", "5")
+    if "no offscreen OpenGL" in done.stderr:
+        pytest.skip(done.stderr.strip())
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout.split(": ")[1].split()[0]) > 2  # (the homing and the move)

@@ -283,8 +283,8 @@ def test_a_recordings_last_reflex_is_the_one_before_the_moment_shown(tmp_path):
 
 
 def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
-    """The base is a mocap body, not in the recorded qpos: `view` puts it where its recorded
-    states (its odometry) had it, and its drive is on the timeline."""
+    """The base is a mocap body, not in the recorded qpos: `view` and `render` put it where
+    its recorded states (its odometry) had it, and its drive is on the timeline."""
     import json
     import math
     import subprocess
@@ -317,6 +317,17 @@ def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
     np.testing.assert_allclose(end.mocap_pos[m][:2], after[:2], atol=1e-4)
     yaw = 2 * math.atan2(end.mocap_quat[m][3], end.mocap_quat[m][0])
     assert yaw == pytest.approx(after[2], abs=1e-4) and abs(yaw) > 0.1
+    # `render` draws the same drive: its last frame is not its first.
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    video = tmp_path / "duo.mp4"
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "render", str(path), "-o",
+                           str(video), "--fps", "5"], capture_output=True, text=True, timeout=300)
+    if "no offscreen OpenGL" in done.stderr:
+        pytest.skip(done.stderr.strip())
+    assert done.returncode == 0, done.stderr
+    frames = [np.frombuffer(f, np.uint8).astype(int)
+              for f in list(imageio_ffmpeg.read_frames(str(video)))[1:]]
+    assert len(frames) > 5 and np.abs(frames[-1] - frames[0]).mean() > 3
 
 
 def test_the_viewers_free_camera_orbits_to_the_web_views_first_view():

@@ -203,7 +203,8 @@ def _timeline(ax, recording: Recording, states, t, window, robot) -> None:
         if window[0] <= x <= window[1]:
             ax.annotate(mark.label, (x, 0.05), xycoords=("data", "axes fraction"),
                         rotation=90, fontsize=6, va="bottom", color="g")
-    lost = [m for m in lost_cycles(recording, robot) if window[0] <= m.cycle * CYCLE_PERIOD <= window[1]]
+    lost = [m for m in lost_cycles(recording, robot)
+            if window[0] <= m.cycle * CYCLE_PERIOD <= window[1]]
     for extrapolated, color, label in ((True, "tab:orange", "lost: extrapolated"),
                                        (False, "tab:red", "lost: held, braked, ...")):
         xs = [m.cycle * CYCLE_PERIOD for m in lost if (m.label == "extrapolated") == extrapolated]

@@ -1,9 +1,10 @@
 """`franka-sim render`: a video of a recording without a screen, from its states' joint angles
 and the world's recorded poses (MuJoCo offscreen through EGL, or OSMesa: MUJOCO_GL).
 
-Frames are taken on the robot's clock, one every 1/fps s of cycles: the arm at the state sent
-nearest that cycle, the rest of the world (free bodies, the Hand's fingers) at the last pose
-record before it. imageio-ffmpeg (the `render` extra) writes the video.
+Frames are taken on the robot's clock, one every 1/fps s of cycles, of the world as the
+recording had it then (playback/recorded_world.py: every arm at its state sent nearest that
+cycle, the free bodies and the Hand's fingers at the last pose record before it, the mobile
+base where its states put it). imageio-ffmpeg (the `render` extra) writes the video.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from franka_sim.recording.metadata import replay_config
 from franka_sim.recording.reader import Recording
 
 WIDTH, HEIGHT = 640, 480
+BACK_OFF = 1.3  # the free camera's distance, as a multiple of the first view's
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".avi")  # what ffmpeg writes with H.264
 
 
@@ -68,41 +70,37 @@ class Frames:
     def __init__(self, recording: Recording, *, fps: float = 30.0, camera: str | None = None,
                  segmentation: bool = False, meshes: Path | None = None) -> None:
         mujoco = import_mujoco_with_gl()
-        from franka_sim.assembly import WorldParts
+        from franka_sim.assembly import WorldParts  # (MuJoCo's importers: after its GL is set)
+        from franka_sim.playback.recorded_world import RecordedWorld
 
-        states = recording.states()
-        if len(states) == 0:
-            raise RenderError(f"{recording.path}: no state recorded")
+        from franka_sim.recording.metadata import Incompatible
+
         with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
             config = replay_config(recording.metadata, workdir)
             config.meshes = meshes  # (how it is drawn: never part of a recording)
             physics = WorldParts(config).make_physics()
         self.model, self.data = physics.world.model, physics.world.data
-        self._arm = next(iter(physics.world.arms.values()))
-        self._camera = _camera(self.model, camera)
+        try:
+            self._world = RecordedWorld(recording, physics)
+        except Incompatible as exc:  # (nothing to show)
+            raise RenderError(f"{recording.path}: {exc}") from None
+        self._world.put(self.data, self._world.first)  # (the camera frames the start)
+        mujoco.mj_forward(self.model, self.data)
+        self._camera = _camera(self.model, self.data, camera)
         try:
             self._renderer = mujoco.Renderer(self.model, HEIGHT, WIDTH)
         except Exception as exc:  # noqa: BLE001 - no GL context: say which way to get one
             raise _no_gl(exc) from None
         if segmentation:
             self._renderer.enable_segmentation_rendering()
-        self._states = states
-        self._ids = states["message_id"].astype(np.int64)
-        self._poses = [(e.json()["cycle"], np.array(e.json()["qpos"]))
-                       for e in recording.of("bodies")]
-        self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
-        self.cycles = frame_cycles(int(self._ids[0]), int(self._ids[-1]), fps)
+        self.cycles = frame_cycles(self._world.first, self._world.last, fps)
 
     def __iter__(self):
         import mujoco
 
         model, data, renderer = self.model, self.data, self._renderer
         for n in self.cycles:
-            k = self._pose_cycles.searchsorted(n, side="right") - 1
-            if k >= 0 and len(self._poses[k][1]) == model.nq:
-                data.qpos[:] = self._poses[k][1]
-            i = min(self._ids.searchsorted(n), len(self._ids) - 1)
-            data.qpos[self._arm.qs] = self._states["q"][i]
+            self._world.put(data, n)
             mujoco.mj_forward(model, data)
             renderer.update_scene(data, camera=self._camera)
             yield np.ascontiguousarray(renderer.render())
@@ -136,9 +134,13 @@ def render(recording: Recording, output: Path, *, fps: float = 30.0,
     return len(frames.cycles)
 
 
-def _camera(model, name: str | None):
-    """A camera of the model by name, or a view of the arm from the front-right."""
+def _camera(model, data, name: str | None):
+    """A camera of the model by name, or the first view of every arm (physics/first_view.py)
+    of `data` (forward-computed) as a free camera, a little further back (a video is smaller
+    than a window)."""
     import mujoco
+
+    from franka_sim.physics.first_view import first_view, orbit
 
     if name is not None:
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) < 0:
@@ -146,7 +148,9 @@ def _camera(model, name: str | None):
             raise RenderError(f"--camera {name!r}: the scene has no such camera "
                               f"(it has: {', '.join(names) or 'none'})")
         return name
+    position, look_at = first_view(model, data)
     cam = mujoco.MjvCamera()
-    cam.lookat[:] = (0.3, 0.0, 0.4)
-    cam.distance, cam.azimuth, cam.elevation = 2.0, 150.0, -20.0
+    cam.lookat[:] = look_at
+    distance, cam.azimuth, cam.elevation = orbit(position, look_at)
+    cam.distance = BACK_OFF * distance
     return cam
