@@ -70,7 +70,9 @@ def test_the_tap_is_attached_only_while_someone_watches():
     view = LiveView("127.0.0.1", 0, data.model, data, [], attach=attached.append,
                     refresh=refreshed.append)
     view.world = types.SimpleNamespace(camera=lambda: ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
+    view.tap.latest = "the last page's snapshot"
     view._connected(Client())
+    assert view.tap.latest is None and view._fresh  # (a history of its own: below)
     view._connected(Client())
     assert attached == [view.tap] and refreshed == [view.tap] and view.watchers == 2
     view._disconnected(None)
@@ -187,6 +189,26 @@ def test_a_state_no_other_follows_holds_in_the_plots():
     panel.hold(130.0 + period)
     t, q, _ = panel.plots[0].value
     assert list(t[-2:]) == pytest.approx([30.0, 30.0 + period]) and list(q[-2:]) == [0.5, 0.5]
+
+
+def test_a_page_opened_after_everyone_left_starts_its_own_history():
+    """The plots' time axis counts from the first state the page was shown, not from the
+    first page's; its events are its own."""
+    from franka_sim.protocol.codec import STATE_DTYPE
+    from franka_sim.web.arm_panel import ArmPanel
+    from franka_sim.web.snapshots import Snapshot
+
+    panel = ArmPanel(Gui(), "fr3", 0)
+    state = np.zeros(1, STATE_DTYPE)[0]
+    for t in (100.0, 100.5, 101.0):
+        state["q"][0] = t / 1000
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+    panel.restart()
+    for t in (130.0, 130.5):
+        state["q"][0] = t / 1000
+        panel.show(Snapshot(t, (state.tobytes(),), None, None, None))
+    assert list(panel.plots[0].value[0]) == [0.0, 0.5]
+    assert panel.events.value.splitlines() == ["0.000 s: Other; errors: none"]
 
 
 def test_a_plot_whose_values_are_all_zero_shows_them_about_zero():

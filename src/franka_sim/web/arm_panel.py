@@ -126,6 +126,14 @@ class ArmPanel:
             self._last_plot = snapshot.time
             self._plot()
 
+    def restart(self) -> None:
+        """Plots and events from the next state on, timed from it: a page opened after
+        everyone left starts its own history (its time axis from 0, not from the first page's
+        first state)."""
+        self._rows.clear()
+        self._events.clear()
+        self._t0, self._status, self._last_state, self._last_plot = None, None, None, 0.0
+
     def hold(self, now: float) -> None:
         """No state came since the last one shown, up to `now` (time.monotonic()): a paused
         clock sends none, the world having settled. The last state holds meanwhile, and the

@@ -40,6 +40,7 @@ class LiveView:
         self.tap = SnapshotTap(data)
         self._attach, self._refresh = attach, refresh
         self._watchers = 0
+        self._fresh = False  # a first watcher came since the panels were drawn
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stop = threading.Event()
@@ -101,6 +102,8 @@ class LiveView:
         with self._lock:
             self._watchers += 1
             if self._watchers == 1:
+                self._fresh = True  # (the web thread restarts the panels' history)
+                self.tap.latest = None  # (taken for the last page, seconds or hours ago)
                 self._attach(self.tap)
                 self._refresh(self.tap)  # a paused clock sends nothing: one snapshot now
                 self._wake.set()
@@ -119,6 +122,10 @@ class LiveView:
         shown, failed = None, False
         while not self._stop.is_set():
             self._wake.wait()  # (nobody watching: asleep; stop() wakes it too)
+            if self._fresh:  # the first page since nobody watched: a history of its own
+                self._fresh, shown = False, None
+                for panel in self.panels:
+                    panel.restart()
             snapshot = self.tap.latest
             fresh = snapshot is not None and snapshot is not shown
             if fresh or shown is not None:  # (else: no state yet)
