@@ -72,7 +72,6 @@ class Frames:
         mujoco = import_mujoco_with_gl()
         from franka_sim.assembly import WorldParts  # (MuJoCo's importers: after its GL is set)
         from franka_sim.playback.recorded_world import RecordedWorld
-
         from franka_sim.recording.metadata import Incompatible
 
         with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
