@@ -24,7 +24,8 @@ imports anything else; a program embedding `FrankaSim` keeps its own imports unt
   archives) and `ctypes.util` without calling it. With what they bring (bdb, cmd, code,
   pprint; shutil, bz2, lzma, tempfile, random; the built-in digests) they are ~2.5 MiB
   resident. They still import, and the real module loads on its first use
-  (`defer_unused_modules`), a `breakpoint()` included.
+  (`defer_unused_modules`), a `breakpoint()` included: hashlib's with the control API's
+  first request, a recording or a fault plan; the others' with nothing a server does.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import itertools
 import logging
 import os
 import sys
+import threading
 import types
 
 log = logging.getLogger(__name__)
@@ -108,25 +110,31 @@ DEFERRED = ("pdb", "zipfile", "ctypes.util", "hashlib")
 
 def defer_unused_modules() -> None:
     """Make an import of a DEFERRED module give a stand-in that imports the real module on its
-    first use; call before construct and MuJoCo are imported.
-    (importlib's LazyLoader would not do: `import` reads a module's `__spec__`, which loads a
-    lazy module at once.)"""
+    first use; call before construct and MuJoCo are imported. (importlib's LazyLoader would
+    not do: `import` reads a module's `__spec__`, which loads a lazy module at once.) A
+    package is not deferred: its submodules' imports need the real one."""
     for name in DEFERRED:
-        if name not in sys.modules and (spec := importlib.util.find_spec(name)) is not None:
-            sys.modules[name] = stand_in = _stand_in(name, spec)
-            parent, _, child = name.rpartition(".")
-            if parent:  # (`import a.b` then reads a.b off the package)
-                setattr(sys.modules[parent], child, stand_in)
+        if name in sys.modules or (spec := importlib.util.find_spec(name)) is None or \
+                spec.submodule_search_locations is not None:
+            continue
+        sys.modules[name] = stand_in = _stand_in(name, spec)
+        parent, _, child = name.rpartition(".")
+        if parent:  # (`import a.b` then reads a.b off the package)
+            setattr(sys.modules[parent], child, stand_in)
+
+
+_loading = threading.RLock()  # one thread loads a deferred module; the others wait for it
 
 
 def _stand_in(name: str, spec) -> types.ModuleType:
     def __getattr__(attribute: str):
-        if attribute.startswith("__") and not (
-                attribute == "__path__" and spec.submodule_search_locations is not None):
-            raise AttributeError(attribute)  # (a package's submodule import: the real one)
-        if sys.modules.get(name) is stand_in:
-            del sys.modules[name]
-        return getattr(importlib.import_module(name), attribute)
+        if attribute.startswith("__"):
+            raise AttributeError(attribute)
+        with _loading:
+            if sys.modules.get(name) is stand_in:  # the first use: the real one, and the
+                del sys.modules[name]  # stand-in (which importers hold) made its copy
+                stand_in.__dict__.update(importlib.import_module(name).__dict__)
+        return getattr(sys.modules[name], attribute)
 
     stand_in = types.ModuleType(name, f"{name}, imported on its first use (footprint.py).")
     stand_in.__spec__ = spec

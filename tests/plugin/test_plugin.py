@@ -85,6 +85,8 @@ def test_the_fixture_serially(tmp_path):
     code, output, seen = _run_project(tmp_path, "--franka-sim-record", "none")
     _check_run(code, output, seen)
     assert {worker for entries in seen.values() for worker, _ in entries} == {"-"}
+    # The faults the one test left were cleared by the reset before the next, not by a restart.
+    assert len(seen["faults"]) == 2 and len({host for _, host in seen["faults"]}) == 1
 
 
 def test_the_fixture_on_two_xdist_workers_with_the_realtime_clock(tmp_path):

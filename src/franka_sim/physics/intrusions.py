@@ -39,14 +39,16 @@ def subtree(model: mujoco.MjModel, tops) -> frozenset[int]:
 
 
 def contacts(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[int, int, float]]:
-    """(body, body, depth) of each contact `data` holds. Read through the contact arrays: the
-    bindings' per-contact objects would fault ~0.6 MiB of their code into every server, which
-    checks its arms at start."""
+    """(body, body, depth) of each contact of two geoms `data` holds (a flexible body's have
+    no geom: no scene has one). Read through the contact arrays: the bindings' per-contact
+    objects would fault ~0.6 MiB of their code into every server, which checks its arms at
+    start."""
     n = data.ncon
     bodies = model.geom_bodyid
-    return [(int(bodies[g1]), int(bodies[g2]), -dist) for g1, g2, dist in zip(
-        data.contact.geom1[:n].tolist(), data.contact.geom2[:n].tolist(),
-        data.contact.dist[:n].tolist())]
+    return [(int(bodies[g1]), int(bodies[g2]), -dist)
+            for (g1, g2), dist in zip(data.contact.geom[:n].tolist(),
+                                      data.contact.dist[:n].tolist())
+            if g1 >= 0 and g2 >= 0]
 
 
 def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],

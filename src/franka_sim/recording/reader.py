@@ -96,7 +96,7 @@ def _being_written(stream) -> bool:
 
 
 def open_recording(path: str | Path) -> Recording:
-    from mcap.exceptions import EndOfFile, InvalidMagic, McapError
+    from mcap.exceptions import EndOfFile, InvalidMagic
     from mcap.records import Channel, Message, Metadata
     from mcap.stream_reader import StreamReader
 
@@ -119,14 +119,19 @@ def open_recording(path: str | Path) -> Recording:
                     metadata = dict(record.metadata)
         except InvalidMagic:
             raise RecordingError(f"{path}: not an MCAP file") from None
-        except (EndOfFile, struct.error):  # (a record cut inside its header: struct's error)
-            if _being_written(stream):
-                states = sum(channel_topics.get(r.channel_id, "").endswith("/robot_state")
-                             for r in pending)
+        # Cut short (struct's error: a record cut inside its header), a bad CRC, garbled
+        # text, a chunk that does not decompress: each said in one line.
+        except Exception as exc:  # noqa: BLE001
+            states = sum(channel_topics.get(r.channel_id, "").endswith("/robot_state")
+                         for r in pending)
+            if _being_written(stream):  # (its end, and the chunk being written, still to come)
                 raise RecordingError(
                     f"{path}: still being recorded ({states} states so far): its end is "
                     "written when the server recording it stops or finishes it "
                     "(DELETE /recording)") from None
+            if not isinstance(exc, (EndOfFile, struct.error)):
+                raise RecordingError(f"{path}: damaged, not as it was written "
+                                     f"({type(exc).__name__}: {exc})") from None
             if metadata is None and not pending:
                 stream.seek(0)
                 if stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
@@ -134,17 +139,9 @@ def open_recording(path: str | Path) -> Recording:
                                          "record") from None
                 raise RecordingError(f"{path}: empty or not an MCAP file") from None
             raise RecordingError(
-                f"{path}: truncated (the recording stops without its end; "
-                f"{sum(channel_topics.get(r.channel_id, '').endswith('/robot_state') for r in pending)}"
-                " states are readable: "
-                "the mcap CLI's `mcap recover` rewrites what is there as a complete file)"
-            ) from None
-        except (McapError, ValueError) as exc:  # (a chunk's CRC, garbled text: ValueErrors)
-            raise RecordingError(f"{path}: damaged, not as it was written "
-                                 f"({type(exc).__name__}: {exc})") from None
-        except Exception as exc:  # noqa: BLE001 - a chunk that does not decompress, and alike
-            raise RecordingError(f"{path}: damaged, not as it was written "
-                                 f"({type(exc).__name__}: {exc})") from None
+                f"{path}: truncated (the recording stops without its end; {states} states are "
+                "readable: the mcap CLI's `mcap recover` rewrites what is there as a complete "
+                "file)") from None
     if metadata is None:
         raise RecordingError(f"{path}: an MCAP file, but not a franka-sim recording")
     version = metadata.get("format_version", "?")

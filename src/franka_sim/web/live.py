@@ -102,8 +102,8 @@ class LiveView:
         with self._lock:
             self._watchers += 1
             if self._watchers == 1:
-                self._fresh = True  # (the web thread restarts the panels' history)
                 self.tap.latest = None  # (taken for the last page, seconds or hours ago)
+                self._fresh = True  # (the web thread restarts the panels' history)
                 self._attach(self.tap)
                 self._refresh(self.tap)  # a paused clock sends nothing: one snapshot now
                 self._wake.set()
@@ -126,6 +126,7 @@ class LiveView:
                 self._fresh, shown = False, None
                 for panel in self.panels:
                     panel.restart()
+            now = time.monotonic()  # (before the snapshot: a held row never follows it)
             snapshot = self.tap.latest
             fresh = snapshot is not None and snapshot is not shown
             if fresh or shown is not None:  # (else: no state yet)
@@ -138,7 +139,7 @@ class LiveView:
                             if fresh:
                                 panel.show(snapshot)
                             else:  # no state since the last (a paused clock): it holds
-                                panel.hold(time.monotonic())
+                                panel.hold(now)
                 except Exception:  # noqa: BLE001 - the view goes on; the robot never cares
                     if not failed:  # (once: not 30 tracebacks a second)
                         log.exception("the web view could not draw a frame")

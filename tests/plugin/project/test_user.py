@@ -89,13 +89,13 @@ def test_after_a_hand_client_was_left_the_hand_serves_this_one(franka_sim):
 
 
 def test_leaves_network_faults_injected(franka_sim):
-    record(franka_sim, "default")
+    record(franka_sim, "faults")
     franka_sim.control.set_faults("loss=0.3,dir=commands", seed=3)
     assert franka_sim.control.faults()["spec"] == "loss=0.3,dir=commands"
 
 
 def test_after_faults_were_left_none_are_injected(franka_sim):
-    record(franka_sim, "default")
+    record(franka_sim, "faults")  # (serially, on the server the test before left them on)
     assert franka_sim.control.faults()["spec"] is None
 
 
