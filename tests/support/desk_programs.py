@@ -104,8 +104,16 @@ def franky_take(address, user, password, how="wait:1") -> None:
 def franky_pilot(address, user, password, _=None) -> None:
     import franky
 
+    from websockets.exceptions import InvalidMessage
+
     with franky.Desk(address, user, password) as desk:
-        desk.poll_buttons(0.0)  # the event socket is open from here on
+        for attempt in range(3):  # franky gives the event socket's TLS and WebSocket handshake
+            try:  # 2 s, which a machine loaded by other tests can take (then it sees EOF)
+                desk.poll_buttons(0.0)  # the event socket is open from here on
+                break
+            except (TimeoutError, InvalidMessage):
+                if attempt == 2:
+                    raise
         say("LISTENING")
         events = desk.poll_buttons(timeout=60)
         while len(events) < 2:
