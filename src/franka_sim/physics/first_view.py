@@ -31,3 +31,12 @@ def orbit(position: np.ndarray, look_at: np.ndarray) -> tuple[float, float, floa
     distance = float(np.linalg.norm(forward))
     x, y, z = forward / distance
     return distance, math.degrees(math.atan2(y, x)), math.degrees(math.asin(z))
+
+
+def aim(camera, model, data, back_off: float = 1.0) -> None:
+    """Point a MuJoCo free camera (MjvCamera) at the first view of `data`'s world, `back_off`
+    times as far from what it looks at (the viewer's window, render's smaller video)."""
+    position, look_at = first_view(model, data)
+    distance, camera.azimuth, camera.elevation = orbit(position, look_at)
+    camera.lookat[:] = look_at
+    camera.distance = back_off * distance

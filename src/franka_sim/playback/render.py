@@ -139,7 +139,7 @@ def _camera(model, data, name: str | None):
     than a window)."""
     import mujoco
 
-    from franka_sim.physics.first_view import first_view, orbit
+    from franka_sim.physics.first_view import aim
 
     if name is not None:
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) < 0:
@@ -147,9 +147,6 @@ def _camera(model, data, name: str | None):
             raise RenderError(f"--camera {name!r}: the scene has no such camera "
                               f"(it has: {', '.join(names) or 'none'})")
         return name
-    position, look_at = first_view(model, data)
     cam = mujoco.MjvCamera()
-    cam.lookat[:] = look_at
-    distance, cam.azimuth, cam.elevation = orbit(position, look_at)
-    cam.distance = BACK_OFF * distance
+    aim(cam, model, data, BACK_OFF)
     return cam

@@ -240,15 +240,12 @@ def _open_on_the_arms(handle, model, data) -> None:
     """The window's first view: every arm, as the web view opens on them."""
     import mujoco
 
-    from franka_sim.physics.first_view import first_view, orbit
+    from franka_sim.physics.first_view import aim
 
     try:  # (a view it cannot place leaves MuJoCo's own: nothing to end the window for)
         mujoco.mj_forward(model, data)
-        position, look_at = first_view(model, data)
         with handle.lock():
-            camera = handle.cam
-            camera.lookat[:] = look_at
-            camera.distance, camera.azimuth, camera.elevation = orbit(position, look_at)
+            aim(handle.cam, model, data)
     except Exception as exc:  # noqa: BLE001 - said on the child's stderr, the window opens
         print(f"the viewer's first view: {exc}", file=sys.stderr)
 
