@@ -13,6 +13,7 @@ if os.getpid() == 1:  # a container's init: the kernel drops a SIGTERM that has 
 import typer  # noqa: E402 - after the handler: importing it takes the first ~0.4 s
 
 from franka_sim import cli_recordings  # noqa: E402
+from franka_sim.cli_help import PlainHelpCommand  # noqa: E402
 from franka_sim.config import (ROBOTS, ArmSpec, ClockMode, Config, PhysicsEngine, RobotKind,
                                ToolName)
 
@@ -45,7 +46,7 @@ def _root(
     """The sub-commands stay sub-commands (`franka-sim serve`), however many there are."""
 
 
-@app.command()
+@app.command(cls=PlainHelpCommand)
 def serve(
     ctx: typer.Context,
     host: str = typer.Option(
@@ -307,7 +308,7 @@ def parse_arm(text: str) -> ArmSpec:
     return ArmSpec(name, host, (x, y, z, math.radians(yaw)), robot, tool)
 
 
-@app.command()
+@app.command(cls=PlainHelpCommand)
 def check(
     ctx: typer.Context,
     host: str = typer.Argument(
@@ -362,7 +363,7 @@ def check(
 
 # The commands that read a recording (replay, plot, render, view) live beside.
 for _command in cli_recordings.COMMANDS:
-    app.command()(_command)
+    app.command(cls=PlainHelpCommand)(_command)
 
 
 def _one_line_summaries() -> None:

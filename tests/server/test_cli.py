@@ -54,13 +54,35 @@ def test_every_help_text_is_shown_as_written(command):
     out = subprocess.run([sys.executable, "-m", "franka_sim", command, "--help"],
                          capture_output=True, text=True, timeout=60,
                          env={**os.environ, "COLUMNS": "1000"}).stdout
-    shown = " ".join(out.replace("│", " ").split())
+    shown = " ".join(re.sub(r"-\n\s+", "-", out).split())  # (click wraps after a hyphen)
     texts = dict(_help_texts())[command]
     assert texts
     for text in texts:  # (a bracket is written escaped, `\\[`, in rich markup)
         assert " ".join(text.replace("\\[", "[").split()) in shown, text
     if command in ("plot", "render"):
         assert f"franka-sim[{command}]" in shown
+
+
+@pytest.mark.parametrize("command", ["serve", "check", "replay", "plot", "render", "view"])
+def test_a_commands_help_fits_80_columns_whole(command):
+    """At 80 columns no word of a command's help is cut: each option's environment variable
+    and default are shown whole, and no line is wider than the terminal."""
+    import typer.main
+
+    from franka_sim.cli import app
+
+    out = subprocess.run([sys.executable, "-m", "franka_sim", command, "--help"],
+                         capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "COLUMNS": "80"}).stdout
+    assert "…" not in out and max(map(len, out.splitlines())) <= 80
+    joined = re.sub(r"-\n\s+", "-", out)
+    for param in typer.main.get_command(app).commands[command].params:
+        for env in [param.envvar] if isinstance(param.envvar, str) else []:
+            assert env in joined, env
+        default = getattr(param.default, "value", param.default)  # an enum's, by value
+        if isinstance(default, (int, float, str)) and not isinstance(default, bool) \
+                and default != "" and getattr(param, "show_default", True) is not False:
+            assert f"default: {default}" in " ".join(joined.split()), param.name
 
 
 def test_the_command_list_is_wrapped_by_the_terminal_alone():
