@@ -35,7 +35,7 @@ from franka_sim.config import ROBOTS  # plain data: no numpy, no MuJoCo
 MARKER = "franka_sim"
 _MARKER_FIELDS = {"clock": str, "scene": (str, os.PathLike), "enforce_motion_limits": bool,
                   "enforce_comm_constraints": bool, "gripper": bool, "desk_boot": str,
-                  "robot": str}
+                  "robot": str, "faults": (str, dict)}
 _CLOCKS = ("lockstep", "realtime")
 _DESK_BOOTS = ("ready", "locked")
 _HANDLE = pytest.StashKey["SimHandle"]()
@@ -98,8 +98,9 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers",
         f"{MARKER}(enforce_motion_limits=False, enforce_comm_constraints=False, gripper=True, "
-        "scene=None, clock=None, desk_boot='ready', robot='fr3'): the franka_sim fixture of this test is a simulator of this "
-        "configuration (started on demand, shared by the tests that ask for the same)")
+        "scene=None, clock=None, desk_boot='ready', robot='fr3', faults=None): the franka_sim "
+        "fixture of this test is a simulator of this configuration (started on demand, shared "
+        "by the tests that ask for the same), with these network faults on its UDP path")
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
     directory = config.getoption("--franka-sim-record-dir")
     if directory is not None and config.getoption("--franka-sim-record") != "none":
@@ -128,7 +129,7 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
     """A simulated FR3 + Franka Hand in the start world: arm at rest in the start pose, no
     errors, objects in place, Hand open, no client connected. Recorded from there on unless
     `--franka-sim-record none`."""
-    settings = _settings(request)
+    settings, faults = _settings(request)
     path = _recording_path(request.node)
     try:
         server, control = franka_sim_servers.prepared(
@@ -136,7 +137,7 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
     except RuntimeError as exc:
         failure = str(exc)
     else:
-        failure = None
+        failure = None if faults is None else _inject(control, faults)
     if failure is not None:  # failed outside the except: the report shows no chained error
         pytest.fail(failure, pytrace=False)
     handle = SimHandle(server, control, settings)
@@ -164,7 +165,24 @@ def _settings(request: pytest.FixtureRequest):
     # Farthest first, so a function's marker overrides its class's and module's.
     for marker in reversed(list(request.node.iter_markers(MARKER))):
         values.update(_marker_values(marker, Path(request.node.path).parent))
-    return SimSettings(**values)
+    faults = values.pop("faults", None)  # set per test: tests with other faults share a server
+    return SimSettings(**values), faults
+
+
+def _inject(control, faults: str | dict) -> str | None:
+    """Inject the marker's faults (`--inject`'s spec, or its fields as a dict with an optional
+    seed) after the reset; the reason they were refused, if they were."""
+    from franka_sim.control import BadRequest
+
+    try:
+        if isinstance(faults, str):
+            control.set_faults(faults)
+        else:
+            control.set_faults(**faults)
+    except (BadRequest, TypeError) as exc:  # (TypeError: a field no fault has)
+        reason = exc.message if isinstance(exc, BadRequest) else exc
+        return f"@pytest.mark.{MARKER}: faults={faults!r} is not valid: {reason}"
+    return None
 
 
 def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:

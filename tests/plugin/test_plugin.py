@@ -58,9 +58,10 @@ def _outcomes(output: str) -> dict[str, int]:
 
 def _check_run(code: int, output: str, seen) -> None:
     assert code == 1, output
-    assert _outcomes(output) == {"passed": 15, "failed": 1, "error": 1}, output
-    # The misspelt marker setting is named.
+    assert _outcomes(output) == {"passed": 16, "failed": 1, "errors": 2}, output
+    # The misspelt marker setting is named, and so are faults the server refused.
     assert "unknown setting 'grip'" in output
+    assert "faults={'loss': 2.0} is not valid: loss=2.0: a probability is in [0, 1]" in output
     # The failing test's report carries its own server log lines: its client, not the start.
     section = output.split("franka-sim log (", 1)[1].split("short test summary", 1)[0]
     assert re.search(r"FCI client \S+ connected", section), output
@@ -87,6 +88,8 @@ def test_the_fixture_serially(tmp_path):
     assert {worker for entries in seen.values() for worker, _ in entries} == {"-"}
     # The faults the one test left were cleared by the reset before the next, not by a restart.
     assert len(seen["faults"]) == 2 and len({host for _, host in seen["faults"]}) == 1
+    # A marker's faults are set per test, on the server of the marker's other settings.
+    assert {host for _, host in seen["marked-faults"]} <= {host for _, host in seen["default"]}
 
 
 def test_the_fixture_on_two_xdist_workers_with_the_realtime_clock(tmp_path):

@@ -88,8 +88,31 @@ def test_after_a_hand_client_was_left_the_hand_serves_this_one(franka_sim):
     assert gripper.homing()
 
 
+@pytest.mark.franka_sim(faults="loss=0.05,dir=commands")
+def test_a_marker_injects_network_faults(franka_sim):
+    record(franka_sim, "marked-faults")
+    robot = connect(franka_sim.host)
+    control = robot.start_joint_position_control(JI)
+    state, _ = control.readOnce()
+    for k in range(300):  # hold still for 0.3 s
+        command = pylibfranka.JointPositions(list(state.q_d))
+        command.motion_finished = k == 299
+        control.writeOnce(command)
+        state, _ = control.readOnce() if k < 299 else (state, None)
+    del control
+    assert robot.read_once().control_command_success_rate < 1.0
+    faults = franka_sim.control.faults()
+    assert faults["spec"] == "loss=0.05,dir=commands" and faults["commands"]["dropped"] > 0
+
+
+@pytest.mark.franka_sim(faults={"loss": 2.0})
+def test_a_marker_with_faults_not_valid_is_an_error(franka_sim):
+    pass
+
+
 def test_leaves_network_faults_injected(franka_sim):
     record(franka_sim, "faults")
+    assert franka_sim.control.faults()["spec"] is None  # (a marker's ended with its test)
     franka_sim.control.set_faults("loss=0.3,dir=commands", seed=3)
     assert franka_sim.control.faults()["spec"] == "loss=0.3,dir=commands"
 
