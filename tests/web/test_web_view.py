@@ -183,3 +183,27 @@ def test_a_watcher_who_comes_after_the_client_left_sees_the_arm_as_it_is():
             assert shown["robot mode"] == "Idle"
             wait_for(lambda: plot_has_lines(browser, "q vs q_d (rad)"), 60,
                      "the q plot to draw the state held")  # (no state follows it)
+
+
+def test_an_embedded_simulator_started_again_on_its_web_port_serves_the_open_page():
+    """Leaving `async with FrankaSim(web_port=...)` with a page open and entering it again in
+    the same process: the port is free at once, and the open page reconnects to the new one."""
+    import asyncio
+
+    from franka_sim.server.sim import FrankaSim
+    from franka_sim.testing import fresh_loopback_address
+
+    host = fresh_loopback_address()
+
+    async def watched(browser, open_page: bool) -> None:
+        async with FrankaSim(host=host, control_port=0, web_port=WEB_PORT) as sim:
+            if open_page:
+                await asyncio.to_thread(browser.get, f"http://{host}:{WEB_PORT}/")
+            await asyncio.to_thread(wait_for, lambda: sim.web.watchers == 1, 60,
+                                    "the page to connect")
+            await asyncio.to_thread(wait_for, lambda: "robot mode" in readouts(browser), 60,
+                                    "the side panel")
+
+    with headless_chromium() as browser:
+        asyncio.run(watched(browser, open_page=True))
+        asyncio.run(watched(browser, open_page=False))
