@@ -87,7 +87,8 @@ def plot(
         None, help="The robot to draw, by name, in a recording of several (default: the first)."),
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
-    rate, and the robot mode with motions and errors (needs franka-sim\\[plot])."""
+    rate, the robot mode with motions and errors, and the Hand's width (needs
+    franka-sim\\[plot])."""
     from franka_sim.playback.plot import PlotError, output_format, parse_fields, parse_joints
     from franka_sim.playback.plot import plot as draw
     from franka_sim.recording.reader import RecordingError

@@ -1,8 +1,8 @@
 """`franka-sim plot`: what happened in a recording, as one PNG of stacked panels on the robot's
 clock (seconds = cycles / 1000): q against q_d, dq, tau_J against tau_J_d, the external wrench,
-the success rate, and a timeline of the robot mode with motions, errors and lost cycles; every
-panel marks where motions started (solid) and ended (dashed). matplotlib is an optional
-extra."""
+the success rate, a timeline of the robot mode with motions, errors and lost cycles, and the
+tool's state (the Hand's width, the vacuum) where its client took states; every panel marks
+where motions started (solid) and ended (dashed). matplotlib is an optional extra."""
 
 from __future__ import annotations
 
@@ -24,7 +24,8 @@ from franka_sim.playback.timeline import (
 WIDTH, PANEL_HEIGHT, DPI = 12.0, 2.2, 100  # inches, inches per panel, dots per inch
 # The least span a panel's axis shows, in its unit: an arm at rest trembles by ~1e-9 rad, which
 # drawn at full scale (with an offset such as "1e-9 +7.854e-1") looks like a motion.
-LEAST_SPAN = {"q": 1e-3, "dq": 1e-3, "tau": 1e-2, "wrench": 1e-2}
+LEAST_SPAN = {"q": 1e-3, "dq": 1e-3, "tau": 1e-2, "wrench": 1e-2, "gripper_state": 1e-3}
+TOOL_PANELS = {"gripper_state": "Hand", "vacuum_gripper_state": "vacuum gripper"}
 
 
 class PlotError(Exception):
@@ -91,24 +92,27 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     import matplotlib.pyplot as plt
 
     states = recording.states(robot)
-    t = states["message_id"].astype(float) * CYCLE_PERIOD
-    keep = np.ones(len(t), bool)
-    if start is not None:
-        keep &= t >= start
-    if end is not None:
-        keep &= t <= end
-    if not len(t):
-        raise PlotError("no arm state recorded: nothing to plot")
-    if not keep.any():
+    tool = recording.tool_states(robot)
+    if not len(states) and tool is None:
+        raise PlotError("no robot or tool state recorded: nothing to plot")
+    if not len(states) and fields:
+        raise PlotError("--fields: no arm state recorded (only its tool's)")
+    states, t = _in_window(states, start, end)
+    if tool is not None:
+        tool = (tool[0], *_in_window(tool[1], start, end))
+    if not len(t) and (tool is None or not len(tool[2])):
         raise PlotError("no state in the window --from/--to")
-    states, t = states[keep], t[keep]
-    window = (t[0], t[-1])
+    times = np.concatenate([t, tool[2] if tool is not None else []])
+    window = (times.min(), times.max())
     cut = _breaks(states["message_id"])
     tc = cut(t)
 
-    panels = ["q", "dq", "tau", "wrench", "success", "timeline", *fields]
-    fig, axes = plt.subplots(len(panels), 1, sharex=True,
+    panels = ["q", "dq", "tau", "wrench", "success", "timeline"] if len(t) else []
+    panels += [tool[0]] if tool is not None and len(tool[2]) else []
+    panels += fields
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, squeeze=False,
                              figsize=(WIDTH, PANEL_HEIGHT * len(panels)), dpi=DPI)
+    axes = axes[:, 0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, panel in zip(axes, panels):
         if panel == "q":
@@ -138,6 +142,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
             ax.set_ylabel("success rate")
         elif panel == "timeline":
             _timeline(ax, recording, states, t, window, robot)
+        elif panel in TOOL_PANELS:
+            _tool(ax, panel, *tool[1:])
         else:
             values = np.asarray(states[panel], dtype=float).reshape(len(t), -1)
             ax.plot(tc, cut(values))
@@ -149,16 +155,49 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
         _boundaries(ax, recording, window, robot)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
-    axes[0].set_title(f"{recording.path.name}: {len(states)} states")
+    counted = [f"{len(states)} states"] if len(t) else []
+    counted += [f"{len(tool[1])} {TOOL_PANELS[tool[0]]} states"] if tool is not None else []
+    axes[0].set_title(f"{recording.path.name}: {', '.join(counted)}")
     fig.tight_layout()
     return fig
 
 
-def _breaks(message_ids):
+def _in_window(states, start: float | None, end: float | None):
+    """(states, their robot times) from `start` to `end` (s; None: no bound)."""
+    t = states["message_id"].astype(float) * CYCLE_PERIOD
+    keep = np.ones(len(t), bool)
+    if start is not None:
+        keep &= t >= start
+    if end is not None:
+        keep &= t <= end
+    return states[keep], t[keep]
+
+
+def _tool(ax, key: str, states, t) -> None:
+    """The Hand's width (and its opening) with where it held a grasp; the vacuum gripper's
+    vacuum with where a part was present."""
+    ids = states["message_id"].astype(np.int64)
+    cut = _breaks(ids, int(np.diff(ids).min()) if len(ids) > 1 else 1)  # (its state period)
+    if key == "gripper_state":
+        ax.plot(cut(t), cut(states["width"]), color="k", label="width")
+        ax.plot(cut(t), cut(states["max_width"]), color="k", ls=":", label="max_width")
+        held, label = states["is_grasped"], "is_grasped"
+        ax.set_ylabel("Hand width [m]")
+    else:
+        ax.plot(cut(t), cut(states["vacuum"]), color="k", label="vacuum")
+        held, label = states["part_present"], "part_present"
+        ax.set_ylabel("vacuum [mbar below ambient]")
+    if held.any():
+        ax.fill_between(t, 0, 1, where=held, step="post", color="tab:green", alpha=0.2,
+                        transform=ax.get_xaxis_transform(), label=label)
+    ax.legend(loc="upper right", fontsize=6)
+
+
+def _breaks(message_ids, period: int = 1):
     """A function that puts a NaN wherever states were not sent between two recorded ones (a
     lockstep world settling, a clock paused), so that no line is drawn across what no state
-    said."""
-    gaps = np.flatnonzero(np.diff(np.asarray(message_ids, dtype=np.int64)) > 1) + 1
+    said; `period`: the cycles between two states of the stream."""
+    gaps = np.flatnonzero(np.diff(np.asarray(message_ids, dtype=np.int64)) > period) + 1
 
     def cut(values):
         return np.insert(np.asarray(values, dtype=float), gaps, np.nan, axis=0)

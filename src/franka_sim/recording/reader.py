@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from franka_sim.protocol.codec import STATE_DTYPE, decode_command
+from franka_sim.protocol.codec import (GRIPPER_STATE_DTYPE, STATE_DTYPE,
+                                     VACUUM_GRIPPER_STATE_DTYPE, decode_command)
 from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, WORLD_KEYS,
                                            robot_channels, world_channels)
@@ -62,6 +63,16 @@ class Recording:
         (fields by name)."""
         return np.frombuffer(b"".join(e.data for e in self.of("robot_state", robot)),
                              STATE_DTYPE)
+
+    def tool_states(self, robot: str | None = None) -> tuple[str, np.ndarray] | None:
+        """(key, the states as one structured array) of the tool whose client took states on a
+        robot (None: the first): the Hand's GripperState or the vacuum gripper's; None: none."""
+        for key, layout in (("gripper_state", GRIPPER_STATE_DTYPE),
+                            ("vacuum_gripper_state", VACUUM_GRIPPER_STATE_DTYPE)):
+            entries = self.of(key, robot)
+            if entries:
+                return key, np.frombuffer(b"".join(e.data for e in entries), layout)
+        return None
 
     def state_times(self, robot: str | None = None) -> np.ndarray:
         return np.array([e.wall for e in self.of("robot_state", robot)], dtype=np.int64)
