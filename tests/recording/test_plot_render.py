@@ -113,6 +113,26 @@ def test_the_hands_width_is_plotted_as_its_client_read_it(tmp_path):
     assert done.returncode == 0 and out.stat().st_size > 0, done.stderr
 
 
+def test_the_vacuum_grippers_panel_draws_its_vacuum_shaded_where_a_part_was_present():
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from franka_sim.playback.plot import _tool
+    from franka_sim.protocol.codec import VACUUM_GRIPPER_STATE_DTYPE
+
+    states = np.zeros(6, VACUUM_GRIPPER_STATE_DTYPE)
+    states["message_id"] = [100, 200, 300, 400, 900, 1000]  # (none sent from 500 to 800)
+    states["vacuum"] = [0, 300, 600, 600, 600, 0]
+    states["part_present"] = [False, True, True, True, True, False]
+    fig, ax = plt.subplots()
+    _tool(ax, "vacuum_gripper_state", states, states["message_id"] * 1e-3)
+    vacuum = ax.get_lines()[0].get_ydata()
+    assert np.isnan(vacuum).sum() == 1 and np.nanmax(vacuum) == 600  # broken at the gap only
+    assert [c.get_label() for c in ax.collections] == ["part_present"]
+    assert ax.get_ylabel().startswith("vacuum")
+    plt.close(fig)
+
+
 def test_an_arm_that_trembles_plots_flat_at_its_values_not_its_tremble_at_full_scale():
     """A joint held still trembles by ~1e-9 rad (a grasped cube's contacts): matplotlib alone
     draws that at full scale, labelled with an offset; a panel shows at least its least span."""
