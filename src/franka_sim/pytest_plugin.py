@@ -104,14 +104,29 @@ def pytest_configure(config: pytest.Config) -> None:
     config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
     directory = config.getoption("--franka-sim-record-dir")
     if directory is not None and config.getoption("--franka-sim-record") != "none":
-        path = Path(config.invocation_params.dir, directory)
-        if path.exists() and not path.is_dir():
-            raise pytest.UsageError(f"--franka-sim-record-dir {directory}: not a directory")
-        try:  # (said once here, not as every test's setup error)
-            path.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise pytest.UsageError(f"--franka-sim-record-dir {directory}: cannot be made "
-                                    f"({exc.strerror or exc})") from None
+        # Said once here, not as every test's setup error; made by the first recording (a
+        # --collect-only run, or one whose tests use no simulator, leaves nothing behind).
+        problem = _not_makeable(Path(config.invocation_params.dir, directory))
+        if problem is not None:
+            raise pytest.UsageError(f"--franka-sim-record-dir {directory}: {problem}")
+
+
+def _not_makeable(path: Path) -> str | None:
+    """Why `path` cannot be a directory recordings are written to (None: it is one, or
+    `mkdir -p` would make one)."""
+    if path.exists():
+        if not path.is_dir():
+            return "not a directory"
+        writable = os.access(path, os.W_OK | os.X_OK)
+        return None if writable else "cannot be written (Permission denied)"
+    parent = path.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        return "cannot be made (Not a directory)"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return "cannot be made (Permission denied)"
+    return None
 
 
 @pytest.fixture(scope="session")

@@ -106,3 +106,18 @@ def test_a_recording_directory_that_cannot_be_one_is_one_usage_error(tmp_path, d
     assert done.returncode == 4  # pytest's usage error: no test ran
     assert said in done.stderr
     assert "Traceback" not in done.stdout + done.stderr
+
+
+def test_a_recording_directory_is_made_by_the_first_recording_only(tmp_path):
+    """`--collect-only` (or a run whose tests use no simulator) leaves no directory behind."""
+    project = tmp_path / "project"
+    shutil.copytree(PROJECT, project)
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q",
+         "--collect-only", "--franka-sim-record-dir", "runs/nested"], cwd=project,
+        capture_output=True, text=True, timeout=600,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert not (project / "runs").exists()
