@@ -168,6 +168,8 @@ def quiet_libraries() -> None:
         def filter(self, record: logging.LogRecord) -> bool:
             if record.exc_info:
                 exc = record.exc_info[1]
+                if _closed_unused(exc):
+                    return False  # a browser's spare connection (a page closing): no request
                 record.msg = f"web view: {record.getMessage()} ({type(exc).__name__}: {exc})"
                 record.args, record.exc_info, record.exc_text = (), None, None
                 record.levelno, record.levelname = logging.INFO, "INFO"  # not the robot's error
@@ -180,6 +182,16 @@ def quiet_libraries() -> None:
         logging.getLogger(name).addFilter(OneLine())
     logging.getLogger("websockets").setLevel(logging.WARNING)  # (each listen, each open)
     logging.getLogger("websockets.server").setLevel(logging.INFO)  # (its refusals: above)
+
+
+def _closed_unused(exc: BaseException | None) -> bool:
+    """A connection that closed before sending a byte (websockets says its handshake failed:
+    an EOF after 0 bytes, under its InvalidMessage)."""
+    while exc is not None:
+        if isinstance(exc, EOFError) and "after 0 bytes" in str(exc):
+            return True
+        exc = exc.__cause__
+    return False
 
 
 def _refused_request(record: logging.LogRecord) -> bool:
