@@ -19,8 +19,14 @@ def hand_only(tmp_path_factory):
     with running_sim("--record", str(path), "--clock", "lockstep") as sim:
         gripper = pylibfranka.Gripper(sim.host)
         assert gripper.homing() and gripper.move(0.04, 0.1)
+        READ.append(gripper.read_once().width)
+        assert gripper.grasp(0.0, 0.1, 20.0)  # closed on nothing: held at 0 within epsilon
+        assert gripper.read_once().is_grasped
         del gripper
     return path
+
+
+READ = []  # the width the client read after its move
 
 
 def franka_sim(*args: str) -> subprocess.CompletedProcess:
@@ -38,11 +44,28 @@ def test_replay_compares_the_hand_states(hand_only):
     assert done.stdout.strip() == f"identical (0 cycles, {sent} tool states)"
 
 
-def test_plot_says_there_is_no_arm_state(hand_only, tmp_path):
+def test_plot_draws_the_hands_panel_alone(hand_only, tmp_path):
+    """Its width as pylibfranka's Gripper read it, shaded where it held a grasp."""
     pytest.importorskip("matplotlib", reason="plot needs franka-sim[plot]")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from franka_sim.playback.plot import figure
+
+    fig = figure(open_recording(hand_only), joints=list(range(7)))
+    (ax,) = fig.axes
+    assert ax.get_ylabel() == "Hand width [m]" and "Hand states" in ax.get_title()
+    width = ax.get_lines()[0].get_ydata()
+    assert np.nanmax(width) > 0.07 and np.nanmin(width) < 1e-3  # open, then closed
+    assert np.any(np.isclose(width, READ[0]))
+    assert np.any(np.isfinite(width[1:]) & np.isfinite(width[:-1]))  # (lines between states)
+    assert [c.get_label() for c in ax.collections] == ["is_grasped"]
+    plt.close(fig)
     done = franka_sim("plot", str(hand_only), "-o", str(tmp_path / "h.png"))
+    assert done.returncode == 0 and (tmp_path / "h.png").stat().st_size > 0, done.stderr
+    done = franka_sim("plot", str(hand_only), "-o", str(tmp_path / "h.png"), "--fields", "elbow")
     assert done.returncode == 1
-    assert done.stderr.strip() == "franka-sim: no arm state recorded: nothing to plot"
+    assert done.stderr.strip() == "franka-sim: --fields: no arm state recorded (only its tool's)"
 
 
 def test_the_viewers_timeline_spans_the_worlds_poses(hand_only):
@@ -61,3 +84,24 @@ def test_render_draws_the_fingers_over_the_time_the_poses_span(hand_only, tmp_pa
         pytest.skip(done.stderr.strip())
     assert done.returncode == 0, done.stderr
     assert int(done.stdout.split(": ")[1].split()[0]) > 2  # (the homing and the move)
+
+
+@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
+def test_a_clients_request_during_a_homing_nobody_awaits_is_answered_and_replays(tmp_path,
+                                                                                  clock):
+    """The control API's homing (the Desk's) has no client to answer: a client's move or stop
+    while it runs ends it and is answered itself, and the run replays."""
+    from franka_sim.control import Control
+
+    path = tmp_path / "homing.mcap"
+    with running_sim("--record", str(path), "--clock", clock) as sim:
+        control = Control(sim.host)
+        gripper = pylibfranka.Gripper(sim.host)
+        assert control.home_gripper() == {"homing": True}
+        assert gripper.move(0.04, 0.1)
+        assert control.home_gripper() == {"homing": True}
+        assert gripper.stop()
+        assert control.health()["tool_client_connected"]
+        del gripper
+    done = franka_sim("replay", str(path))
+    assert done.returncode == 0 and done.stdout.startswith("identical ("), done.stderr

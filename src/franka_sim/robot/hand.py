@@ -215,7 +215,7 @@ class Hand:
 
     def _abort_running(self) -> list[bytes]:
         action, self._action = self._action, None
-        if action is None:
+        if action is None or action.command_id is None:  # (the Desk's homing: nobody awaits it)
             return []
         return [build_gripper_response(action.kind, action.command_id, GripperStatus.kAborted)]
 
