@@ -116,6 +116,47 @@ def test_lost_states_are_not_waited_for_and_a_burst_hits_its_cycles():
     assert report["windows_run_out"] == 0
 
 
+def _torque_loop(robot, cycles: int) -> list[tuple]:
+    """A zero-torque motion of `cycles` states: (message_id, success rate) of each."""
+    loop = robot.start_torque_control()
+    seen = []
+    for k in range(cycles):
+        state, _ = loop.readOnce()
+        seen.append((round(state.time.to_sec() * 1000), state.control_command_success_rate))
+        command = pylibfranka.Torques([0.0] * 7)
+        command.motion_finished = k == cycles - 1
+        loop.writeOnce(command)
+    del loop
+    return seen
+
+
+def test_faults_set_while_serving_count_from_then_and_meet_the_same_fates_again():
+    """A spec set through the control API counts its times from the next cycle (a burst
+    `@0.3s` 0.3 s after it was set, on a clock long past 0.3 s), and its fates from there: the
+    same spec and seed set again before the same motion lose the same answers."""
+    with running_sim("--clock", "lockstep") as sim:
+        control = Control(sim.host)
+        robot = connect(sim.host)
+        robot.set_collision_behavior([100.0] * 7, [100.0] * 7, [100.0] * 6, [100.0] * 6)
+        _torque_loop(robot, CYCLES)
+        report = control.set_faults("burst=150@0.3s,dir=states", seed=7)
+        origin = report["origin"]
+        assert origin > CYCLES
+        seen = _torque_loop(robot, 600)
+        report = control.faults()
+        ids = {n for n, _ in seen}
+        start = origin + report["key_offset"] + 300
+        assert min(ids) < start and not ids & set(range(start, start + 150))
+        assert report["states"]["dropped"] >= 150
+        rounds = []
+        for _ in range(2):
+            control.set_faults("loss=0.05,dir=commands", seed=7)
+            rounds.append([rate for _, rate in _torque_loop(robot, 600)])
+            control.clear_faults()
+        assert min(rounds[0]) < 1.0 and rounds[0] == rounds[1]
+        del robot
+
+
 def test_the_rehearsal_example_trips_the_violation_and_recovers():
     with running_sim("--clock", "lockstep", "--enforce-comm-constraints",
                      "--inject", "burst=25@3s") as sim:

@@ -109,6 +109,16 @@ def test_a_burst_loses_exactly_its_cycles_in_both_directions():
         assert lost == [10, 11] + list(range(3000, 3025))
 
 
+def test_a_plan_set_later_meets_the_same_fates_counted_from_its_origin():
+    spec = parse_spec("loss=0.3,reorder=0.2,jitter=1ms,burst=5@20ms")
+    fresh, later = FaultPlan(spec, 7, 0), FaultPlan(spec, 7, 0, origin=4321)
+    for direction in (STATES, COMMANDS):
+        assert ([later.fate(direction, 4321 + n) for n in range(200)]
+                == [fresh.fate(direction, n) for n in range(200)])
+    assert all(later.fate(STATES, 4321 + n) is None for n in range(20, 25))
+    assert not all(later.fate(STATES, n) is None for n in range(20, 25))  # (not at 20 ms)
+
+
 def test_delay_is_whole_cycles_rounded_up_and_jitter_a_truncated_normal():
     assert FaultPlan(parse_spec("delay=2ms"), 7, 0).fate(STATES, 5) == (2, False)
     assert FaultPlan(parse_spec("delay=0.2ms"), 7, 0).fate(STATES, 5) == (1, False)

@@ -34,8 +34,11 @@ def _standard_normal():
 class FaultPlan:
     """The fates a spec gives one arm's datagrams under one seed."""
 
-    def __init__(self, spec: FaultSpec, seed: int, arm: int) -> None:
-        self.spec, self.seed, self.arm = spec, check_seed(seed), arm
+    def __init__(self, spec: FaultSpec, seed: int, arm: int, origin: int = 0) -> None:
+        """`origin`: the key the plan counts from (the next cycle's when it was set): a burst
+        `@Ts` falls T s after that, and a datagram's fate is keyed on its key less it, so a
+        plan set again the same way meets the same fates whatever the clock did before."""
+        self.spec, self.seed, self.arm, self.origin = spec, check_seed(seed), arm, origin
         self._directions = {"both": (STATES, COMMANDS), "states": (STATES,),
                             "commands": (COMMANDS,)}[spec.dir]
         self._bursts = tuple((b.start, b.start + b.cycles) for b in spec.bursts)
@@ -52,6 +55,7 @@ class FaultPlan:
         reaches the j-th cycle after that state."""
         if direction not in self._directions:
             return 0, False
+        message_id -= self.origin  # (< 0: a command answering a state from before the plan)
         for start, end in self._bursts:
             if start <= message_id + held < end:
                 return None

@@ -104,10 +104,16 @@ class NetworkFaults(ClockWatcher):
         from franka_sim.faults.plan import FaultPlan
 
         seed = self.seed if seed is None else check_seed(seed)
-        link.set_plan(FaultPlan(spec, seed, arm))
+        link.set_plan(FaultPlan(spec, seed, arm, self._next_key()))
         self.seeds[arm] = seed
         if not self.attached:
             self._attach()
+
+    def _next_key(self) -> int:
+        """The next cycle's key, counting every cycle the clock only repeated so far (not just
+        those before the last motion): a plan's times count from it (0 before the start)."""
+        cycle = None if self.driver is None else self.driver.cycle
+        return 0 if cycle is None else cycle.message_id + 1 - self.repeats
 
     def report(self, arm: int) -> dict:
         """What is set on arm `arm` and what it did (GET /faults)."""
@@ -121,6 +127,8 @@ class NetworkFaults(ClockWatcher):
             # a fate is keyed on message_id less this: the cycles lockstep's idle clock only
             # repeated (a client lingering) before the last motion started (docs/robustness.md)
             "key_offset": self.key_offset,
+            # the key the plan counts from (its burst times, its fates): set at the next cycle
+            "origin": None if plan is None else plan.origin,
             # lockstep cycles that went without the answer they waited for (window run out)
             "windows_run_out": self.windows_run_out,
             "states": dict(link.counts["states"], held=held_states),
