@@ -55,6 +55,7 @@ class SimHandle:
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
         self._log_start = len(server.sync())
         self.recording: Path | None = None  # this test's recording, while it is made
+        self.faults: str | dict | None = None  # the marker's, injected after the reset
 
     @property
     def desk(self) -> str | None:
@@ -71,7 +72,8 @@ class SimHandle:
         return at_level(self.server.sync()[self._log_start:], shown_level(os.environ))
 
     def __repr__(self) -> str:
-        return f"<franka_sim at {self.host} {self.settings}>"
+        faults = f" faults={self.faults!r}" if self.faults is not None else ""
+        return f"<franka_sim at {self.host} {self.settings}{faults}>"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -153,9 +155,12 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
         failure = str(exc)
     else:
         failure = None if faults is None else _inject(control, faults)
+        if failure is not None and path is not None:  # no test ran: no recording of it
+            _discard_recording(control, path)
     if failure is not None:  # failed outside the except: the report shows no chained error
         pytest.fail(failure, pytrace=False)
     handle = SimHandle(server, control, settings)
+    handle.faults = faults
     request.node.stash[_HANDLE] = handle
     if path is not None:
         handle.recording = path
@@ -168,6 +173,16 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
             control.finish_recording()
         except ControlError as exc:  # the server died: what it wrote is kept if the test failed
             request.node.stash[_RECORDING].trouble = f"not finished: {exc}"
+
+
+def _discard_recording(control, path: Path) -> None:
+    from franka_sim.control import ControlError
+
+    try:
+        control.finish_recording()
+    except ControlError:
+        pass
+    path.unlink(missing_ok=True)
 
 
 def _settings(request: pytest.FixtureRequest):
@@ -188,15 +203,18 @@ def _inject(control, faults: str | dict) -> str | None:
     """Inject the marker's faults (`--inject`'s spec, or its fields as a dict with an optional
     seed) after the reset; the reason they were refused, if they were."""
     from franka_sim.control import BadRequest
+    from franka_sim.control.table import FAULT_FIELDS
 
+    said = f"@pytest.mark.{MARKER}: faults={faults!r} is not valid"
+    if isinstance(faults, dict) and (unknown := sorted(set(faults) - set(FAULT_FIELDS))):
+        return f"{said}: unknown field {unknown[0]!r} (known: {', '.join(FAULT_FIELDS)})"
     try:
         if isinstance(faults, str):
             control.set_faults(faults)
         else:
             control.set_faults(**faults)
-    except (BadRequest, TypeError) as exc:  # (TypeError: a field no fault has)
-        reason = exc.message if isinstance(exc, BadRequest) else exc
-        return f"@pytest.mark.{MARKER}: faults={faults!r} is not valid: {reason}"
+    except BadRequest as exc:
+        return f"{said}: {exc.message}"
     return None
 
 
@@ -212,6 +230,9 @@ def _marker_values(marker: pytest.Mark, test_dir: Path) -> dict:
                         f"{', '.join(sorted(_MARKER_FIELDS))})", pytrace=False)
         if value is None and name in ("clock", "scene"):
             continue  # the command line's choice
+        if value is None and name == "faults":
+            values[name] = None  # none for this test, whatever a farther marker said
+            continue
         choices = {"clock": _CLOCKS, "desk_boot": _DESK_BOOTS, "robot": ROBOTS}.get(name)
         if not isinstance(value, expected) or (choices is not None and value not in choices):
             valid = (f" (one of {', '.join(map(repr, choices))})" if choices is not None
@@ -257,7 +278,20 @@ def _recording_path(item: pytest.Item) -> Path | None:
     directory = (Path(config.invocation_params.dir, directory) if directory is not None
                  else Path(config.rootpath, "franka-sim-recordings"))
     directory.mkdir(parents=True, exist_ok=True)
-    return directory.resolve() / recording_name(item.nodeid)
+    path = directory.resolve() / recording_name(item.nodeid)
+    if _recorded_now(path):  # another run of this project records this test now
+        path = path.with_name(f"{path.stem}-{os.getpid()}{path.suffix}")
+    return path
+
+
+def _recorded_now(path: Path) -> bool:
+    from franka_sim.recording import being_written
+
+    try:
+        with open(path, "rb") as stream:
+            return being_written(stream)
+    except FileNotFoundError:  # (the usual case)
+        return False
 
 
 def recording_name(nodeid: str) -> str:

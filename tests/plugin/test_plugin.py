@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from franka_sim.pytest_plugin import recording_name
 from franka_sim.testing.server_pool import DESK_PORT, SimSettings, worker_address
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,7 +59,7 @@ def _outcomes(output: str) -> dict[str, int]:
 
 def _check_run(code: int, output: str, seen) -> None:
     assert code == 1, output
-    assert _outcomes(output) == {"passed": 16, "failed": 1, "errors": 2}, output
+    assert _outcomes(output) == {"passed": 18, "failed": 1, "errors": 2}, output
     # The misspelt marker setting is named, and so are faults the server refused.
     assert "unknown setting 'grip'" in output
     assert "faults={'loss': 2.0} is not valid: loss=2.0: a probability is in [0, 1]" in output
@@ -102,6 +103,10 @@ def test_the_fixture_on_two_xdist_workers_with_the_realtime_clock(tmp_path):
             by_worker[worker].add(host)
     assert set(by_worker) == {"gw0", "gw1"}
     assert not by_worker["gw0"] & by_worker["gw1"]  # each worker on addresses of its own
+    # The failed test's recording is kept; a test whose setup failed (faults the server
+    # refused) leaves none.
+    kept = sorted(p.name for p in (tmp_path / "project" / "franka-sim-recordings").iterdir())
+    assert kept == [recording_name("test_user.py::test_fails_and_shows_the_robot_log")]
 
 
 def test_the_package_registers_the_plugin():

@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 import xml.etree.ElementTree as ET
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -121,3 +122,51 @@ def test_a_recording_directory_is_made_by_the_first_recording_only(tmp_path):
         env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
     assert done.returncode == 0, done.stdout + done.stderr
     assert not (project / "runs").exists()
+
+
+CONCURRENT = '''
+import os, time
+from pathlib import Path
+
+def test_recorded_while_another_run_records_it(franka_sim):
+    flags = Path(os.environ["FLAGS"])
+    (flags / os.environ["ME"]).write_text(str(franka_sim.recording))
+    if os.environ["ME"] == "first":  # holds its recording open until the second run's test ran
+        end = time.monotonic() + 120
+        while not (flags / "second").exists() and time.monotonic() < end:
+            time.sleep(0.05)
+        assert (flags / "second").exists()
+'''
+
+
+def test_two_runs_of_one_project_at_once_record_a_test_each_to_its_own_file(tmp_path):
+    """A second run whose test the first records at that moment records it beside, under a
+    name of its own, instead of failing the test's setup; each replays."""
+    project, flags = tmp_path / "project", tmp_path / "flags"
+    project.mkdir()
+    flags.mkdir()
+    (project / "test_concurrent.py").write_text(CONCURRENT)
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    command = [sys.executable, "-m", "pytest", *([] if installed else
+                                                 ["-p", "franka_sim.pytest_plugin"]),
+               "-p", "no:cacheprovider", "-q", "--franka-sim-record", "all"]
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    env["FLAGS"] = str(flags)
+    first = subprocess.Popen(command, cwd=project, env={**env, "ME": "first"},
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        end = time.monotonic() + 120
+        while not (flags / "first").exists() and first.poll() is None:
+            assert time.monotonic() < end, "the first run's test did not start"
+            time.sleep(0.05)
+        second = subprocess.run(command, cwd=project, env={**env, "ME": "second"},
+                                capture_output=True, text=True, timeout=300)
+        assert second.returncode == 0, second.stdout + second.stderr
+    finally:
+        out, _ = first.communicate(timeout=300)
+    assert first.returncode == 0, out
+    paths = [Path((flags / me).read_text()) for me in ("first", "second")]
+    assert paths[0] != paths[1] and paths[0].parent == paths[1].parent
+    assert sorted(paths[0].parent.iterdir()) == sorted(paths)
+    for path in paths:
+        assert _replay(path).startswith("identical (")

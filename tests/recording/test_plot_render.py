@@ -79,40 +79,6 @@ def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):
     plt.close(fig)
 
 
-def test_the_hands_width_is_plotted_as_its_client_read_it(tmp_path):
-    """A recording where only a Hand client took part draws the Hand's panel alone: its
-    width as pylibfranka's Gripper read it, shaded where it held a grasp."""
-    pytest.importorskip("matplotlib")
-    import matplotlib.pyplot as plt
-    import pylibfranka
-
-    from franka_sim.playback.plot import figure
-    from franka_sim.testing import running_sim
-
-    path = tmp_path / "hand.mcap"
-    with running_sim("--record", str(path), "--clock", "lockstep") as sim:
-        gripper = pylibfranka.Gripper(sim.host)
-        assert gripper.move(0.02, 0.1)
-        read = gripper.read_once().width
-        assert gripper.grasp(0.0, 0.1, 20.0)  # closed on nothing: held at 0 within epsilon
-        assert gripper.read_once().is_grasped
-        del gripper
-    recording = open_recording(path)
-    assert not len(recording.states())
-    fig = figure(recording, joints=list(range(7)))
-    (ax,) = fig.axes
-    assert ax.get_ylabel() == "Hand width [m]" and "Hand states" in ax.get_title()
-    width = ax.get_lines()[0].get_ydata()
-    assert np.nanmax(width) > 0.07 and np.nanmin(width) < 0.021  # opened, then closed in
-    assert np.any(np.isfinite(width[1:]) & np.isfinite(width[:-1]))  # (lines between states)
-    assert np.any(np.isclose(width, read))
-    assert [c.get_label() for c in ax.collections] == ["is_grasped"]
-    plt.close(fig)
-    out = tmp_path / "hand.png"
-    done = franka_sim("plot", str(path), "-o", str(out))
-    assert done.returncode == 0 and out.stat().st_size > 0, done.stderr
-
-
 def test_the_vacuum_grippers_panel_draws_its_vacuum_shaded_where_a_part_was_present():
     pytest.importorskip("matplotlib")
     import matplotlib.pyplot as plt

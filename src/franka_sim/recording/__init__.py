@@ -20,3 +20,18 @@ def mcap_missing(extra: str = "record") -> str | None:
     except ImportError:
         return MCAP_HINT.replace("[record]", f"[{extra}]")
     return None
+
+
+def being_written(stream) -> bool:
+    """Whether a server records to this open file now: its writer holds an exclusive lock on
+    it (server/recorder/writer.py) for as long as it records."""
+    import fcntl
+
+    try:
+        fcntl.flock(stream.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:  # a file system without locks: nothing can be told
+        return False
+    fcntl.flock(stream.fileno(), fcntl.LOCK_UN)
+    return False

@@ -13,7 +13,7 @@ import numpy as np
 
 from franka_sim.protocol.codec import (GRIPPER_STATE_DTYPE, STATE_DTYPE,
                                      VACUUM_GRIPPER_STATE_DTYPE, decode_command)
-from franka_sim.recording import FORMAT_VERSION
+from franka_sim.recording import FORMAT_VERSION, being_written
 from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, WORLD_KEYS,
                                            robot_channels, world_channels)
 
@@ -91,21 +91,6 @@ def tcp_data(value: dict) -> bytes:
 MCAP_MAGIC = b"\x89MCAP0\r\n"  # what every MCAP file starts with
 
 
-def _being_written(stream) -> bool:
-    """Whether a server records to this file now: its writer holds an exclusive lock on it
-    (server/recorder/writer.py) for as long as it records."""
-    import fcntl
-
-    try:
-        fcntl.flock(stream.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return True
-    except OSError:  # a file system without locks: nothing can be told
-        return False
-    fcntl.flock(stream.fileno(), fcntl.LOCK_UN)
-    return False
-
-
 def open_recording(path: str | Path) -> Recording:
     from mcap.exceptions import EndOfFile, InvalidMagic
     from mcap.records import Channel, Message, Metadata
@@ -135,7 +120,7 @@ def open_recording(path: str | Path) -> Recording:
         except Exception as exc:  # noqa: BLE001
             states = sum(channel_topics.get(r.channel_id, "").endswith("/robot_state")
                          for r in pending)
-            if _being_written(stream):  # (its end, and the chunk being written, still to come)
+            if being_written(stream):  # (its end, and the chunk being written, still to come)
                 raise RecordingError(
                     f"{path}: still being recorded ({states} states so far): its end is "
                     "written when the server recording it stops or finishes it "

@@ -110,6 +110,18 @@ def test_a_marker_with_faults_not_valid_is_an_error(franka_sim):
     pass
 
 
+@pytest.mark.franka_sim(faults="loss=0.3,dir=commands")
+class TestFaultsOfAClass:
+    def test_its_tests_have_them(self, franka_sim):
+        record(franka_sim, "marked-faults")
+        assert franka_sim.control.faults()["spec"] == "loss=0.3,dir=commands"
+
+    @pytest.mark.franka_sim(faults=None)
+    def test_a_test_may_have_none(self, franka_sim):
+        record(franka_sim, "marked-faults")
+        assert franka_sim.control.faults()["spec"] is None and franka_sim.faults is None
+
+
 def test_leaves_network_faults_injected(franka_sim):
     record(franka_sim, "faults")
     assert franka_sim.control.faults()["spec"] is None  # (a marker's ended with its test)
