@@ -19,7 +19,8 @@ CUBE = "/bodies/scene/cube"
 
 BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", b"{", 400, "malformed JSON"),
-    ("POST", "/push", b"[1, 2]", 400, "expected a JSON object"),
+    ("POST", "/push", b"[1, 2]", 400, "expected a JSON object, not an array"),
+    ("POST", "/reset", b"null", 400, "expected a JSON object, not null"),
     ("POST", "/push", b"", 400, "expected a JSON object"),
     ("POST", "/push", b"\xff\xfe", 400, "malformed JSON"),
     ("POST", "/push", {**PUSH, "speed": 3}, 400, "unknown field(s) 'speed'"),

@@ -76,6 +76,8 @@ def test_a_malformed_body_is_400(sim):
                 b"[" * 5000):  # (nested past the parser's recursion)
         status, body = _request(sim.host, "POST", "/api/system/control-token:take", raw)
         assert status == 400 and body["error"], raw
+    status, body = _request(sim.host, "POST", "/api/system/control-token:take", b"null")
+    assert status == 400 and "expected a JSON object, not null" in body["error"]
     assert Control(sim.host).desk()["control_token"] is None
     status, body = _request(sim.host, "POST", "/api/system/control-token:take",
                             b"{" + b" " * 70000 + b"}")

@@ -105,3 +105,36 @@ def test_a_clients_request_during_a_homing_nobody_awaits_is_answered_and_replays
         del gripper
     done = franka_sim("replay", str(path))
     assert done.returncode == 0 and done.stdout.startswith("identical ("), done.stderr
+
+
+def test_render_and_view_span_a_hand_acting_after_the_arms_last_state(tmp_path):
+    """An arm's program, then a Hand's alone: the world drawn spans the Hand's actions too."""
+    from franka_sim.assembly import WorldParts
+    from franka_sim.playback.recorded_world import RecordedWorld
+    from franka_sim.recording.metadata import replay_config
+    from support.clients import connect, move_to
+
+    path = tmp_path / "arm_then_hand.mcap"
+    with running_sim("--record", str(path), "--clock", "lockstep") as sim:
+        robot = connect(sim.host)
+        q = list(robot.read_once().q)
+        q[6] += 0.1
+        move_to(robot, q, 0.3)
+        del robot  # (its program ends: no arm state after it)
+        gripper = pylibfranka.Gripper(sim.host)
+        assert gripper.move(0.02, 0.1)
+        del gripper
+    recording = open_recording(path)
+    last_arm_state = int(recording.states()["message_id"][-1])
+    _, hand = recording.tool_states()
+    assert hand["message_id"][-1] > last_arm_state + 300  # (the move took ~0.6 s)
+    physics = WorldParts(replay_config(recording.metadata, str(tmp_path))).make_physics()
+    world = RecordedWorld(recording, physics)
+    assert world.last >= hand["message_id"][-1] - 10  # (poses at 100 Hz)
+    # plot: a window of the Hand's alone draws its panel; a field of the arm's has none there
+    pytest.importorskip("matplotlib", reason="plot needs franka-sim[plot]")
+    window = ["--from", f"{(last_arm_state + 50) / 1000}", "-o", str(tmp_path / "w.png")]
+    assert franka_sim("plot", str(path), *window).returncode == 0
+    done = franka_sim("plot", str(path), *window, "--fields", "elbow")
+    assert done.returncode == 1 and done.stderr.strip() == (
+        "franka-sim: --fields: no arm state in the window --from/--to (only its tool's)")

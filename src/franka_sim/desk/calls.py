@@ -7,12 +7,12 @@ test drives it without sockets.
 
 from __future__ import annotations
 
-import json
 import urllib.parse
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable
 
 from franka_sim.desk.state import DeskRefusal, Request
+from franka_sim.json_body import json_object
 
 MAX_BODY = 64 * 1024  # bytes; the largest Desk body is a few dozen
 
@@ -35,20 +35,10 @@ class Call:
 
     def json_object(self, *, optional: bool = False) -> dict:
         """The body as a JSON object (400 when it is not one)."""
-        if not self.body.strip():
-            if optional:
-                return {}
-            raise DeskRefusal(400, "BadRequest", "expected a JSON object in the request body")
         try:
-            value = json.loads(self.body.decode("utf-8"))
-        except (UnicodeDecodeError, ValueError) as exc:
-            raise DeskRefusal(400, "BadRequest", f"malformed JSON: {exc}") from None
-        except RecursionError:
-            raise DeskRefusal(400, "BadRequest", "malformed JSON: nested too deeply") from None
-        if not isinstance(value, dict):
-            raise DeskRefusal(400, "BadRequest",
-                              f"expected a JSON object, not {type(value).__name__}")
-        return value
+            return json_object(self.body, optional=optional)
+        except ValueError as exc:
+            raise DeskRefusal(400, "BadRequest", str(exc)) from None
 
     def form(self) -> dict[str, str]:
         """The body as x-www-form-urlencoded fields (400 when it is not)."""

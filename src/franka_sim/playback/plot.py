@@ -102,6 +102,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
         tool = (tool[0], *_in_window(tool[1], start, end))
     if not len(t) and (tool is None or not len(tool[2])):
         raise PlotError("no state in the window --from/--to")
+    if not len(t) and fields:
+        raise PlotError("--fields: no arm state in the window --from/--to (only its tool's)")
     times = np.concatenate([t, tool[2] if tool is not None else []])
     window = (times.min(), times.max())
     cut = _breaks(states["message_id"])
@@ -175,16 +177,17 @@ def _in_window(states, start: float | None, end: float | None):
 
 def _tool(ax, key: str, states, t) -> None:
     """The Hand's width (and its opening) with where it held a grasp; the vacuum gripper's
-    vacuum with where a part was present."""
+    vacuum with where a part was present. Each state is marked: in lockstep an action's
+    result is often a state with no neighbour, which a line alone would not draw."""
     ids = states["message_id"].astype(np.int64)
     cut = _breaks(ids, int(np.diff(ids).min()) if len(ids) > 1 else 1)  # (its state period)
     if key == "gripper_state":
-        ax.plot(cut(t), cut(states["width"]), color="k", label="width")
+        ax.plot(cut(t), cut(states["width"]), color="k", marker=".", label="width")
         ax.plot(cut(t), cut(states["max_width"]), color="k", ls=":", label="max_width")
         held, label = states["is_grasped"], "is_grasped"
         ax.set_ylabel("Hand width [m]")
     else:
-        ax.plot(cut(t), cut(states["vacuum"]), color="k", label="vacuum")
+        ax.plot(cut(t), cut(states["vacuum"]), color="k", marker=".", label="vacuum")
         held, label = states["part_present"], "part_present"
         ax.set_ylabel("vacuum [mbar below ambient]")
     if held.any():

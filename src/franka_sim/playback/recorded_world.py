@@ -30,10 +30,9 @@ class RecordedWorld:
         self._poses = [(c, q) for c, q in poses if len(q) == self.model.nq]
         self._pose_cycles = np.array([c for c, _ in self._poses], dtype=np.int64)
         self._base = _BasePoses(recording, self.model, len(self.arms))
-        # Its span: the arms' and the base's states, else (a run of the Hand alone) the world's
-        # poses.
-        spans = [ids for ids in (*self.ids, self._base.ids) if len(ids)] or (
-            [self._pose_cycles] if len(self._pose_cycles) else [])
+        # Its span: the arms' and the base's states and the world's poses (a Hand acting after
+        # the arms' last state, or alone, moves its fingers there).
+        spans = [ids for ids in (*self.ids, self._base.ids, self._pose_cycles) if len(ids)]
         if not spans:
             from franka_sim.recording.metadata import Incompatible
 

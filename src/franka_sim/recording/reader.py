@@ -123,8 +123,9 @@ def open_recording(path: str | Path) -> Recording:
             if being_written(stream):  # (its end, and the chunk being written, still to come)
                 raise RecordingError(
                     f"{path}: still being recorded ({states} states so far): its end is "
-                    "written when the server recording it stops or finishes it "
-                    "(DELETE /recording)") from None
+                    "written when the server recording it stops (serve --record), or "
+                    "finishes it (a recording started with POST /recording: DELETE "
+                    "/recording)") from None
             if not isinstance(exc, (EndOfFile, struct.error)):
                 raise RecordingError(f"{path}: damaged, not as it was written "
                                      f"({type(exc).__name__}: {exc})") from None

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import hmac
 import inspect
-import json
 import logging
 import re
 
@@ -26,6 +25,7 @@ from aiohttp import web
 
 from franka_sim.control.errors import BadRequest, ControlError, NotFound, Unauthorized
 from franka_sim.control.table import OPERATIONS, Operation, served_by
+from franka_sim.json_body import json_object
 from franka_sim.server.http_log import quiet_aiohttp
 
 log = logging.getLogger(__name__)
@@ -33,24 +33,14 @@ log = logging.getLogger(__name__)
 MAX_BODY = 64 * 1024  # bytes: the largest request is a few hundred
 
 
-def _no_constants(name: str) -> float:
-    raise ValueError(f"{name} is not a JSON number")
 
 
 def parse_object(raw: bytes, allowed: dict[str, bool], *, optional_body: bool = False) -> dict:
     """The request's JSON object, with only `allowed` fields (name → required)."""
-    if not raw.strip():
-        if optional_body:
-            return {}
-        raise BadRequest("expected a JSON object in the request body")
     try:
-        value = json.loads(raw.decode("utf-8"), parse_constant=_no_constants)
-    except (UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError is a ValueError
-        raise BadRequest(f"malformed JSON: {exc}") from None
-    except RecursionError:
-        raise BadRequest("malformed JSON: nested too deeply") from None
-    if not isinstance(value, dict):
-        raise BadRequest(f"expected a JSON object, not {type(value).__name__}")
+        value = json_object(raw, optional=optional_body)
+    except ValueError as exc:
+        raise BadRequest(str(exc)) from None
     unknown = sorted(set(value) - set(allowed))
     if unknown:
         raise BadRequest(f"unknown field(s) {', '.join(map(repr, unknown))} "
