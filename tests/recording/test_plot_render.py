@@ -52,6 +52,9 @@ def test_plot_window_from_to(lockstep_run, tmp_path):
     done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "1e6")
     assert done.returncode == 1 and done.stderr.count("\n") == 1
     assert "no state in the window" in done.stderr
+    done = franka_sim("plot", str(path), "-o", str(tmp_path / "w.png"), "--from", "5",
+                      "--to", "2")
+    assert done.returncode == 1 and done.stderr == "franka-sim: --from 5 is after --to 2\n"
 
 
 def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):

@@ -91,6 +91,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    if start is not None and end is not None and start > end:
+        raise PlotError(f"--from {start:g} is after --to {end:g}")
     states = recording.states(robot)
     tool = recording.tool_states(robot)
     if not len(states) and tool is None:
