@@ -48,14 +48,14 @@ class SimHandle:
     """What a test gets: the robot's address (FCI on 1337, Hand on 1338), its control API, and
     the server's log lines since this test began."""
 
-    def __init__(self, server, control, settings) -> None:
+    def __init__(self, server, control, settings, faults=None) -> None:
         self.host: str = server.host
         self.control = control  # franka_sim.control.Control
         self.settings = settings  # franka_sim.testing.server_pool.SimSettings
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
         self._log_start = len(server.sync())
         self.recording: Path | None = None  # this test's recording, while it is made
-        self.faults: str | dict | None = None  # the marker's, injected after the reset
+        self.faults: str | dict | None = faults  # the marker's, injected after the reset
 
     @property
     def desk(self) -> str | None:
@@ -159,8 +159,7 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
             _discard_recording(control, path)
     if failure is not None:  # failed outside the except: the report shows no chained error
         pytest.fail(failure, pytrace=False)
-    handle = SimHandle(server, control, settings)
-    handle.faults = faults
+    handle = SimHandle(server, control, settings, faults)
     request.node.stash[_HANDLE] = handle
     if path is not None:
         handle.recording = path
