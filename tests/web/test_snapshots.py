@@ -339,6 +339,18 @@ def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
     np.testing.assert_allclose(end.mocap_pos[m][:2], after[:2], atol=1e-4)
     yaw = 2 * math.atan2(end.mocap_quat[m][3], end.mocap_quat[m][0])
     assert yaw == pytest.approx(after[2], abs=1e-4) and abs(yaw) > 0.1
+    # `plot` draws the base's pose and twist, not joints: the pose ends where the drive did.
+    pytest.importorskip("matplotlib")
+    from franka_sim.playback.plot import figure
+
+    recording = open_recording(path)
+    fig = figure(recording, joints=list(range(7)), robot=recording.robots[-1])
+    pose, twist, *_ = fig.axes
+    assert [ax.get_ylabel() for ax in fig.axes] == [
+        "base pose", "twist [m/s, rad/s]", "success rate", "robot mode"]
+    x, y, drawn_yaw = (line.get_ydata() for line in pose.get_lines()[:3])
+    np.testing.assert_allclose([x[-1], y[-1], drawn_yaw[-1]], after, atol=1e-4)
+    assert np.nanmax(twist.get_lines()[0].get_ydata()) == pytest.approx(0.2, abs=1e-3)
     # `render` draws the same drive: its last frame is not its first.
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
     video = tmp_path / "duo.mp4"

@@ -1,8 +1,9 @@
 """`franka-sim plot`: what happened in a recording, as one PNG of stacked panels on the robot's
 clock (seconds = cycles / 1000): q against q_d, dq, tau_J against tau_J_d, the external wrench,
 the success rate, a timeline of the robot mode with motions, errors and lost cycles, and the
-tool's state (the Hand's width, the vacuum) where its client took states; every panel marks
-where motions started (solid) and ended (dashed). matplotlib is an optional extra."""
+tool's state (the Hand's width, the vacuum) where its client took states; for the mobile base
+its pose and twist in place of the joints'; every panel marks where motions started (solid)
+and ended (dashed). matplotlib is an optional extra."""
 
 from __future__ import annotations
 
@@ -24,8 +25,13 @@ from franka_sim.playback.timeline import (
 WIDTH, PANEL_HEIGHT, DPI = 12.0, 2.2, 100  # inches, inches per panel, dots per inch
 # The least span a panel's axis shows, in its unit: an arm at rest trembles by ~1e-9 rad, which
 # drawn at full scale (with an offset such as "1e-9 +7.854e-1") looks like a motion.
-LEAST_SPAN = {"q": 1e-3, "dq": 1e-3, "tau": 1e-2, "wrench": 1e-2, "gripper_state": 1e-3}
+LEAST_SPAN = {"q": 1e-3, "dq": 1e-3, "tau": 1e-2, "wrench": 1e-2, "gripper_state": 1e-3,
+              "base pose": 1e-3, "base twist": 1e-3}
 TOOL_PANELS = {"gripper_state": "Hand", "vacuum_gripper_state": "vacuum gripper"}
+ARM_PANELS = ("q", "dq", "tau", "wrench", "success", "timeline")
+# The mobile base's (robot/base_state.py): its planar pose and its body twist.
+BASE_PANELS = ("base pose", "base twist", "success", "timeline")
+LEGENDS = ("q", "dq", "tau", "wrench", "base pose", "base twist")
 
 
 class PlotError(Exception):
@@ -111,7 +117,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     cut = _breaks(states["message_id"])
     tc = cut(t)
 
-    panels = ["q", "dq", "tau", "wrench", "success", "timeline"] if len(t) else []
+    own = BASE_PANELS if recording.kind(robot) == "base" else ARM_PANELS
+    panels = list(own) if len(t) else []
     panels += [tool[0]] if tool is not None and len(tool[2]) else []
     panels += fields
     fig, axes = plt.subplots(len(panels), 1, sharex=True, squeeze=False,
@@ -140,6 +147,17 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
             for i, name in enumerate(("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")):
                 ax.plot(tc, cut(states["O_F_ext_hat_K"][:, i]), label=name)
             ax.set_ylabel("O_F_ext_hat_K")
+        elif panel == "base pose":  # (O_T_EE column-major: x, y at 12, 13; cos, sin at 0, 1)
+            pose = states["O_T_EE"]
+            ax.plot(tc, cut(pose[:, 12]), label="x [m]")
+            ax.plot(tc, cut(pose[:, 13]), label="y [m]")
+            ax.plot(tc, cut(np.arctan2(pose[:, 1], pose[:, 0])), label="yaw [rad]")
+            ax.set_ylabel("base pose")
+        elif panel == "base twist":  # moved at (O_dP_EE_d) and commanded (O_dP_EE_c)
+            for c, (i, name) in zip(colors, ((0, "vx"), (1, "vy"), (5, "wz"))):
+                ax.plot(tc, cut(states["O_dP_EE_d"][:, i]), color=c, label=name)
+                ax.plot(tc, cut(states["O_dP_EE_c"][:, i]), color=c, ls=":", label=f"{name}_c")
+            ax.set_ylabel("twist [m/s, rad/s]")
         elif panel == "success":
             ax.plot(tc, cut(states["control_command_success_rate"]), color="k")
             ax.set_ylim(-0.05, 1.05)
@@ -152,7 +170,7 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
             values = np.asarray(states[panel], dtype=float).reshape(len(t), -1)
             ax.plot(tc, cut(values))
             ax.set_ylabel(panel)
-        if panel in ("q", "dq", "tau", "wrench") and len(ax.get_lines()) <= 14:
+        if panel in LEGENDS and len(ax.get_lines()) <= 14:
             ax.legend(loc="upper right", fontsize=6, ncol=7)
         if panel != "timeline":
             _readable(ax, LEAST_SPAN.get(panel, 0.0))

@@ -53,6 +53,10 @@ class Recording:
                                  f"{', '.join(self.robots)})")
         return self.robots.index(name)
 
+    def kind(self, name: str | None) -> str:
+        """A robot's kind by name (None: the first): "arm" or "base"."""
+        return json.loads(self.metadata["robots"])[self.robot(name)]["kind"]
+
     def of(self, key: str, robot: str | None = None) -> list[Entry]:
         """The messages of one channel: the world's, or one robot's (None: the first)."""
         index = None if key in WORLD_KEYS else self.robot(robot)
