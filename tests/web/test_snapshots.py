@@ -247,7 +247,8 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
     ids = timeline.ids[0]
     modes = recording.states()["robot_mode"]
     changed = [0, *np.flatnonzero(modes[1:] != modes[:-1]) + 1]
-    recorded = [f"{(ids[j] - ids[0]) / 1000:.3f} s" for j in changed]  # when the mode changed
+    # when the mode changed, from the recording's start (its first pose of the world)
+    recorded = [f"{(ids[j] - timeline.first) / 1000:.3f} s" for j in changed]
     panel = ArmPanel(Gui(), "fr3", 0, t0=0.0)
     end = timeline.duration
 
@@ -260,7 +261,8 @@ def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_
     assert [line.split(":")[0] for line in reversed(panel.events.value.splitlines())] == \
         recorded[-6:]
     t = panel.plots[0].value[0]  # the q plot's times: the recorded window before the end
-    assert t[-1] == pytest.approx(end) and t[0] == pytest.approx(max(0.0, end - 10.0), abs=0.01)
+    assert t[-1] == pytest.approx((ids[-1] - timeline.first) / 1000)  # (the arm's last state)
+    assert t[0] == pytest.approx(max(0.0, end - 10.0), abs=0.01)
     assert np.all(np.diff(t) > 0)
 
 
