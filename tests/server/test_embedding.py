@@ -132,3 +132,105 @@ def test_a_stop_ends_the_robots_before_it_waits_for_the_web_view():
 
     asyncio.run(app())
     assert seen == [(1337, "refused"), (1338, "refused"), (1340, "refused")]
+
+
+def _left_running() -> list[str]:
+    import threading
+
+    return [t.name for t in threading.enumerate()
+            if t.name in ("franka-sim-cycle", "fsim-recorder", "fsim-web")]
+
+
+def _bindable(host: str, port: int) -> bool:
+    import socket
+
+    with socket.socket() as probe:
+        try:
+            probe.bind((host, port))
+        except OSError:
+            return False
+    return True
+
+
+def test_a_config_given_to_several_simulators_stays_the_callers():
+    from franka_sim.config import ClockMode, Config
+
+    base = Config(control_port=0)
+    first, second = fresh_loopback_address(), fresh_loopback_address()
+    a = FrankaSim(base, host=first)
+    b = FrankaSim(base, host=second, clock="lockstep")
+    assert (base.host, base.clock) == (Config().host, ClockMode.realtime)
+    assert (a.config.host, b.config.host) == (first, second)
+
+    async def app():
+        async with a, b:
+            return (await a.health())["clock"], (await b.health())["clock"]
+
+    assert asyncio.run(app()) == ("realtime", "lockstep")
+
+
+def test_a_start_cancelled_while_the_web_view_starts_leaves_nothing_serving(monkeypatch):
+    """The thread starting viser goes on after the cancel: the stop waits for it and stops it,
+    and the next simulator has the address and the web port."""
+    pytest.importorskip("viser", reason="the web view needs franka-sim[web] (viser)")
+    import threading
+
+    from franka_sim.web.live import LiveView
+
+    host, web_port = fresh_loopback_address(), 8181
+    starting, go_on = threading.Event(), threading.Event()
+    real_start = LiveView.start
+
+    def held_start(view):
+        starting.set()
+        go_on.wait(30)
+        real_start(view)
+
+    monkeypatch.setattr(LiveView, "start", held_start)
+
+    async def app():
+        sim = FrankaSim(host=host, control_port=0, web_port=web_port)
+        task = asyncio.create_task(sim.start())
+        while not starting.is_set():
+            await asyncio.sleep(0.01)
+        task.cancel()
+        go_on.set()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        assert not _left_running() and _bindable(host, web_port) and _bindable(host, 1337)
+        monkeypatch.setattr(LiveView, "start", real_start)
+        async with FrankaSim(host=host, control_port=0, web_port=web_port) as again:
+            return again.web.port
+
+    assert asyncio.run(asyncio.wait_for(app(), 120)) == web_port
+
+
+def test_a_stop_cancelled_twice_ends_all_the_same(tmp_path):
+    """A task leaving `async with` is cancelled again while it stops (a task group's cancel,
+    then a timeout's): the stop runs to its end, a later stop() waits for it, and the
+    recording is whole."""
+    from franka_sim.recording.reader import open_recording
+
+    host, path = fresh_loopback_address(), tmp_path / "run.mcap"
+
+    async def app():
+        sim = FrankaSim(host=host, control_port=0, record=str(path), clock="lockstep")
+
+        async def serve():
+            async with sim:
+                await asyncio.sleep(100)
+
+        task = asyncio.create_task(serve())
+        while not sim.core.message_id:
+            await asyncio.sleep(0.01)
+        task.cancel()
+        await asyncio.sleep(0)
+        task.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        await sim.stop()
+        return _left_running(), _bindable(host, 1337)
+
+    pytest.importorskip("mcap", reason="recording needs franka-sim[record]")
+    assert asyncio.run(asyncio.wait_for(app(), 60)) == ([], True)
+    assert open_recording(path).metadata

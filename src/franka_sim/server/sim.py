@@ -11,6 +11,7 @@ Works on any asyncio loop (uvloop is the CLI's choice, not a requirement here).
 from __future__ import annotations
 
 import asyncio
+import copy
 import logging
 import threading
 from dataclasses import fields
@@ -40,7 +41,8 @@ class FrankaSim(EmbeddedOperations):
     `health`, `state`, `reset`, ...; operations/embedded.py)."""
 
     def __init__(self, config: Config | None = None, **overrides) -> None:
-        config = config or Config()
+        # A copy: the caller's Config stays as it was (it may make several simulators).
+        config = copy.copy(config) if config is not None else Config()
         settings = {f.name for f in fields(Config)}
         for key, value in overrides.items():
             if key not in settings:
@@ -88,6 +90,8 @@ class FrankaSim(EmbeddedOperations):
         self.recorder = None if config.record is None else self.recordings.open(
             config.record, start=START_FRESH)
         self.web = None  # web/live.py LiveView while --web serves it
+        self._web_start = None  # the thread starting it (a cancelled start leaves it going)
+        self._halting = None  # the stop under way: it runs to its end, cancelled or not
         self._started = False
         self._served = False  # it started once: its threads and sockets are not made again
         self.failed = asyncio.Event()  # set once the world stopped simulating (`failure`)
@@ -112,18 +116,21 @@ class FrankaSim(EmbeddedOperations):
             await self.driver.start([robot.udp for robot in self.robots])
             if config.web_port:
                 await self._start_web()
-        except BaseException:
-            await self.driver.stop()
-            for robot in reversed(started):
-                await robot.stop_control_api()
-                await robot.stop_endpoints()
-                robot.udp.close()
-            await self.worker.stop()
-            self._discard_recording()
+        except BaseException:  # (a cancel too: what started stops, to its end)
+            await self._halt_once(started, keep_recording=False)
             raise
         self._started = True
         if self.recorder is not None:
             self.recorder.start()  # (what the taps queued so far is written first)
+        try:
+            self._log_start()
+        except BaseException:
+            await self.stop()
+            raise
+        return self
+
+    def _log_start(self) -> None:
+        config = self.config
         if not kernels.COMPILED:
             log.info("the cycle runs its numpy kernels (%s): the same states, ~40 %% more CPU a "
                      "cycle (docs/benchmarks.md, The compiled kernels)", kernels.WHY_NUMPY)
@@ -140,7 +147,6 @@ class FrankaSim(EmbeddedOperations):
                         "stands at the world origin (--arm %s puts an arm at its site)",
                         ", ".join(f"arm/{name}" for name in sites), ", ".join(unplaced),
                         " --arm ".join(f"{name}=ADDRESS" for name in sites))
-        return self
 
     def _discard_recording(self) -> None:
         """A start that failed: --record's file, which holds nothing of a run, goes."""
@@ -175,21 +181,40 @@ class FrankaSim(EmbeddedOperations):
                                "`async with FrankaSim(...)` (or between start() and stop())")
 
     async def stop(self) -> None:
-        if not self._started:
+        """Stop serving, to the end even if the caller is cancelled meanwhile (the stop goes on;
+        a later stop() waits for it)."""
+        if self._halting is None and not self._started:
             return
+        await self._halt_once(self.robots, keep_recording=True)
+
+    async def _halt_once(self, robots, *, keep_recording: bool) -> None:
+        """Stop `robots` and everything the simulator runs, in one task shielded from the
+        caller's cancellation; --record's file is finished, or (a start that failed)
+        removed."""
         self._started = False
-        for robot in self.robots:  # the robots first: nobody is served once stopping began
+        if self._halting is None:
+            self._halting = asyncio.ensure_future(self._halt(robots, keep_recording))
+        await asyncio.shield(self._halting)
+
+    async def _halt(self, robots, keep_recording: bool) -> None:
+        for robot in robots:  # the robots first: nobody is served once stopping began
             await robot.stop_control_api()
-        for robot in self.robots:
+        for robot in robots:
             await robot.stop_endpoints()
         await self.driver.stop()
-        for robot in self.robots:
+        for robot in robots:
             robot.udp.close()
         if self.web is not None:  # (its page may take a while to let go: web/live.py)
+            if self._web_start is not None:  # (a start cancelled meanwhile: let it end first)
+                await asyncio.wait([self._web_start])
+                self._web_start.exception()  # (said to the start's caller, if it still waited)
             await asyncio.to_thread(self.web.stop)
             self.web = None
         await self.worker.stop()
-        self.recordings.close()
+        if keep_recording:
+            self.recordings.close()
+        else:
+            self._discard_recording()
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()
@@ -216,8 +241,11 @@ class FrankaSim(EmbeddedOperations):
             self.config.arm_specs()[0].host, self.config.web_port, world.model, world.data,
             arms, attach=lambda tap: setattr(driver, "snapshots", tap),
             refresh=lambda tap: worker.submit(self._snapshot_now, (tap,), lambda _r: None, loop))
-        await asyncio.to_thread(view.start)
+        # Known before it starts: a cancel here leaves the thread starting viser, which the
+        # stop waits for and then stops.
         self.web = view
+        self._web_start = asyncio.ensure_future(asyncio.to_thread(view.start))
+        await asyncio.shield(self._web_start)
 
     # -- the first (or only) arm, as a lone robot's simulator offers it ----------------------------
     @property
