@@ -31,13 +31,22 @@ def viewed():
     assert "Ctrl-C ends" in line, proc.stderr.read() if proc.poll() is not None else line
     yield host
     proc.terminate()
-    proc.wait(10)
+    assert proc.wait(10) == 0  # (SIGTERM ends it as Ctrl-C does, as it ends serve)
+
+
+def span() -> tuple[int, int]:
+    """The cycles the view's timeline spans: the recording's, from its first pose of the world
+    to its last state or pose."""
+    recording = open_recording(RECORDING)
+    ids = recording.states()["message_id"].astype(np.int64)
+    poses = [e.json()["cycle"] for e in recording.of("bodies")]
+    return min(ids[0], *poses), max(ids[-1], *poses)
 
 
 def expected_q(seconds: float) -> str:
     states = open_recording(RECORDING).states()
     ids = states["message_id"].astype(np.int64)
-    i = min(int(ids.searchsorted(ids[0] + round(seconds * 1000))), len(ids) - 1)
+    i = min(int(ids.searchsorted(span()[0] + round(seconds * 1000))), len(ids) - 1)
     return " ".join(f"{v:.4f}" for v in states["q"][i])
 
 
@@ -50,8 +59,8 @@ def test_scrubbing_the_timeline_shows_the_recorded_state_there(viewed):
         wait_for(lambda: readouts(browser).get("q (rad)", "-") != "-", 60, "the first state")
         assert readouts(browser)["q (rad)"] == expected_q(0.0)
         before = screenshot(browser)
-        duration = open_recording(RECORDING).states()["message_id"]
-        moment = round(float(duration[-1] - duration[0]) / 1000 / 2, 3)  # the middle
+        first, last = span()
+        moment = round((last - first) / 1000 / 2, 3)  # the middle
         box = next(i for i in browser.find_elements(By.CSS_SELECTOR, "input")
                    if i.get_attribute("value") == "0" and i.get_attribute("type") != "hidden")
         box.send_keys(Keys.CONTROL, "a")
@@ -62,7 +71,7 @@ def test_scrubbing_the_timeline_shows_the_recorded_state_there(viewed):
         after = screenshot(browser)
         assert np.abs(before.astype(int) - after.astype(int)).max(axis=2).__gt__(40).sum() > 200
         # a time past the recording's end: the box goes back to the end, which it shows
-        end = round(float(duration[-1] - duration[0]) / 1000, 3)
+        end = round((last - first) / 1000, 3)
         box.send_keys(Keys.CONTROL, "a")
         box.send_keys(str(end + 100), Keys.ENTER)
         wait_for(lambda: box.get_attribute("value") == f"{end:g}", 30,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import signal
 import tempfile
 import threading
 import time
@@ -97,7 +98,8 @@ def timeline_of(recording, meshes=None) -> RecordingTimeline:
 
 
 def serve_recording(recording, host: str, port: int, meshes=None) -> None:
-    """Serve the view of `recording` until Ctrl-C (OSError: the port cannot be had)."""
+    """Serve the view of `recording` until Ctrl-C or SIGTERM (OSError: the port cannot be
+    had)."""
     import viser
 
     timeline = timeline_of(recording, meshes)
@@ -148,6 +150,8 @@ def serve_recording(recording, host: str, port: int, meshes=None) -> None:
     print(f"franka-sim: {recording.path} on http://{host}:{server.get_port()} (Ctrl-C ends)",
           flush=True)
     stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():  # (SIGTERM ends it as Ctrl-C)
+        signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     last = time.monotonic()
     try:
         while not stop.wait(FRAME_PERIOD):
