@@ -207,7 +207,8 @@ class FrankaSim(EmbeddedOperations):
         if self.web is not None:  # (its page may take a while to let go: web/live.py)
             if self._web_start is not None:  # (a start cancelled meanwhile: let it end first)
                 await asyncio.wait([self._web_start])
-                self._web_start.exception()  # (said to the start's caller, if it still waited)
+                if not self._web_start.cancelled():  # (said to the start's caller, if it
+                    self._web_start.exception()      # still waited: not logged again)
             await asyncio.to_thread(self.web.stop)
             self.web = None
         await self.worker.stop()
