@@ -105,6 +105,11 @@ def test_the_control_api_homes_the_hand_and_refuses_while_a_client_action_runs(s
     assert control.home_gripper() == {"homing": True}
     with pytest.raises(Conflict, match="busy"):
         control.home_gripper()  # its own homing still runs
+    assert control.state()["gripper_busy"]  # (what an embedder waits on: its end)
+    end = time.monotonic() + 30
+    while control.state()["gripper_busy"] and time.monotonic() < end:
+        time.sleep(0.05)
+    assert not control.state()["gripper_busy"]
     gripper = _gripper(sim.host)
     assert _settled_width(gripper) > 0.07
     assert gripper.move(0.02, 0.1)  # a client's action after it is answered as ever

@@ -109,7 +109,8 @@ OPERATIONS: tuple[Operation, ...] = (
     Operation(
         "state", "GET", "/state", Effect.READ, BOTH,
         """The ground truth now: q, dq, tau_J, O_T_EE (4×4, rows), robot_mode, errors (names),
-        success_rate, gripper_width (None without a Hand), vacuum_gripper (None without one:
+        success_rate, gripper_width and gripper_busy (an action, a homing too, under way;
+        None without a Hand), vacuum_gripper (None without one:
         its vacuum, setpoint, in_control_range, part_present, part_detached, device_status,
         actual_power and the part it holds), cycle. The mobile base: q, dq
         (its 4 joints), pose {x, y, yaw}, twist {vx, vy, wz}, robot_mode, cycle."""),

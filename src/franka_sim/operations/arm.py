@@ -139,6 +139,7 @@ class ArmOps(DeskOps, FaultOps):
                     "errors": [ERROR_NAMES[i] for i in np.flatnonzero(core.status.errors)],
                     "success_rate": float(core.success_rate),
                     "gripper_width": None if self.hand is None else float(self.hand.width),
+                    "gripper_busy": None if self.hand is None else self.hand.busy,
                     "vacuum_gripper": None if self.pump is None else self.pump.snapshot(),
                     "cycle": core.message_id,
                 }
