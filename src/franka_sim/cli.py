@@ -100,12 +100,13 @@ def serve(
     ),
     scene: str | None = typer.Option(
         None, envvar="FRANKA_SIM_SCENE",
-        help="A packaged scene's name (default, dual_arm_table, mobile_duo) or an MJCF file whose bodies "
-        "(a table, objects) are placed around the arms, named scene/<name>; its sites "
+        help="A packaged scene's name (default, dual_arm_table, mobile_duo) or an MJCF file "
+        "whose bodies (a table, objects) are placed around the arms, named scene/<name>; its sites "
         "arm/NAME say where arm NAME stands. Default: the packaged table with a 5 cm cube.",
     ),
     arm: list[str] = typer.Option(
-        [], "--arm", envvar="FRANKA_SIM_ARMS", metavar="NAME[:ROBOT][+TOOL]=ADDRESS[@x,y,z[,yaw_deg]]",
+        [], "--arm", envvar="FRANKA_SIM_ARMS",
+        metavar="NAME[:ROBOT][+TOOL]=ADDRESS[@x,y,z[,yaw_deg]]",
         help="An arm of the world, served on its own ADDRESS (FCI, its tool and control API), "
         "its base at x,y,z (m) turned yaw_deg about the vertical (default: the scene's arm/NAME "
         "site, else the origin), of kind ROBOT (default: --robot's), carrying TOOL (default: "
@@ -119,9 +120,10 @@ def serve(
     ),
     tool: ToolName = typer.Option(
         ToolName.hand, "--tool", envvar="FRANKA_SIM_TOOL",
-        help="The tool on every arm's flange (an --arm may name its own) and the service it answers beside the FCI: hand "
-        "(the Franka Hand, gripper protocol on TCP 1338, its fingers in the world), vacuum (the "
-        "Cobot Pump, vacuum gripper protocol on TCP 1339, a suction cup in the world) or none "
+        help="The tool on every arm's flange (an --arm may name its own) and the service it "
+        "answers beside the FCI: hand (the Franka Hand, gripper protocol on TCP 1338, its "
+        "fingers in the world), vacuum (the Cobot Pump, vacuum gripper protocol on TCP "
+        "1339, a suction cup in the world) or none "
         "(no tool service: its port refuses connections, and the Hand's body is rigid).",
     ),
     no_gripper: bool = typer.Option(
@@ -194,9 +196,10 @@ def serve(
     ),
     inject: str | None = typer.Option(
         None, envvar="FRANKA_SIM_INJECT", metavar="SPEC",
-        help="Network faults on every robot's UDP path (each arm, the mobile base), both directions unless dir= says one: "
-        "loss=P, delay=Dms, jitter=Jms (normal, truncated at 0), burst=N@Ts (N cycles lost "
-        "from T s of simulated time; may repeat), reorder=P, dir=states|commands; e.g. "
+        help="Network faults on every robot's UDP path (each arm, the mobile base), both "
+        "directions unless dir= says one: loss=P, delay=Dms, jitter=Jms (normal, truncated "
+        "at 0), burst=N@Ts (N cycles lost from T s of simulated time; may repeat), "
+        "reorder=P, dir=states|commands; e.g. "
         "loss=0.02,reorder=0.01 (docs/robustness.md).",
     ),
     seed: int = typer.Option(

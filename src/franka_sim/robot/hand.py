@@ -2,9 +2,10 @@
 the arm's tool device (robot/tool.py; its actions: robot/hand_actions.py).
 
 No sockets, threads or wall time. Decoded requests come in through `request()`; after every
-physics step the arm's cycle calls `advance(cycle, fingers)` with the finger sensors. The hand answers
-Homing, Move and Grasp when the action completes (libfranka blocks until then), says what the
-finger drive does next (`command`), and packs a GripperState whenever `state_due(cycle)`.
+physics step the arm's cycle calls `advance(cycle, fingers)` with the finger sensors. The hand
+answers Homing, Move and Grasp when the action completes (libfranka blocks until then), says
+what the finger drive does next (`command`), and packs a GripperState whenever
+`state_due(cycle)`.
 
 Figures and choices (docs/figures.md, "The Franka Hand", where sourced; ours otherwise):
 - GripperState at 10 Hz, every 100th cycle: Franka's maintainers put the ~10 Hz read rate down to
