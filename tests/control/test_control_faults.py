@@ -53,6 +53,14 @@ def test_faults_set_at_runtime_are_counted_and_cleared(faults: Control, served):
     _zero_torques(served.host)
     assert faults.faults()["commands"]["dropped"] == report["commands"]["dropped"]
     assert faults.state()["robot_mode"] == "Idle"
+    # A reset world counts from zero; the faults set go on.
+    faults.set_faults(loss=0.2, dir="commands", seed=11)
+    _zero_torques(served.host, 100)
+    assert faults.faults()["commands"]["dropped"] > 0
+    faults.reset()
+    report = faults.faults()
+    assert report["spec"] == "loss=0.2,dir=commands"
+    assert report["states"] == report["commands"] == NOTHING
 
 
 def test_a_spec_string_replaces_what_was_set(faults: Control):

@@ -55,6 +55,10 @@ class ArmLink:
         if plan is not None:
             self.counts = _no_counts()
 
+    def restart_counts(self) -> None:
+        """Count again from zero (a reset world), whatever plan goes on."""
+        self.counts = _no_counts()
+
     @property
     def held(self) -> tuple[int, int]:
         """(states, commands) held now."""

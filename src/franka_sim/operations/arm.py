@@ -218,6 +218,8 @@ class ArmOps(DeskOps, FaultOps):
         core.hold(self.desk_boot != "ready")
         if tool is not None:
             tool.reset(measured.tool)
+        if self.network_faults is not None:  # (what faults go on count from the reset world)
+            self.network_faults.restart_counts(self.robot_index)
         self.driver.keep_running()
         return {"q": q.tolist(), "cycle": core.message_id,
                 "gripper_width": None if self.hand is None else self.hand.width}

@@ -109,6 +109,11 @@ class NetworkFaults(ClockWatcher):
         if not self.attached:
             self._attach()
 
+    def restart_counts(self, arm: int) -> None:
+        """What arm `arm`'s faults did counts from now (a reset; the plan goes on)."""
+        if self.links:
+            self.links[arm].restart_counts()
+
     def _next_key(self) -> int:
         """The next cycle's key, counting every cycle the clock only repeated so far (not just
         those before the last motion): a plan's times count from it (0 before the start)."""

@@ -124,7 +124,8 @@ class TestFaultsOfAClass:
 
 def test_leaves_network_faults_injected(franka_sim):
     record(franka_sim, "faults")
-    assert franka_sim.control.faults()["spec"] is None  # (a marker's ended with its test)
+    report = franka_sim.control.faults()  # (a marker's ended with its test, counts and all)
+    assert report["spec"] is None and report["commands"]["dropped"] == 0
     franka_sim.control.set_faults("loss=0.3,dir=commands", seed=3)
     assert franka_sim.control.faults()["spec"] == "loss=0.3,dir=commands"
 
