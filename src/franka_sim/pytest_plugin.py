@@ -103,7 +103,11 @@ def pytest_configure(config: pytest.Config) -> None:
         "scene=None, clock=None, desk_boot='ready', robot='fr3', faults=None): the franka_sim "
         "fixture of this test is a simulator of this configuration (started on demand, shared "
         "by the tests that ask for the same), with these network faults on its UDP path")
-    config.pluginmanager.register(_KeptRecordings(), "franka-sim-recordings")
+    kept = _KeptRecordings()
+    if config.getoption("--franka-sim-record") != "none" and not hasattr(config, "workerinput"):
+        kept.directory = _recordings_dir(config)  # (the xdist controller's, not each worker's)
+        kept.made = not kept.directory.exists()
+    config.pluginmanager.register(kept, "franka-sim-recordings")
     directory = config.getoption("--franka-sim-record-dir")
     if directory is not None and config.getoption("--franka-sim-record") != "none":
         # Said once here, not as every test's setup error; made by the first recording (a
@@ -273,14 +277,18 @@ def _recording_path(item: pytest.Item) -> Path | None:
     if missing := mcap_missing():  # said once, in the terminal summary
         config.pluginmanager.get_plugin("franka-sim-recordings").unavailable = missing
         return None
-    directory = config.getoption("--franka-sim-record-dir")
-    directory = (Path(config.invocation_params.dir, directory) if directory is not None
-                 else Path(config.rootpath, "franka-sim-recordings"))
+    directory = _recordings_dir(config)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory.resolve() / recording_name(item.nodeid)
     if _recorded_now(path):  # another run of this project records this test now
         path = path.with_name(f"{path.stem}-{os.getpid()}{path.suffix}")
     return path
+
+
+def _recordings_dir(config: pytest.Config) -> Path:
+    directory = config.getoption("--franka-sim-record-dir")
+    return (Path(config.invocation_params.dir, directory) if directory is not None
+            else Path(config.rootpath, "franka-sim-recordings"))
 
 
 def _recorded_now(path: Path) -> bool:
@@ -340,6 +348,16 @@ class _KeptRecordings:
 
     def __init__(self) -> None:
         self.kept: list[tuple[str, str]] = []
+        self.directory: Path | None = None  # where they go, and whether this run made it
+        self.made = False
+
+    def pytest_unconfigure(self, config: pytest.Config) -> None:
+        """A directory this run made and kept nothing in goes again (every test passed)."""
+        if self.made and self.directory is not None:
+            try:
+                self.directory.rmdir()
+            except OSError:  # not there, or not empty (another run's recordings too)
+                pass
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
         if report.when == "teardown":

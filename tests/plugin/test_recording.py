@@ -170,3 +170,26 @@ def test_two_runs_of_one_project_at_once_record_a_test_each_to_its_own_file(tmp_
     assert sorted(paths[0].parent.iterdir()) == sorted(paths)
     for path in paths:
         assert _replay(path).startswith("identical (")
+
+
+def test_a_run_whose_tests_all_pass_leaves_no_recordings_directory(tmp_path):
+    """The directory the run made for its recordings goes again when none was kept; one that
+    was there before stays."""
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "test_passes.py").write_text(
+        "def test_reads(franka_sim):\n    assert franka_sim.control.state()['q']\n")
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    command = [sys.executable, "-m", "pytest", *([] if installed else
+                                                 ["-p", "franka_sim.pytest_plugin"]),
+               "-p", "no:cacheprovider", "-q"]
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    for args in ([], ["-n", "2"]):
+        done = subprocess.run(command + args, cwd=project, env=env, capture_output=True,
+                              text=True, timeout=300)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert not (project / "franka-sim-recordings").exists(), args
+    (project / "franka-sim-recordings").mkdir()
+    done = subprocess.run(command, cwd=project, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0 and (project / "franka-sim-recordings").is_dir()
