@@ -111,7 +111,8 @@ def read(path: Path) -> Serving:
                        for r in data["robots"])
         return Serving(robots, data.get("token"), int(data["pid"]))
     except FileNotFoundError:
-        raise Unreadable(f"{path}: absent (the server is not serving yet, or any more)") from None
+        raise Unreadable(f"{path}: absent (the server is not serving yet, or any more, or "
+                         "could not write it: its log says so)") from None
     except OSError as exc:
         raise Unreadable(f"{path}: cannot be read ({exc.strerror or exc})") from None
     except (ValueError, KeyError, TypeError):
