@@ -173,3 +173,63 @@ def test_a_connected_client_idle_on_tcp_is_never_dropped():
             assert sim.fci.active is not None
             s.sendall(struct.pack("<III", 2, 9, 12))  # StopMove: still answered
             assert struct.unpack("<IIIB", s.recv(64)[:13])[:2] == (2, 9)
+
+
+FLOOD = """
+import socket, sys, time
+flood = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+flood.bind((sys.argv[1], 0))
+for _ in range(5):
+    for _ in range(200):
+        flood.sendto(bytes(4000), (sys.argv[2], int(sys.argv[3])))
+    time.sleep(0.1)
+"""
+
+
+def test_a_strangers_udp_burst_costs_a_lockstep_client_no_cycle():
+    """Bursts of large datagrams from another address at the robot's UDP port while a
+    pylibfranka motion runs: they are dropped, and the client's commands, queued behind them,
+    are not (the socket has room for a burst: the kernel's default held ~50 of these)."""
+    import asyncio
+    import socket as sockets
+    import subprocess
+    import sys
+    import textwrap
+
+    from franka_sim import FrankaSim
+    from franka_sim.server.udp_endpoint import RECEIVE_BUFFER
+    from franka_sim.testing import fresh_loopback_address
+
+    client_program = textwrap.dedent("""
+        import sys, pylibfranka
+        robot = pylibfranka.Robot(sys.argv[1], pylibfranka.RealtimeConfig.kIgnore)
+        control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+        state, _ = control.readOnce()
+        print("moving", flush=True)
+        rates = []
+        for k in range(3000):
+            command = pylibfranka.JointPositions(list(state.q_d))
+            command.motion_finished = k == 2999
+            control.writeOnce(command)
+            if k < 2999:
+                state, _ = control.readOnce()
+                rates.append(state.control_command_success_rate)
+        print(min(rates[200:]), flush=True)
+    """)
+    host, stranger = fresh_loopback_address(), fresh_loopback_address()
+
+    async def app():
+        async with FrankaSim(host=host, clock="lockstep", control_port=0) as sim:
+            udp = sim.arms[0].udp.sock
+            assert udp.getsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF) >= min(
+                RECEIVE_BUFFER, int(open("/proc/sys/net/core/rmem_max").read()))
+            proc = await asyncio.create_subprocess_exec(
+                sys.executable, "-c", client_program, host, stdout=subprocess.PIPE)
+            assert (await proc.stdout.readline()).strip() == b"moving"
+            flood = await asyncio.create_subprocess_exec(  # (its own process: at full speed)
+                sys.executable, "-c", FLOOD, stranger, *map(str, udp.getsockname()))
+            out, _ = await asyncio.wait_for(proc.communicate(), 120)
+            await flood.wait()
+            return float(out.strip().splitlines()[-1])
+
+    assert asyncio.run(app()) == 1.0

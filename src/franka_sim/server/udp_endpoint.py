@@ -40,6 +40,7 @@ from franka_sim.server.binding import bound_socket
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
+RECEIVE_BUFFER = 1 << 20  # bytes asked for the robot's UDP socket (see `open`)
 
 MAX_READ = 64  # datagrams one read takes at most (a flood is read over several cycles)
 
@@ -73,6 +74,11 @@ class UdpEndpoint:
         """Bind a non-blocking UDP socket on `host` (an ephemeral port). Its lines name the
         robot it opens for (its datagrams are read in the cycle thread, outside that name)."""
         self.sock = bound_socket(host, 0, socket.SOCK_DGRAM)
+        # Room for a burst of a stranger's datagrams (read and dropped one cycle later) beside
+        # the client's command: the kernel's default, ~200 KiB, fills with 50 of 4 KB and then
+        # drops the command too. At most net.core.rmem_max (twice this on Linux, which doubles
+        # it); memory is taken only while datagrams wait.
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
         self.log_name = current()
 
     def _say(self, level: int, message: str, *args) -> None:
