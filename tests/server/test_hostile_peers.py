@@ -221,8 +221,11 @@ def test_a_strangers_udp_burst_costs_a_lockstep_client_no_cycle():
     async def app():
         async with FrankaSim(host=host, clock="lockstep", control_port=0) as sim:
             udp = sim.arms[0].udp.sock
-            assert udp.getsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF) >= min(
-                RECEIVE_BUFFER, int(open("/proc/sys/net/core/rmem_max").read()))
+            room = udp.getsockopt(sockets.SOL_SOCKET, sockets.SO_RCVBUF)
+            assert room >= min(RECEIVE_BUFFER, int(open("/proc/sys/net/core/rmem_max").read()))
+            if room < RECEIVE_BUFFER:
+                pytest.skip(f"this machine gives the socket {room} bytes at most "
+                            "(net.core.rmem_max, and the tests run unprivileged)")
             proc = await asyncio.create_subprocess_exec(
                 sys.executable, "-c", client_program, host, stdout=subprocess.PIPE)
             assert (await proc.stdout.readline()).strip() == b"moving"

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import logging
 import socket
+import sys
 from typing import Callable
 
 from franka_sim.protocol.codec import decode_command
@@ -41,6 +42,8 @@ from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
 RECEIVE_BUFFER = 1 << 20  # bytes asked for the robot's UDP socket (see `open`)
+# Linux's option past rmem_max (33 there; Python does not name it), None elsewhere
+SO_RCVBUFFORCE = getattr(socket, "SO_RCVBUFFORCE", 33 if sys.platform == "linux" else None)
 
 MAX_READ = 64  # datagrams one read takes at most (a flood is read over several cycles)
 
@@ -76,9 +79,14 @@ class UdpEndpoint:
         self.sock = bound_socket(host, 0, socket.SOCK_DGRAM)
         # Room for a burst of a stranger's datagrams (read and dropped one cycle later) beside
         # the client's command: the kernel's default, ~200 KiB, fills with 50 of 4 KB and then
-        # drops the command too. At most net.core.rmem_max (twice this on Linux, which doubles
-        # it); memory is taken only while datagrams wait.
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
+        # drops the command too. Past net.core.rmem_max where the server may (CAP_NET_ADMIN),
+        # else up to it; memory is taken only while datagrams wait.
+        try:
+            if SO_RCVBUFFORCE is None:
+                raise OSError
+            self.sock.setsockopt(socket.SOL_SOCKET, SO_RCVBUFFORCE, RECEIVE_BUFFER)
+        except OSError:  # (PermissionError: not privileged)
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
         self.log_name = current()
 
     def _say(self, level: int, message: str, *args) -> None:
