@@ -96,6 +96,24 @@ def test_a_second_take_waits_until_released_and_a_forced_one_for_the_pilot():
     assert status["controlToken"]["activeToken"] == {"id": forced.body["id"], "ownedBy": "third"}
 
 
+def test_a_waiting_take_replaced_by_a_later_one_is_refused_saying_so():
+    service = _service()
+    first = _take(service, "first")
+
+    def take(owner: str):  # (what the adapter hands over, before it waits)
+        body = json.dumps({"owner": owner, "timeout": 6}).encode()
+        return service.handle(Call("POST", "/api/system/control-token:take", {},
+                                   {"authorization": BASIC}, body))
+
+    waiting = take("E")
+    later = take("F")
+    refused = service.finish(Call("POST", "/api/system/control-token:take"), waiting)
+    assert (refused.status, refused.body["code"]) == (424, "Timeout")
+    assert "a later request for it replaced this one" in refused.body["message"]
+    _call(service, "POST", "/api/system/control-token:release", token=first)
+    assert later.request.granted and service.desk.token.owner == "F"
+
+
 def test_the_pilot_is_heard_pressed_then_released():
     desk, heard = Desk(), []
     desk.listeners.append(heard.append)

@@ -104,6 +104,9 @@ def routes(desk: Desk) -> Routes:
 
 def _granted(request: Request) -> Answer:
     """A take's answer once it was granted, or its timeout passed."""
+    if not request.granted and request.replaced:  # (one request waits at a time)
+        raise DeskRefusal(424, "Timeout", "the control token is held by another user, and a "
+                          "later request for it replaced this one before it was released")
     if not request.granted:
         raise DeskRefusal(424, "Timeout", "the control token is held by "
                           "another user, who did not release it within the timeout")

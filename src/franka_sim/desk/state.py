@@ -66,6 +66,7 @@ class Request:
     force: bool
     withdrawn: bool = False
     granted: bool = False
+    replaced: bool = False  # withdrawn for a later request (one waits at a time)
 
 
 @dataclass
@@ -158,7 +159,7 @@ class Desk:
             self._grant(request)
         else:
             if self.pending is not None:
-                self.pending.withdrawn = True
+                self.pending.withdrawn = self.pending.replaced = True
             self.pending = request
         self._changed()
         return request
