@@ -114,6 +114,19 @@ def test_a_waiting_take_replaced_by_a_later_one_is_refused_saying_so():
     assert later.request.granted and service.desk.token.owner == "F"
 
 
+def test_a_panda_boots_in_execution_and_refuses_programming():
+    from franka_sim.desk.state import DeskRefusal
+
+    desk = Desk(boot="locked", robot="fer", new_secret=lambda: "secret")
+    assert (desk.brakes, desk.operating_mode) == ("Locked", "Execution")
+    token = desk.take("someone").token.secret
+    with pytest.raises(DeskRefusal, match="a Panda has no Programming mode"):
+        desk.set_operating_mode(token, "Programming")
+    with pytest.raises(DeskRefusal, match="a Panda has no Programming mode"):
+        desk.set_arm(brakes="Unlocked", operating_mode="Programming")
+    assert (desk.brakes, desk.operating_mode) == ("Locked", "Execution")  # (nothing changed)
+
+
 def test_the_pilot_is_heard_pressed_then_released():
     desk, heard = Desk(), []
     desk.listeners.append(heard.append)

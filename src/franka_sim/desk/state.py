@@ -223,8 +223,15 @@ class Desk:
         if mode not in OPERATING_MODES:
             raise DeskRefusal(400, "BadRequest", f"no operating mode {mode!r} (one of "
                               f"{', '.join(OPERATING_MODES)})")
+        self._check_panda_mode(mode)
         self.operating_mode = mode
         self._changed()
+
+    def _check_panda_mode(self, mode: str | None) -> None:
+        """The Panda has no Programming mode: its arm is always in Execution."""
+        if mode == PROGRAMMING and self.robot == "fer":
+            raise DeskRefusal(400, "BadRequest", "a Panda has no Programming mode (its arm "
+                              "is in Execution; the brakes hold it)")
 
     def set_fci(self, secret: str | None, active: bool) -> None:
         self.check_token(secret)
@@ -263,6 +270,7 @@ class Desk:
         if operating_mode is not None and operating_mode not in OPERATING_MODES:
             raise DeskRefusal(400, "BadRequest", f"operating_mode {operating_mode!r}: "
                               f"expected {' or '.join(OPERATING_MODES)}")
+        self._check_panda_mode(operating_mode)
         self.brakes = brakes or self.brakes
         self.operating_mode = operating_mode or self.operating_mode
         self._changed()
