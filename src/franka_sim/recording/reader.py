@@ -14,8 +14,8 @@ import numpy as np
 from franka_sim.protocol.codec import (GRIPPER_STATE_DTYPE, STATE_DTYPE,
                                      VACUUM_GRIPPER_STATE_DTYPE, decode_command)
 from franka_sim.recording import FORMAT_VERSION, being_written
-from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, WORLD_KEYS,
-                                           robot_channels, world_channels)
+from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, TOOL_STATE_KEYS,
+                                           WORLD_KEYS, robot_channels, world_channels)
 
 
 class RecordingError(Exception):
@@ -71,8 +71,9 @@ class Recording:
     def tool_states(self, robot: str | None = None) -> tuple[str, np.ndarray] | None:
         """(key, the states as one structured array) of the tool whose client took states on a
         robot (None: the first): the Hand's GripperState or the vacuum gripper's; None: none."""
-        for key, layout in (("gripper_state", GRIPPER_STATE_DTYPE),
-                            ("vacuum_gripper_state", VACUUM_GRIPPER_STATE_DTYPE)):
+        for service, layout in (("gripper", GRIPPER_STATE_DTYPE),
+                                ("vacuum_gripper", VACUUM_GRIPPER_STATE_DTYPE)):
+            key = TOOL_STATE_KEYS[service]
             entries = self.of(key, robot)
             if entries:
                 return key, np.frombuffer(b"".join(e.data for e in entries), layout)
