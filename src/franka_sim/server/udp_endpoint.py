@@ -78,8 +78,8 @@ class UdpEndpoint:
         robot it opens for (its datagrams are read in the cycle thread, outside that name)."""
         self.sock = bound_socket(host, 0, socket.SOCK_DGRAM)
         # Room for a burst of a stranger's datagrams (read and dropped one cycle later) beside
-        # the client's command: the kernel's default, ~200 KiB, fills with 50 of 4 KB and then
-        # drops the command too. Past net.core.rmem_max where the server may (CAP_NET_ADMIN),
+        # the client's command: the kernel's default, ~200 KiB, fills with a few hundred KB and
+        # then drops the command too. Past net.core.rmem_max where the server may (CAP_NET_ADMIN),
         # else up to it; memory is taken only while datagrams wait.
         try:
             if SO_RCVBUFFORCE is None:
