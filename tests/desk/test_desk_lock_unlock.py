@@ -6,6 +6,7 @@ the Hand homed through the control API."""
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import signal
@@ -50,6 +51,13 @@ def _call(host: str, method: str, path: str, body=None, headers=None, cookie=Non
                                 timeout=30) as answer:
         text = answer.read().decode()
     return json.loads(text) if text.startswith(("{", "[")) else text
+
+
+def test_the_rest_api_names_the_arm_a_fer(sim):
+    basic = "Basic " + base64.b64encode(f"{USER}:{PASSWORD}".encode()).decode()
+    headers = {"Authorization": basic}
+    assert _call(sim.host, "GET", "/api/system", headers=headers)["armType"] == "FER"
+    assert _call(sim.host, "GET", "/api/arm", headers=headers)["type"] == "FER"
 
 
 def test_system_4s_calls_bring_a_panda_up_and_home_its_hand(sim):

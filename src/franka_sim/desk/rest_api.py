@@ -20,7 +20,7 @@ def routes(desk: Desk) -> Routes:
     @add("GET", "/api/system")
     def system(call: Call) -> Answer:
         return Answer(body={"status": "Started", "operatingMode": {"status": desk.operating_mode},
-                            "controlSerialNumber": desk.serial, "armType": "FR3"})
+                            "controlSerialNumber": desk.serial, "armType": _arm_type(desk)})
 
     @add("GET", "/api/system/operating-mode")
     def operating_mode(call: Call) -> Answer:
@@ -60,7 +60,7 @@ def routes(desk: Desk) -> Routes:
 
     @add("GET", "/api/arm")
     def arm(call: Call) -> Answer:
-        return Answer(body={"status": "Connected", "type": "FR3"})
+        return Answer(body={"status": "Connected", "type": _arm_type(desk)})
 
     @add("GET", "/api/arm/joints")
     def joints(call: Call) -> Answer:
@@ -111,3 +111,9 @@ def _granted(request: Request) -> Answer:
         raise DeskRefusal(424, "Timeout", "the control token is held by "
                           "another user, who did not release it within the timeout")
     return Answer(body={"token": request.token.secret, "tokenId": request.token.id})
+
+
+def _arm_type(desk: Desk) -> str:
+    """The arm's type as the Desk names it: a Panda's description ("fer") is a FER, every
+    other one an FR3 (as robot/checks/figures.py picks their limits)."""
+    return "FER" if desk.robot == "fer" else "FR3"
