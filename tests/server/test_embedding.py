@@ -47,6 +47,50 @@ def test_async_with_serves_a_real_client_and_shuts_down_cleanly():
     assert again.returncode == 0
 
 
+def test_several_simulators_in_one_process_name_their_lines():
+    """Each simulator's lines start with its address while another serves in the process
+    (log_names.py); alone, its lines name none, as `serve`'s do."""
+    import logging
+
+    from franka_sim.log_names import RobotName
+
+    first, second = fresh_loopback_address(), fresh_loopback_address()
+    lines: list[str] = []
+    handler = logging.Handler()
+    handler.emit = lambda record: lines.append(f"{record.robot}{record.getMessage()}")
+    handler.addFilter(RobotName())
+    logger = logging.getLogger("franka_sim")
+    logger.addHandler(handler)
+
+    async def read_from(host: str) -> str:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, "-c", CLIENT, host, stdout=asyncio.subprocess.PIPE)
+        out, _ = await asyncio.wait_for(proc.communicate(), 60)
+        return out.decode()
+
+    async def app():
+        async with FrankaSim(host=first) as sim:
+            await read_from(first)
+            async with FrankaSim(host=second, clock="lockstep"):
+                outs = await asyncio.gather(read_from(first), read_from(second))
+            await read_from(first)
+            return outs, sim.core.message_id
+
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(logger, "level", logging.INFO)
+            outs, ticks = asyncio.run(app())
+    finally:
+        logger.removeHandler(handler)
+    assert [out.split()[0] for out in outs] == ["Idle", "Idle"]
+    connected = [line for line in lines if "client" in line and " connected" in line]
+    assert len(connected) == 4, lines
+    alone, *together, alone_again = connected
+    assert alone.startswith("FCI client ") and alone_again.startswith("FCI client ")
+    assert sorted(line.split(": ")[0] for line in together) == sorted([first, second])
+    assert any(line.startswith(f"{second}: simulated FR3") for line in lines), lines
+
+
 def test_the_clock_by_its_name_and_a_misspelt_setting():
     host = fresh_loopback_address()
     with pytest.raises(TypeError, match="no setting 'clok'"):

@@ -66,3 +66,26 @@ def test_a_recording_keeps_which_robot_each_line_is_about(tmp_path):
     connected = [line for line in lines if "FCI client" in line["message"]]
     assert connected and all(line.get("robot") == "right" for line in connected), connected
     assert any("robot" not in line for line in lines)  # the world's own lines name none
+
+
+def test_a_thread_started_by_one_of_several_simulators_names_it(caplog):
+    from franka_sim.log_names import ContextThread, SimName
+
+    first, second = SimName("127.0.0.2"), SimName("127.0.0.3")
+    caplog.handler.addFilter(RobotName())
+    with caplog.at_level("WARNING"):
+        first.serving(True)
+        with first.current():
+            log.warning("alone")  # (the only one serving: unnamed)
+        try:
+            second.serving(True)
+            with second.current():
+                thread = ContextThread(target=log.warning, args=("in its thread",))
+                with about("left"):
+                    thread.start()
+            thread.join()
+            log.warning("the process's own")
+        finally:
+            first.serving(False)
+            second.serving(False)
+    assert _lines(caplog) == ["alone", "127.0.0.3: left: in its thread", "the process's own"]

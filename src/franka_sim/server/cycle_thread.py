@@ -29,9 +29,10 @@ import ctypes
 import logging
 import select
 import socket
-import threading
 import time
 from typing import Any, Callable
+
+from franka_sim.log_names import ContextThread
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +65,7 @@ class CycleThread:
         self._doorbell, self._bell = socket.socketpair()
         for end in (self._doorbell, self._bell):
             end.setblocking(False)
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread = ContextThread(target=self._run, name=name, daemon=True)
         self._backend: Any = None
         # Only touched by the worker thread:
         self._tick: Tick | None = None

@@ -20,7 +20,7 @@ from franka_sim import kernels
 from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.config_rules import ConfigError, checked
-from franka_sim.log_names import about
+from franka_sim.log_names import SimName, about
 from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -89,6 +89,8 @@ class FrankaSim(EmbeddedOperations):
         # --record: the whole run, from the world's first cycle (OSError: cannot be written).
         self.recorder = None if config.record is None else self.recordings.open(
             config.record, start=START_FRESH)
+        # Its lines' name while other simulators serve in this process (log_names.py).
+        self.log_name = SimName(self.robots[0].host)
         self.web = None  # web/live.py LiveView while --web serves it
         self._web_start = None  # the thread starting it (a cancelled start leaves it going)
         self._halting = None  # the stop under way: it runs to its end, cancelled or not
@@ -102,10 +104,16 @@ class FrankaSim(EmbeddedOperations):
         if self._served:
             raise RuntimeError("a FrankaSim serves once: make a new one to serve again")
         self._served = True
+        self.log_name.serving(True)
+        with self.log_name.current():  # (what it starts runs under its name)
+            return await self._start()
+
+    async def _start(self) -> "FrankaSim":
         try:
             await self.worker.start(on_failure=lambda reason: self.failed.set())
         except BaseException:  # (the world could not be built: an arm inside a body)
             self._discard_recording()
+            self.log_name.serving(False)
             raise
         config = self.config
         started = []
@@ -193,7 +201,8 @@ class FrankaSim(EmbeddedOperations):
         removed."""
         self._started = False
         if self._halting is None:
-            self._halting = asyncio.ensure_future(self._halt(robots, keep_recording))
+            with self.log_name.current():
+                self._halting = asyncio.ensure_future(self._halt(robots, keep_recording))
         await asyncio.shield(self._halting)
 
     async def _halt(self, robots, keep_recording: bool) -> None:
@@ -216,6 +225,7 @@ class FrankaSim(EmbeddedOperations):
             self.recordings.close()
         else:
             self._discard_recording()
+        self.log_name.serving(False)
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()

@@ -28,6 +28,8 @@ import tempfile
 import threading
 import time
 
+from franka_sim.log_names import ContextThread
+
 log = logging.getLogger(__name__)
 
 # s: a smooth view at half the CPU of 60 (with software GL a frame of the arm's look costs a
@@ -55,7 +57,7 @@ class LiveViewer:
     def __init__(self, model, data) -> None:
         self.model, self.source = model, data
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._feed, name="fsim-viewer", daemon=True)
+        self._thread = ContextThread(target=self._feed, name="fsim-viewer", daemon=True)
         self._child: subprocess.Popen | None = None
         self._sock: socket.socket | None = None
         self._stderr = None

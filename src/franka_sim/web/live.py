@@ -18,6 +18,7 @@ import logging
 import threading
 import time
 
+from franka_sim.log_names import ContextThread
 from franka_sim.web.arm_panel import ArmPanel
 from franka_sim.web.snapshots import SnapshotTap
 from franka_sim.web.world_view import WorldView
@@ -44,7 +45,7 @@ class LiveView:
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="fsim-web", daemon=True)
+        self._thread = ContextThread(target=self._run, name="fsim-web", daemon=True)
         self.server = None
 
     def start(self) -> None:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from mcap.writer import CompressionType, Writer
 
+from franka_sim.log_names import ContextThread
 from franka_sim.recording import FORMAT_VERSION
 from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, TOOL_STATE_KEYS,
                                            robot_channels, world_channels)
@@ -89,7 +90,7 @@ class RecordingWriter:
         self.free_bodies: list[tuple[str, int]] = []  # (name, qpos address)
         self._repeats: list[int] | None = None  # [first, last, wall] of a run being kept
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="fsim-recorder", daemon=True)
+        self._thread = ContextThread(target=self._run, name="fsim-recorder", daemon=True)
         self._reported_drops = 0
         self._unflushed = False
         self.failure: OSError | None = None  # the write that stopped the recording
