@@ -181,6 +181,28 @@ def test_a_silent_client_heard_again_goes_on_from_where_the_arm_was_braked():
     assert h.state["robot_mode"] == RobotMode.kMove
 
 
+def test_a_velocity_stream_heard_again_is_judged_where_the_robot_held_the_arm():
+    """A client paused for 4 s at -0.2 rad/s on joint 4 (a debugger), then going on at that
+    speed: the robot braked and held the arm, so the stream goes on from there (~0.7 rad from
+    joint 4's lower end), not from the 0.8 rad further the paused speed would have taken it
+    over the whole gap, past the end, where the velocity law allows 0 rad/s."""
+    h = _running_velocity_motion(enforce_motion_limits=True)
+    on_joint_4 = np.zeros(7)
+    for dq in np.arange(0.0, 0.2 + 1e-9, 0.001):
+        on_joint_4[3] = -dq
+        h.send(dq_c=on_joint_4)
+        h.cycle()
+    h.cycle(4000)
+    assert h.core.client_silent
+    held = np.array(h.state["q_d"], dtype=float)
+    for _ in range(10):
+        h.send(dq_c=on_joint_4)
+        h.cycle()
+    assert h.state["robot_mode"] == RobotMode.kMove and not h.state["errors"].any()
+    assert h.statuses() == []
+    np.testing.assert_allclose(h.state["q_d"][3], held[3] - 0.2 * 0.010, atol=1e-5)
+
+
 def test_twenty_lost_cycles_abort_with_communication_constraints_violation():
     h = _running_velocity_motion(enforce_comm_constraints=True)
     h.send(dq_c=np.zeros(7))

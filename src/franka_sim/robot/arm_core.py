@@ -164,7 +164,7 @@ class ArmCore(FciRobot):
         guard = self.guard
         guard.released()
         if command is not None:
-            if self._judge(guard.judge_command, command):
+            if self._judge(guard.judge_command, command, motion.reference.q_d):
                 return  # a violating command never reaches the physics
             motion.apply(command)
             self._silent = False

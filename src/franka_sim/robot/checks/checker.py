@@ -44,6 +44,11 @@ class CommandChecker:
         """Append what `command` breaks to `out`, and advance the signal's history."""
         raise NotImplementedError
 
+    def resume(self, q_d) -> None:
+        """Cycles went by without a command: the robot's own reference went on meanwhile
+        (carried on, or braked to rest and held) and is now at `q_d`, where the next command
+        takes over. A signal the robot integrates goes on from there."""
+
 
 class CheckerChain(CommandChecker):
     """Several checkers judging the same command stream, reported in their order."""
@@ -64,6 +69,10 @@ class CheckerChain(CommandChecker):
     def judge(self, command, cycles: int, out: list) -> None:
         for judge in self._judges:
             judge(command, cycles, out)
+
+    def resume(self, q_d) -> None:
+        for checker in self.checkers:
+            checker.resume(q_d)
 
 
 def first_over(out: list, names: ErrorNames, axis: str, unit: str, checks) -> None:

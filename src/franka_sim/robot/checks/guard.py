@@ -34,9 +34,14 @@ class MotionGuard:
         """One more cycle went by (applied or not): the differencing interval grows."""
         self._cycles_since_applied += 1
 
-    def judge_command(self, command) -> list[Violation]:
+    def judge_command(self, command, q_d) -> list[Violation]:
+        """`q_d`: the robot's joint reference as the command arrives (what a gap carried on)."""
         cycles, self._cycles_since_applied = max(self._cycles_since_applied, 1), 0
-        return [] if self._commands is None else self._commands.check(command, cycles)
+        if self._commands is None:
+            return []
+        if cycles > 1:
+            self._commands.resume(q_d)
+        return self._commands.check(command, cycles)
 
     def judge_ik(self, reference: JointReference) -> list[Violation]:
         return [] if self._ik is None else self._ik.check(reference)

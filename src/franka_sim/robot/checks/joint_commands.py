@@ -18,6 +18,7 @@ import numpy as np
 
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.kernels import joint_position_step
+from franka_sim.protocol.timing import CYCLE_PERIOD
 from franka_sim.robot.checks.checker import CommandChecker, first_over
 from franka_sim.robot.checks.figures import (
     JOINT_POSITION_MAGNITUDE, JOINT_POSITION_NAMES, JOINT_RANGE_ERROR, JOINT_START_ERROR,
@@ -128,13 +129,24 @@ class JointVelocityChecker(_JointStream):
 
     def __init__(self, desc: ArmDescription, q_start) -> None:
         super().__init__(desc, q_start, JOINT_VELOCITY_MAGNITUDE, 1)
+        self._resumed = False
+
+    def resume(self, q_d) -> None:
+        """The robot integrates dq_c into its own q_d, which a gap carried on (or braked and
+        held): the next command moves it one cycle from there, not from where the stream's
+        last command would have taken it over the whole gap."""
+        self._q = self._table.signed(q_d)
+        self._move_floor(self._q)
+        self._resumed = True
 
     def judge(self, command, n: int, out: list) -> None:
         dq = self._table.signed(command["dq_c"])
         s1, s2, _ = self._grid.spacings(n)
         a = (dq - self._v) / s1
         j = (a - self._a) / s2
-        q_next = self._q + dq * s1  # the robot integrates dq_c into q_d; the law applies there
+        # The robot integrates dq_c into q_d; the law applies there.
+        q_next = self._q + dq * (CYCLE_PERIOD if self._resumed else s1)
+        self._resumed = False
         if not self._proven_inside(q_next, dq, a, j):
             limits = self._table.speed_limits(self._q)
             excess = np.maximum(dq - limits - self._v_slack,
