@@ -289,6 +289,27 @@ def test_invalid_mode_pairs_are_rejected_as_invalid_arguments(controller, genera
     assert Harness().move(controller, generator) == MoveStatus.kInvalidArgumentRejected
 
 
+def test_an_async_target_answering_a_state_long_gone_is_followed():
+    """libfranka's async handler sends each target once, echoing the last state its program
+    read: a program that sleeps between reads and targets answers a state long gone. The
+    robot's own generator takes the target all the same (its last one sent, in one cycle)."""
+    h = Harness()
+    assert h.move(0, 0, use_async=True, maximum_velocity=(1.0,) * 7) == \
+        MoveStatus.kMotionStarted
+    h.cycle()
+    read = int(h.state["message_id"])
+    h.cycle(50)  # the program slept meanwhile
+    q_start = np.array(h.state["q_d"], dtype=float)
+    first, target = q_start.copy(), q_start.copy()
+    first[0] -= 0.1
+    target[0] += 0.1
+    h.send(message_id=read, q_c=first)
+    h.send(message_id=read, q_c=target)  # (sent after it: this one counts)
+    h.cycle(1000)
+    np.testing.assert_allclose(h.state["q_d"], target, atol=1e-9)
+    assert h.state["robot_mode"] == RobotMode.kMove
+
+
 def test_async_motion_needs_a_maximum_velocity():
     assert Harness().move(0, 0, use_async=True) == MoveStatus.kInvalidArgumentRejected
 

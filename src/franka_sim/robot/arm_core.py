@@ -160,6 +160,10 @@ class ArmCore(FciRobot):
     def _close_window(self, motion: Motion) -> None:
         self.limit_policy.run_deferred()  # the last cycle's first: the checks difference samples
         command = self.window.close()
+        if command is None and motion.spec.use_async:
+            # A target counts whenever it comes: libfranka's async handler sends each one once,
+            # answering the last state its program read, which may be long gone.
+            command = self.window.late
         lost = self.window.consecutive_lost
         guard = self.guard
         guard.released()

@@ -14,9 +14,10 @@ the modes flip (it is how it learns the motion started), so counting the cycles 
 first command would report every libfranka client as lossy. Consecutive losses still count
 from the start, so a client that never sends is aborted all the same.
 
-A late answer is kept aside for the cycle (`late`), its values never applied: a client whose
-every answer is late (a round trip over one cycle, as a network delay makes it) is still heard,
-which a server that does not abort it needs to know (its finish, robot/arm_core.py).
+A late answer is kept aside for the cycle (`late`), its values never applied to a stream: a
+client whose every answer is late (a round trip over one cycle, as a network delay makes it) is
+still heard, which a server that does not abort it needs to know (its finish,
+robot/arm_core.py). An async motion's target is no stream: it is taken late too.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ class CommandWindow:
             return False  # overtaken by a newer command already received
         if self.open_id is not None and message_id < self.open_id:
             self.late_total += 1  # its cycle is gone (extrapolated): dropped
-            if self._late is None or message_id > self._late[0]:
+            if self._late is None or message_id >= self._late[0]:  # (the last sent)
                 self._late = (message_id, command)
             return False
         if self.open_id is not None and message_id > self.open_id:
