@@ -42,14 +42,19 @@ def cartesian_damping(K_x: np.ndarray) -> np.ndarray:
     return 2.0 * np.sqrt(K_x * NOMINAL_EE_INERTIA)
 
 
-def cartesian_impedance_torque(K_x, D_x, O_T_K_d, O_T_K, J_K, dq, q_d, q) -> np.ndarray:
+def cartesian_impedance_torque(K_x, D_x, O_T_K_d, O_T_K, J_K, dq, q_d, q,
+                               dq_d=None) -> np.ndarray:
     """Joint torques of a Cartesian spring-damper in the stiffness frame K.
 
     K_x (SetCartesianImpedance) acts along the axes of K: a push on K displaces it by F/K_x;
-    D_x is cartesian_damping(K_x). J_K is the base-frame Jacobian of K's origin; the error and
-    the velocity are rotated into K, scaled, and rotated back. Gravity is the physics' business
-    (the robot adds it).
+    D_x is cartesian_damping(K_x). J_K is the base-frame Jacobian of K's origin; the pose error
+    and the twist error (the desired twist, J_K·dq_d, less the measured one) are rotated into K,
+    scaled, and rotated back: the robot tracks O_T_EE_d and O_dP_EE_d both, so a moving target
+    is followed without a lag of D/K times its speed. Gravity is the physics' business (the
+    robot adds it).
     """
+    if dq_d is not None:
+        dq = dq - dq_d  # (the damper acts on the velocity error)
     R = O_T_K[:3, :3]
     error_O = pose_error(O_T_K_d, O_T_K)
     velocity_O = J_K @ dq

@@ -79,10 +79,13 @@ class Drives:
         F_T_K = cached[2]
         # The Jacobian at q_d stands in for the one at q: they differ by the tracking error.
         J_K = ee_jacobian(m.O_T_F, J_F_d, F_T_K)
-        return cartesian_impedance_torque(
+        ref = motion.reference
+        # (what the robot reports as tau_J_d: the torque its controller asks, without gravity)
+        motion.tau_J_d = cartesian_impedance_torque(
             settings.K_x, settings.D_x, O_T_F_d @ F_T_K, m.O_T_F @ F_T_K, J_K, m.dq,
-            motion.reference.q_d, m.q,
+            ref.q_d, m.q, ref.dq_d,
         )
+        return motion.tau_J_d
 
     def hold_at(self, q: np.ndarray) -> None:
         """From now on (idle) the arm is held at q."""

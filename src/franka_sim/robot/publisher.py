@@ -24,6 +24,7 @@ from franka_sim.kernels import impedance_torque, narrow_into
 from franka_sim.physics.backend import Measured
 from franka_sim.protocol.codec import StateBuffer
 from franka_sim.protocol.enums import ControllerMode, MotionGeneratorMode
+from franka_sim.protocol.enums import MoveControllerMode as Ctrl
 from franka_sim.protocol.enums import MoveMotionGeneratorMode as Gen
 from franka_sim.protocol.timing import CYCLE_PERIOD as DT
 from franka_sim.robot.settings import RobotSettings
@@ -211,8 +212,9 @@ class StatePublisher:
             q_d, dq_d, ddq_d = ref.q_d, ref.dq_d, ref.ddq_d
         s.q_d[:] = q_d
         s.dq_d[:] = dq_d
-        if spec.torque_controlled:
-            s.tau_J_d[:] = motion.tau_J_d
+        if spec.torque_controlled or (spec.controller is Ctrl.kCartesianImpedance
+                                      and not motion.braking):
+            s.tau_J_d[:] = motion.tau_J_d  # the client's, or the Cartesian impedance's
         else:  # the internal impedance's torque, without gravity (as the robot defines tau_J_d):
             settings = self.settings  # K·(q_d − q) + D·(dq_d − dq), D derived from K
             impedance_torque(settings.K_theta, settings.D_theta, q_d, dq_d, m.q, m.dq, s.tau_J_d)
