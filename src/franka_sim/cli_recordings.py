@@ -84,7 +84,8 @@ def plot(
     fields: str | None = typer.Option(
         None, help="More RobotState fields, one panel each, e.g. elbow,O_dP_EE_d."),
     robot: str | None = typer.Option(
-        None, help="The robot to draw, by name, in a recording of several (default: the first)."),
+        None, help="The robot to draw, by name, in a recording of several (default: the first "
+        "that sent a state)."),
 ) -> None:
     """Draw a recording: q vs q_d, dq, tau_J vs tau_J_d, the external wrench, the success
     rate, the robot mode with motions and errors, and the Hand's width (needs

@@ -71,8 +71,9 @@ def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):
     gaps = int((np.diff(ids) > 1).sum())
     assert gaps > 0  # (the session's motions end, and the world settles unsent)
     fig = figure(recording, joints=[0, 3])
-    for ax in fig.axes[:5]:  # q, dq, tau, wrench, success
-        curves = [line for line in ax.get_lines() if len(line.get_xdata()) > 2]
+    for ax in fig.axes[:6]:  # q, dq, tau, wrench, success, the robot mode
+        curves = [line for line in ax.get_lines() if len(line.get_xdata()) > 2
+                  and (ax is not fig.axes[5] or line.get_drawstyle() == "steps-post")]
         assert curves  # (not only the motions' boundaries)
         for line in curves:
             x = np.asarray(line.get_xdata(), dtype=float)
@@ -80,6 +81,26 @@ def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):
             runs = np.split(x, np.flatnonzero(np.isnan(x)))
             assert all(np.all(np.diff(run[np.isfinite(run)]) < 1.5e-3) for run in runs)
     plt.close(fig)
+
+
+def test_a_recording_whose_first_robot_sent_nothing_plots_the_first_that_did(tmp_path):
+    """Two arms, a client on the right one only: plot draws the right arm, unasked."""
+    pytest.importorskip("matplotlib")
+    from franka_sim.testing import ServerProcess, fresh_loopback_address
+    from support.clients import connect
+
+    left, right, path = fresh_loopback_address(), fresh_loopback_address(), tmp_path / "r.mcap"
+    server = ServerProcess(left, "--scene", "dual_arm_table", "--arm", f"left={left}",
+                           "--arm", f"right={right}", "--record", str(path))
+    try:
+        server.wait_ready()
+        connect(right).read_once()
+    finally:
+        server.stop()
+    assert not len(open_recording(path).states("left"))
+    done = franka_sim("plot", str(path), "-o", str(tmp_path / "r.png"))
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "r.png").stat().st_size > 0
 
 
 def test_the_vacuum_grippers_panel_draws_its_vacuum_shaded_where_a_part_was_present():

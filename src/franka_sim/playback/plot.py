@@ -78,7 +78,7 @@ def parse_fields(text: str | None) -> list[str]:
 
 def plot(recording: Recording, output: Path, *, joints: list[int], start: float | None = None,
          end: float | None = None, fields: list[str] = (), robot: str | None = None) -> int:
-    """Write the PNG of one robot (None: the first, a lone arm); the number of panels."""
+    """Write the PNG of one robot (None: the first that sent a state); the number of panels."""
     fig = figure(recording, joints=joints, start=start, end=end, fields=fields, robot=robot)
     fig.savefig(output, dpi=DPI, format=output_format(output))
     import matplotlib.pyplot as plt
@@ -99,6 +99,9 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
 
     if start is not None and end is not None and start > end:
         raise PlotError(f"--from {start:g} is after --to {end:g}")
+    if robot is None:  # (a world whose first arm had no client: its base's, say)
+        robot = next((name for name in recording.robots if len(recording.states(name))
+                      or recording.tool_states(name) is not None), None)
     states = recording.states(robot)
     tool = recording.tool_states(robot)
     if not len(states) and tool is None:
@@ -163,7 +166,7 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
             ax.set_ylim(-0.05, 1.05)
             ax.set_ylabel("success rate")
         elif panel == "timeline":
-            _timeline(ax, recording, states, t, window, robot)
+            _timeline(ax, recording, states, t, window, robot, cut)
         elif panel in TOOL_PANELS:
             _tool(ax, panel, *tool[1:])
         else:
@@ -248,10 +251,10 @@ def _boundaries(ax, recording: Recording, window, robot) -> None:
             ax.axvline(mark.cycle * CYCLE_PERIOD, color="g", lw=0.8, ls="--")
 
 
-def _timeline(ax, recording: Recording, states, t, window, robot) -> None:
+def _timeline(ax, recording: Recording, states, t, window, robot, cut) -> None:
     names = mode_names()
     modes = states["robot_mode"].astype(int)
-    ax.step(t, modes, where="post", color="k")
+    ax.step(cut(t), cut(modes), where="post", color="k")  # (no mode drawn where none was sent)
     shown = sorted(set(modes.tolist()) | {1, 2, 4})
     ax.set_yticks(shown, [names.get(m, str(m)) for m in shown])
     ax.set_ylabel("robot mode")
