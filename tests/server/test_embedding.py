@@ -91,6 +91,32 @@ def test_several_simulators_in_one_process_name_their_lines():
     assert any(line.startswith(f"{second}: simulated FR3") for line in lines), lines
 
 
+def test_each_robot_of_a_world_of_several_has_its_operations():
+    left, right, base = (fresh_loopback_address() for _ in range(3))
+
+    async def app():
+        async with FrankaSim(scene="mobile_duo", mobile_base=base,
+                             arms=(ArmSpec("left", left), ArmSpec("right", right))) as sim:
+            proc = await asyncio.create_subprocess_exec(
+                sys.executable, "-c", CLIENT, right, stdout=asyncio.subprocess.PIPE)
+            out, _ = await asyncio.wait_for(proc.communicate(), 60)
+            arm = sim.operations("right")
+            health, state = await arm.health(), await arm.state()
+            await arm.reset()
+            base_health = await sim.operations("base").health()
+            with pytest.raises(KeyError, match=r"no robot named 'nope' \(left, right, base\)"):
+                sim.operations("nope")
+            assert not hasattr(sim.operations("base"), "reset")  # (its API serves none)
+        with pytest.raises(RuntimeError, match="not serving"):
+            await arm.state()
+        return out.decode(), health, state, base_health
+
+    out, health, state, base_health = asyncio.run(app())
+    assert out.split()[0] == "Idle"
+    assert health["arm"] == "right"
+    assert state["robot_mode"] == "Idle" and base_health["mobile_base"] is True
+
+
 def test_the_clock_by_its_name_and_a_misspelt_setting():
     host = fresh_loopback_address()
     with pytest.raises(TypeError, match="no setting 'clok'"):

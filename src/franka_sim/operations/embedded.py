@@ -2,7 +2,9 @@
 
 `EmbeddedOperations` has one async method per row an arm has (control/table.py), each
 handing its arguments to the first arm's operations (the embedder's `control`) and raising
-the same refusals the HTTP client does. Made from the table, so a new row needs nothing here.
+the same refusals the HTTP client does; `ArmOperations` and `BaseOperations` the same for any
+robot of a world of several (`sim.operations("right")`, `sim.operations("base")`). Made from
+the table, so a new row needs nothing here.
 """
 
 from __future__ import annotations
@@ -46,7 +48,29 @@ class EmbeddedOperations:
         """Raise if nothing steps the world now: an operation would wait for ever."""
 
 
+class RobotOperations:
+    """One robot's operations in a world of several (FrankaSim.operations): an arm's, or the
+    mobile base's (those its control API serves)."""
+
+    def __init__(self, sim, robot) -> None:
+        self._sim, self.control = sim, robot.control
+
+    def check_serving(self) -> None:
+        self._sim.check_serving()
+
+
+class ArmOperations(RobotOperations):
+    pass
+
+
+class BaseOperations(RobotOperations):
+    pass
+
+
 for _operation in OPERATIONS:
-    if Kind.ARM in _operation.kinds:
-        setattr(EmbeddedOperations, _operation.name, _delegate(_operation))
-del _operation
+    for _kind, _holders in ((Kind.ARM, (EmbeddedOperations, ArmOperations)),
+                            (Kind.BASE, (BaseOperations,))):
+        if _kind in _operation.kinds:
+            for _holder in _holders:
+                setattr(_holder, _operation.name, _delegate(_operation))
+del _operation, _kind, _holders, _holder

@@ -289,6 +289,17 @@ class FrankaSim(EmbeddedOperations):
     def tool_endpoint(self):
         return self.arms[0].tool_endpoint
 
+    def operations(self, name: str):
+        """The control operations of the robot of that name, as async methods (`await
+        sim.operations("right").reset()`; the mobile base's: "base"). KeyError: none."""
+        from franka_sim.operations.embedded import ArmOperations, BaseOperations
+
+        for robot in self.robots:
+            if robot.name == name:
+                kind = ArmOperations if robot.parts.kind == "arm" else BaseOperations
+                return kind(self, robot)
+        raise KeyError(f"no robot named {name!r} ({', '.join(r.name for r in self.robots)})")
+
     def arm(self, name: str) -> RobotServer:
         """The arm of that name (KeyError: none)."""
         for arm in self.arms:
