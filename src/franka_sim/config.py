@@ -44,6 +44,9 @@ class RobotKind(str, Enum):
 
 
 ROBOTS = tuple(kind.value for kind in RobotKind)
+# m from the world's origin: far beyond any scene. An arm's base, or a body placed through the
+# control API, stands within it.
+WORLD_REACH = 100.0
 
 
 class ClockMode(str, Enum):

@@ -9,7 +9,7 @@ import dataclasses
 import math
 import ipaddress
 
-from franka_sim.config import DESK_BOOTS, ROBOTS, ClockMode, Config
+from franka_sim.config import DESK_BOOTS, ROBOTS, WORLD_REACH, ClockMode, Config
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -96,8 +96,8 @@ def _physics(config: Config) -> None:
                           f"{', '.join(ENGINES)})")
     if engine == "mujoco":
         return
-    if missing := engine_missing(engine):
-        raise ConfigError("--physics", missing)
+    # What the engine cannot simulate is said before what is not installed: a 4 GB extra
+    # installed for a world it refuses anyway is the worse news later.
     if len(config.arm_specs()) > 1 or config.mobile_base is not None:
         raise ConfigError("--physics", f"{engine} simulates one arm on the world (one --arm at "
                                        "most, no --mobile-base)")
@@ -108,6 +108,8 @@ def _physics(config: Config) -> None:
         if used:
             raise ConfigError("--physics", f"{engine} is served without {flag} "
                               "(they draw and record the MuJoCo world)")
+    if missing := engine_missing(engine):
+        raise ConfigError("--physics", missing)
 
 
 def _kinds(config: Config) -> None:
@@ -129,6 +131,9 @@ def _kinds(config: Config) -> None:
         if spec.base is not None and len(spec.base) not in (3, 4):
             raise ConfigError("--arm", f"arm {spec.name}: its base {spec.base!r} is x, y, z "
                               "and an optional yaw in degrees")
+        if spec.base is not None and not math.hypot(*spec.base[:3]) <= WORLD_REACH:
+            raise ConfigError("--arm", f"arm {spec.name}: its base {tuple(spec.base[:3])} is "
+                              f"over {WORLD_REACH:g} m from the world's origin")
 
 
 def _desk(config: Config) -> None:

@@ -72,6 +72,12 @@ def test_genesis_refuses_what_it_does_not_simulate(monkeypatch, changes, refused
     checked(Config(physics="genesis", arms=ONE_ARM))  # one arm on the world, the Hand: served
 
 
+def test_a_world_genesis_cannot_simulate_is_said_before_its_missing_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "genesis", None)  # (not installed)
+    with pytest.raises(ConfigError, match="simulates one arm"):
+        checked(Config(physics="genesis", arms=TWO_ARMS))
+
+
 def test_genesis_refuses_the_mujoco_viewer_at_the_command_line():
     # (a display named, so that the viewer's own need of one is not what refuses it)
     done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--physics", "genesis",

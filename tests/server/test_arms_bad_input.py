@@ -71,6 +71,8 @@ def test_an_unknown_scene_name():
     ("left=127.0.0.5@1,2", "3 or 4 finite numbers"),
     ("left=127.0.0.5@1,x,2", "in numbers"),
     ("a/b=127.0.0.5", "no '/'"),
+    ("left=127.0.0.5@1e9,0,0", "its base (1000000000.0, 0.0, 0.0) is over 100 m from the "
+     "world's origin"),
 ])
 def test_a_malformed_arm(spec, problem):
     assert problem in said(serve("--arm", spec))

@@ -18,6 +18,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from franka_sim.config import WORLD_REACH
 from franka_sim.control.errors import BadRequest, Conflict, ControlError, NotFound
 from franka_sim.description.hand import flange_to_ee
 from franka_sim.description.urdf import ArmDescription
@@ -39,11 +40,11 @@ from franka_sim.robot.tool import ToolDevice
 BUSY_MODES = (RobotMode.kMove, RobotMode.kAutomaticErrorRecovery)
 # The largest push and placement the world stays physical under: under 1000 N at the hand
 # the arm's joint limits hold (tens of kN tear it past them, ~1 MN breaks the step); 100 Nm
-# turns a link or the cube; 100 m from the world's origin is far beyond any scene; a push
+# turns a link or the cube; WORLD_REACH (config.py) is far beyond any scene; a push
 # longer than a minute is a mistyped one (1e300 s would never end).
 MAX_PUSH_FORCE = 1000.0
 MAX_PUSH_TORQUE = 100.0
-MAX_PLACE = 100.0
+MAX_PLACE = WORLD_REACH
 MAX_PUSH_DURATION = 60.0
 
 
