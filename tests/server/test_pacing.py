@@ -56,6 +56,15 @@ def test_a_stall_too_long_to_catch_up_reanchors():
     pacer.next_deadline(0.0, lockstep=False)
     deadline = pacer.next_deadline(1.0, lockstep=False)  # a frozen host: 1 s later
     assert deadline == pytest.approx(1.0 + PERIOD)
+    assert pacer.stalls == 1 and pacer.behind == pytest.approx(1.0 - 2 * PERIOD)  # (cycle 2)
+
+
+def test_a_clock_that_paused_anchors_anew_without_a_stall():
+    pacer = Pacer()
+    pacer.next_deadline(0.0, lockstep=False)
+    pacer.restart()  # (nobody connected: the clock paused)
+    assert pacer.next_deadline(5.0, lockstep=False) == pytest.approx(5.0 + PERIOD)
+    assert pacer.stalls == 0
 
 
 def test_lockstep_waits_a_window_from_when_the_state_left():

@@ -360,4 +360,5 @@ class Clock:
     def _pause(self) -> None:
         self.paused = True
         self.deadline = None
+        self.pacer.restart()
         return None

@@ -19,6 +19,7 @@ show what the reply says.
 from __future__ import annotations
 
 import asyncio
+import logging
 import threading
 import time
 from typing import Callable, Sequence
@@ -27,6 +28,9 @@ from franka_sim.server.clock import Clock, ClockWatcher
 from franka_sim.server.cycle_thread import CycleThread
 from franka_sim.server import read_probe
 from franka_sim.server.read_probe import probe_for, too_slow
+from franka_sim.thinned_log import worth_logging
+
+log = logging.getLogger(__name__)
 
 LOCKSTEP_SPIN = 300e-6  # s a lockstep tick keeps reading the sockets before it sleeps
 READ_POLL = 250e-6  # s between looks at a client's socket while the clock awaits its read
@@ -61,6 +65,7 @@ class CycleDriver:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._running = False
         self._busy = 0  # server_busy's count
+        self._stalls = 0  # the pacer's stalls said so far
 
     # -- the loop's side -------------------------------------------------------------------------
     async def start(self, endpoints: Sequence) -> None:
@@ -168,10 +173,24 @@ class CycleDriver:
                     break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
+            if self.clock.pacer.stalls != self._stalls and not self.lockstep:
+                self._stalled()
             return deadline if self.clock.awaits_read is None else self._looking(deadline)
         except BaseException:
             self._running = False  # the cycle thread logs it and stops the clock
             raise
+
+    def _stalled(self) -> None:
+        """The realtime clock fell behind the wall clock and went on from now (pacing.py):
+        said, thinned, since a client sees nothing of it but a slower robot."""
+        pacer = self.clock.pacer
+        for count in range(self._stalls + 1, pacer.stalls + 1):
+            if worth_logging(count):
+                log.warning("the realtime clock fell behind the wall clock (the cycle thread was "
+                            "not run in time, or its cycles took longer than 1 ms): the robot's "
+                            "time runs slower than the wall clock (stall %d, %.3f s "
+                            "behind in all)", count, pacer.behind)
+        self._stalls = pacer.stalls
 
     def _tick_locked(self, due: bool, answered: bool = False,
                      awaited: bool | None = None) -> float | None:

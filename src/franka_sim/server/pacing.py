@@ -7,7 +7,9 @@ at up to 2 kHz instead of bursting. The spacing counts from the moment the previ
 not from when its cycle was released: a thread held up between releasing a cycle and sending
 its state (not run by the machine for a while) would otherwise send that late state and the
 next on-time one back to back. It re-anchors after a stall too long to catch up (a frozen
-host), because no client benefits from a flood of stale cycles. `lockstep` (only while a motion
+host), because no client benefits from a flood of stale cycles: the robot's time then runs
+slower than the wall clock, which the pacer counts (`stalls`, `behind`) for the log. `lockstep`
+(only while a motion
 runs) releases the next cycle as soon as the command answering the current one arrives, and
 otherwise waits up to LOCKSTEP_WINDOW of wall time, from when the state left, for it: long
 enough that a client descheduled on a loaded machine (CI) loses no cycle, so the outcome of a
@@ -32,6 +34,8 @@ class Pacer:
     max_lag: float = 0.020
     _t0: float | None = None
     _k: int = 0
+    stalls: int = 0  # re-anchors after a stall: the robot's time fell behind the wall clock
+    behind: float = 0.0  # s of wall time those stalls lost, in all
 
     def next_deadline(self, sent_at: float, *, lockstep: bool) -> float:
         """The deadline of the cycle after the one whose state left at `sent_at`."""
@@ -43,9 +47,15 @@ class Pacer:
         self._k += 1
         deadline = self._t0 + self._k * self.period
         if sent_at - deadline > self.max_lag:
+            self.stalls += 1
+            self.behind += sent_at - deadline
             self._t0, self._k = sent_at, 1
             deadline = sent_at + self.period
         return max(deadline, sent_at + self.min_spacing)
+
+    def restart(self) -> None:
+        """The clock paused: the next realtime deadline anchors anew (no stall)."""
+        self._t0 = None
 
     @staticmethod
     def extend(deadline: float) -> float:
