@@ -206,6 +206,12 @@ class FrankaSim(EmbeddedOperations):
         await asyncio.shield(self._halting)
 
     async def _halt(self, robots, keep_recording: bool) -> None:
+        try:
+            await self._halt_all(robots, keep_recording)
+        finally:
+            self.log_name.serving(False)
+
+    async def _halt_all(self, robots, keep_recording: bool) -> None:
         for robot in robots:  # the robots first: nobody is served once stopping began
             await robot.stop_control_api()
         for robot in robots:
@@ -225,7 +231,6 @@ class FrankaSim(EmbeddedOperations):
             self.recordings.close()
         else:
             self._discard_recording()
-        self.log_name.serving(False)
 
     async def __aenter__(self) -> "FrankaSim":
         return await self.start()
