@@ -76,11 +76,12 @@ def test_several_simulators_in_one_process_name_their_lines():
             await read_from(first)
             return outs, sim.core.message_id
 
+    level = logger.level
+    logger.setLevel(logging.INFO)  # (setLevel: the loggers' cached levels are cleared too)
     try:
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(logger, "level", logging.INFO)
-            outs, ticks = asyncio.run(app())
+        outs, ticks = asyncio.run(app())
     finally:
+        logger.setLevel(level)
         logger.removeHandler(handler)
     assert [out.split()[0] for out in outs] == ["Idle", "Idle"]
     connected = [line for line in lines if "client" in line and " connected" in line]
