@@ -69,17 +69,17 @@ def test_several_simulators_in_one_process_name_their_lines():
         return out.decode()
 
     async def app():
-        async with FrankaSim(host=first) as sim:
+        async with FrankaSim(host=first):
             await read_from(first)
             async with FrankaSim(host=second, clock="lockstep"):
                 outs = await asyncio.gather(read_from(first), read_from(second))
             await read_from(first)
-            return outs, sim.core.message_id
+            return outs
 
     level = logger.level
     logger.setLevel(logging.INFO)  # (setLevel: the loggers' cached levels are cleared too)
     try:
-        outs, ticks = asyncio.run(app())
+        outs = asyncio.run(app())
     finally:
         logger.setLevel(level)
         logger.removeHandler(handler)
