@@ -49,6 +49,7 @@ MODULES = {
     "motion": ["robot/test_command_cycle.py", "robot/test_command_window.py",
                "robot/test_consecutive_motions.py", "robot/test_motion.py",
                "robot/test_motion_cartesian.py", "server/test_pacing.py",
+               "server/test_clock_stall.py", "clients/test_async_targets_client.py",
                "server/test_lockstep_idle.py", "server/test_determinism.py",
                "server/test_cycle_thread.py", "clients/test_lockstep_time.py",
                "server/test_lockstep_start.py", "clients/test_lockstep_start_client.py"],
