@@ -86,17 +86,11 @@ def test_no_line_is_drawn_across_states_that_were_not_sent(lockstep_run):
 def test_a_recording_whose_first_robot_sent_nothing_plots_the_first_that_did(tmp_path):
     """Two arms, a client on the right one only: plot draws the right arm, unasked."""
     pytest.importorskip("matplotlib")
-    from franka_sim.testing import ServerProcess, fresh_loopback_address
-    from support.clients import connect
+    from support.replayed import right_arm_only
 
-    left, right, path = fresh_loopback_address(), fresh_loopback_address(), tmp_path / "r.mcap"
-    server = ServerProcess(left, "--scene", "dual_arm_table", "--arm", f"left={left}",
-                           "--arm", f"right={right}", "--record", str(path))
-    try:
-        server.wait_ready()
-        connect(right).read_once()
-    finally:
-        server.stop()
+    path = tmp_path / "r.mcap"
+    with right_arm_only(path):
+        pass
     assert not len(open_recording(path).states("left"))
     done = franka_sim("plot", str(path), "-o", str(tmp_path / "r.png"))
     assert done.returncode == 0, done.stderr

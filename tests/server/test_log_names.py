@@ -49,19 +49,12 @@ def test_the_cycle_names_each_robot_of_several_and_a_lone_one_not():
 def test_a_recording_keeps_which_robot_each_line_is_about(tmp_path):
     """Its /log lines carry the robot's name as the console's do (`right: FCI client …`)."""
     from franka_sim.recording.reader import open_recording
-    from franka_sim.testing import ServerProcess, fresh_loopback_address
-    from support.clients import connect
+    from support.replayed import right_arm_only
 
-    left, right, path = fresh_loopback_address(), fresh_loopback_address(), tmp_path / "r.mcap"
-    server = ServerProcess(left, "--scene", "dual_arm_table", "--arm", f"left={left}",
-                           "--arm", f"right={right}", "--record", str(path))
-    try:
-        server.wait_ready()
-        connect(right).read_once()
+    path = tmp_path / "r.mcap"
+    with right_arm_only(path) as (server, right):
         assert server.wait_for_log("right: FCI client")
         assert server.log_matching(f"right: simulated FR3 serving on {right}:1337")
-    finally:
-        server.stop()
     lines = [e.json() for e in open_recording(path).of("log")]
     connected = [line for line in lines if "FCI client" in line["message"]]
     assert connected and all(line.get("robot") == "right" for line in connected), connected

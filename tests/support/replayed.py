@@ -8,6 +8,7 @@ import os
 import platform
 import subprocess
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -42,3 +43,21 @@ def replay_committed(path: Path, *args: str, env: dict | None = None
     env = {**(os.environ if env is None else env), "OPENBLAS_CORETYPE": COMMITTED_OPENBLAS_CORE}
     return subprocess.run([sys.executable, "-m", "franka_sim", "replay", str(path), *args],
                           capture_output=True, text=True, timeout=300, env=env)
+
+
+@contextmanager
+def right_arm_only(path: Path):
+    """A recording to `path` of two arms (dual_arm_table) whose right arm alone had a client,
+    which read one state: yields the server (stopped on leaving) and the right arm's address."""
+    from franka_sim.testing import ServerProcess, fresh_loopback_address
+    from support.clients import connect
+
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(left, "--scene", "dual_arm_table", "--arm", f"left={left}",
+                           "--arm", f"right={right}", "--record", str(path))
+    try:
+        server.wait_ready()
+        connect(right).read_once()
+        yield server, right
+    finally:
+        server.stop()
