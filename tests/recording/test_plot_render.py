@@ -91,10 +91,18 @@ def test_a_recording_whose_first_robot_sent_nothing_plots_the_first_that_did(tmp
     path = tmp_path / "r.mcap"
     with right_arm_only(path):
         pass
-    assert not len(open_recording(path).states("left"))
+    recording = open_recording(path)
+    assert not len(recording.states("left"))
     done = franka_sim("plot", str(path), "-o", str(tmp_path / "r.png"))
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "r.png").stat().st_size > 0
+    from franka_sim.playback.plot import figure
+
+    fig = figure(recording, joints=[0])
+    assert fig.axes[0].get_title().endswith("states of right")  # (it says which it drew)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
 
 
 def test_the_vacuum_grippers_panel_draws_its_vacuum_shaded_where_a_part_was_present():

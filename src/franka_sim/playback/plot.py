@@ -182,7 +182,8 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     axes[-1].set_xlabel("robot time [s] (message_id × 1 ms)")
     counted = [f"{len(states)} states"] if len(t) else []
     counted += [f"{len(tool[1])} {TOOL_PANELS[tool[0]]} states"] if tool is not None else []
-    axes[0].set_title(f"{recording.path.name}: {', '.join(counted)}")
+    whose = f" of {robot}" if len(recording.robots) > 1 else ""  # (which robot of several)
+    axes[0].set_title(f"{recording.path.name}: {', '.join(counted)}{whose}")
     fig.tight_layout()
     return fig
 
