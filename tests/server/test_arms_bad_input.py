@@ -109,6 +109,19 @@ def test_a_host_given_beside_arms_is_said_to_serve_nothing():
         server.stop()
 
 
+def test_the_mobile_duo_without_its_base_says_the_arms_stand_in_the_air():
+    from franka_sim.testing import ServerProcess
+
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    server = ServerProcess(left, "--scene", "mobile_duo", "--arm", f"left={left}",
+                           "--arm", f"right={right}").wait_ready()
+    try:
+        said = server.wait_for_log("stands its arms on the mobile base's column")
+        assert len(said) == 1 and "without --mobile-base ADDRESS" in said[0]
+    finally:
+        server.stop()
+
+
 @pytest.mark.parametrize("arms, unplaced", [((), "fr3"), (("left", "middle"), "middle")])
 def test_an_arm_a_scene_has_no_site_for_is_said_to_stand_at_the_origin(arms, unplaced):
     """A scene of arm sites with an arm named for none of them (one arm without --arm: `fr3`)

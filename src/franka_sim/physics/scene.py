@@ -150,6 +150,16 @@ def packaged_scenes() -> dict[str, Path]:
             if path.name.endswith(".xml")}
 
 
+# Packaged scenes whose arm sites stand on the mobile base's column (served with --mobile-base).
+ON_THE_BASE = ("mobile_duo",)
+
+
+def stands_arms_on_the_base(path: os.PathLike) -> bool:
+    """Whether the scene at `path` is one whose arms stand on the mobile base."""
+    packaged = packaged_scenes()
+    return any(Path(path) == packaged[name] for name in ON_THE_BASE)
+
+
 def default_scene_path() -> Path:
     """The packaged world: a table under the arm and a 5 cm cube within reach."""
     return packaged_scenes()["default"]

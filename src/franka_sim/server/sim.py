@@ -21,6 +21,7 @@ from franka_sim.assembly import WorldParts
 from franka_sim.config import ClockMode, Config
 from franka_sim.config_rules import ConfigError, checked
 from franka_sim.log_names import SimName, about
+from franka_sim.physics.scene import stands_arms_on_the_base
 from franka_sim.operations.embedded import EmbeddedOperations
 from franka_sim.server.cycle_driver import CycleDriver
 from franka_sim.server.cycle_thread import CycleThread
@@ -149,6 +150,9 @@ class FrankaSim(EmbeddedOperations):
                          robot.describe(), config.clock.value, self.scene)
         if switches := self._switches():
             log.info("serving with: %s", "; ".join(switches))
+        if config.mobile_base is None and stands_arms_on_the_base(self.scene):
+            log.warning("the scene %s stands its arms on the mobile base's column: without "
+                        "--mobile-base ADDRESS they stand at its sites in the air", self.scene.stem)
         if unplaced := self.parts.unplaced:  # (what the user may have meant is in the scene)
             sites = self.parts.sites
             log.warning("the scene stands arms at its sites %s; arm %s, named for none, "
