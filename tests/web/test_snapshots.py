@@ -345,8 +345,13 @@ def test_a_recordings_mobile_base_stands_where_its_states_put_it(tmp_path):
     pytest.importorskip("matplotlib")
     from franka_sim.playback.plot import figure
 
+    from franka_sim.playback.plot import PlotError
+
     recording = open_recording(path)
-    fig = figure(recording, joints=list(range(7)), robot=recording.robots[-1])
+    with pytest.raises(PlotError, match="the mobile base has no joints"):
+        figure(recording, joints=[0, 1], robot="base")
+    fig = figure(recording)  # (the base: the first robot that sent a state)
+    assert fig.axes[0].get_title().endswith("states of base")
     pose, twist, *_ = fig.axes
     assert [ax.get_ylabel() for ax in fig.axes] == [
         "base pose", "twist [m/s, rad/s]", "success rate", "robot mode"]

@@ -56,9 +56,10 @@ def output_format(output: Path) -> str:
     return FORMATS.get(suffix, "png")
 
 
-def parse_joints(text: str | None) -> list[int]:
+def parse_joints(text: str | None) -> list[int] | None:
+    """--joints as 0-based indices; None: not given (every joint of an arm)."""
     if not text:
-        return list(range(7))
+        return None
     try:
         joints = [int(part) for part in text.split(",")]
     except ValueError:
@@ -76,7 +77,8 @@ def parse_fields(text: str | None) -> list[str]:
     return fields
 
 
-def plot(recording: Recording, output: Path, *, joints: list[int], start: float | None = None,
+def plot(recording: Recording, output: Path, *, joints: list[int] | None = None,
+         start: float | None = None,
          end: float | None = None, fields: list[str] = (), robot: str | None = None) -> int:
     """Write the PNG of one robot (None: the first that sent a state); the number of panels."""
     fig = figure(recording, joints=joints, start=start, end=end, fields=fields, robot=robot)
@@ -87,7 +89,7 @@ def plot(recording: Recording, output: Path, *, joints: list[int], start: float 
     return len(fig.axes)
 
 
-def figure(recording: Recording, *, joints: list[int], start: float | None = None,
+def figure(recording: Recording, *, joints: list[int] | None = None, start: float | None = None,
            end: float | None = None, fields: list[str] = (), robot: str | None = None):
     """The figure `plot` writes (matplotlib's)."""
     try:
@@ -102,6 +104,10 @@ def figure(recording: Recording, *, joints: list[int], start: float | None = Non
     if robot is None:  # (a world whose first arm had no client: its base's, say)
         robot = next((name for name in recording.robots if len(recording.states(name))
                       or recording.tool_states(name) is not None), None)
+    if recording.kind(robot) == "base" and joints is not None:
+        raise PlotError("--joints: the mobile base has no joints (its panels are its pose and "
+                        "its twist)")
+    joints = list(range(7)) if joints is None else joints
     states = recording.states(robot)
     tool = recording.tool_states(robot)
     if not len(states) and tool is None:
