@@ -102,7 +102,7 @@ def figure(recording: Recording, *, joints: list[int] | None = None, start: floa
     if start is not None and end is not None and start > end:
         raise PlotError(f"--from {start:g} is after --to {end:g}")
     if robot is None:  # (a world whose first arm had no client: its base's, say)
-        robot = next((name for name in recording.robots if len(recording.states(name))
+        robot = next((name for name in recording.robots if recording.of("robot_state", name)
                       or recording.tool_states(name) is not None), None)
     if recording.kind(robot) == "base" and joints is not None:
         raise PlotError("--joints: the mobile base has no joints (its panels are its pose and "

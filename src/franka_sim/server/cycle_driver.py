@@ -173,7 +173,7 @@ class CycleDriver:
                     break  # have ended the motion: it was awaited)
                 with self.lock:
                     deadline = self._tick_locked(False, answered=True, awaited=True)
-            if self.clock.pacer.stalls != self._stalls and not self.lockstep:
+            if not self.lockstep and self.clock.pacer.stalls != self._stalls:
                 self._stalled()
             return deadline if self.clock.awaits_read is None else self._looking(deadline)
         except BaseException:

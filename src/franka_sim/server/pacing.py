@@ -8,10 +8,9 @@ not from when its cycle was released: a thread held up between releasing a cycle
 its state (not run by the machine for a while) would otherwise send that late state and the
 next on-time one back to back. It re-anchors after a stall too long to catch up (a frozen
 host), because no client benefits from a flood of stale cycles: the robot's time then runs
-slower than the wall clock, which the pacer counts (`stalls`, `behind`) for the log. `lockstep`
-(only while a motion
-runs) releases the next cycle as soon as the command answering the current one arrives, and
-otherwise waits up to LOCKSTEP_WINDOW of wall time, from when the state left, for it: long
+slower than the wall clock, which the pacer counts (`stalls`, `behind`) for the log.
+`lockstep` (only while a motion runs) releases the next cycle as soon as the command
+answering the current one arrives, and otherwise waits up to LOCKSTEP_WINDOW of wall time, from when the state left, for it: long
 enough that a client descheduled on a loaded machine (CI) loses no cycle, so the outcome of a
 run does not depend on the host's timing; short enough that a client that went away is still
 noticed (20 lost cycles take 2 s). Idle in lockstep, the same window is how long the clock
