@@ -99,3 +99,28 @@ def test_a_velocity_motion_goes_on_after_a_long_gap_where_the_arm_was_held():
         state = robot.read_once()
     assert state.robot_mode == pylibfranka.RobotMode.Idle
     assert ids[-1] - ids[0] > 4700  # (every state read: only commands were lost)
+
+
+def test_a_cartesian_velocity_motion_goes_on_after_a_long_gap_where_the_arm_was_held():
+    """The same gap in a Cartesian velocity motion at 0.05 m/s: the robot brakes and holds the
+    arm, and when the client is heard again the IK starts from rest at the client's speed.
+    That step is the gap's: the joint side of the motion is not aborted for it."""
+    from franka_sim.control import Control
+
+    with running_sim("--clock", "lockstep", "--enforce-motion-limits") as sim:
+        control = Control(sim.host)
+        control.health()
+        robot = connect(sim.host)
+        loop = robot.start_cartesian_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        loop.readOnce()
+        for k in range(4800):
+            loop.readOnce()
+            v = 0.05 * min(k, 200, 4600 - k if k < 4600 else 0) / 200
+            command = pylibfranka.CartesianVelocities([v, 0.0, 0.0, 0.0, 0.0, 0.0])
+            command.motion_finished = k == 4799
+            loop.writeOnce(command)
+            if k == 300:
+                control.set_faults("burst=4000@0.002s,dir=commands")
+        state = robot.read_once()
+    assert state.robot_mode == pylibfranka.RobotMode.Idle
+    assert not bool(state.last_motion_errors)

@@ -168,7 +168,7 @@ class ArmCore(FciRobot):
         guard = self.guard
         guard.released()
         if command is not None:
-            if self._judge(guard.judge_command, command, motion.reference.q_d):
+            if self._judge(guard.judge_command, command, motion.reference.q_d, motion.braking):
                 return  # a violating command never reaches the physics
             motion.apply(command)
             self._silent = False

@@ -34,9 +34,12 @@ class MotionGuard:
         """One more cycle went by (applied or not): the differencing interval grows."""
         self._cycles_since_applied += 1
 
-    def judge_command(self, command, q_d) -> list[Violation]:
-        """`q_d`: the robot's joint reference as the command arrives (what a gap carried on)."""
+    def judge_command(self, command, q_d, braked: bool = False) -> list[Violation]:
+        """`q_d`: the robot's joint reference as the command arrives (what a gap carried on);
+        `braked`: the gap was long enough that the robot braked the arm and held it."""
         cycles, self._cycles_since_applied = max(self._cycles_since_applied, 1), 0
+        if braked and self._ik is not None:
+            self._ik.resume()
         if self._commands is None:
             return []
         if cycles > 1:

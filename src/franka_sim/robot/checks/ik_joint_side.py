@@ -24,6 +24,12 @@ if TYPE_CHECKING:
     from franka_sim.robot.motion import JointReference
 
 
+# The first command after a braked gap differences the client's stream over the gap, the next
+# steps the IK from rest to the client's speed (acceleration), and the one after ends that
+# step (jerk).
+RESTART_CYCLES = 3
+
+
 class IkJointSideChecker:
     """One Cartesian motion's IK output against the (scaled) joint limits; a fresh one per Move."""
 
@@ -35,11 +41,25 @@ class IkJointSideChecker:
         self._ddq_prev = np.zeros(7)
         self._floor: SpeedLimitFloor | None = None
         self._proof_thresholds = None
+        self._restarting = 0  # cycles left in which the IK restarts from a held arm
+
+    def resume(self) -> None:
+        """The client is heard again after the robot braked its arm and held it: the IK's
+        joint motion starts again from rest, at the client's speed. That step is the gap's,
+        not the client's (its Cartesian stream is judged across the gap, as a joint stream
+        is), so for the cycles its acceleration and jerk take to show it only the range and
+        the velocity law are judged."""
+        self._restarting = RESTART_CYCLES
 
     def check(self, ref: JointReference) -> list[Violation]:
         """Judge this cycle's IK output (q_d, dq_d, ddq_d of the Cartesian motion)."""
         jerk = (ref.ddq_d - self._ddq_prev) / CYCLE_PERIOD
         self._ddq_prev = ref.ddq_d.copy()
+        if self._restarting:
+            self._restarting -= 1
+            self._floor = None
+            return [v for v in self._violations(ref, jerk)
+                    if v.quantity not in ("acceleration", "jerk")]
         # The usual case in one comparison: in range and within the floor's reach, under the
         # floor of the velocity law, and under the acceleration and jerk limits.
         signed = self._table.signed_stack(ref.q_d, ref.dq_d, ref.ddq_d, jerk)
