@@ -14,6 +14,7 @@ from franka_sim.description.urdf import ArmDescription
 from franka_sim.protocol.enums import MoveStatus, RobotMode
 from franka_sim.robot.cartesian import SINGULAR_POSE_MIN_SINGULAR_VALUE, smallest_singular_value
 from franka_sim.robot.checks.figures import motion_figures
+from franka_sim.robot.checks.joint_table import joint_limits
 from franka_sim.robot.motion import CARTESIAN_GENERATORS, Motion, MoveRejected, parse_move
 
 
@@ -34,7 +35,7 @@ def admit_move(desc: ArmDescription, command_id: int, request, *, running: bool,
         _check_not_singular(desc, q, F_T_EE)
     O_T_EE = (O_T_F if O_T_F is not None else flange_pose(desc, q)) @ F_T_EE
     return Motion(command_id, spec, q, O_T_EE, F_T_EE, figures=motion_figures(desc),
-                  joint_velocity=desc.limit_array("velocity"))
+                  joint_velocity=desc.limit_array("velocity"), limits=joint_limits(desc))
 
 
 def _check_not_singular(desc: ArmDescription, q: np.ndarray, F_T_EE: np.ndarray) -> None:

@@ -19,7 +19,9 @@ import numpy as np
 
 from franka_sim.kernels import joint_follow
 from franka_sim.physics.backend import Measured
+from franka_sim.robot.async_target import AsyncTarget
 from franka_sim.robot.cartesian import CartesianTarget, dls_step, ee_jacobian
+from franka_sim.robot.checks.joint_table import JointLimitTable
 from franka_sim.protocol.enums import (
     STATE_CONTROLLER_MODE,
     STATE_MOTION_GENERATOR_MODE,
@@ -178,40 +180,6 @@ class JointReference:
         return not self.dq_d.any()
 
 
-# Acceleration the robot's own point-to-point generator uses for async targets (the FR3's
-# joint acceleration limit is 10 rad/s²; the generator keeps well inside it).
-ASYNC_ACCELERATION = 5.0  # rad/s²
-
-
-class AsyncTarget:
-    """The robot-side generator behind `use_async_motion_generator`.
-
-    The client streams (possibly rarely) a target q_c; the robot moves every joint toward it
-    under the Move's maximum_velocity and a fixed acceleration, braking so it arrives at rest.
-    Gaps in the command stream are normal here: the generator simply keeps going.
-    """
-
-    def __init__(self, reference: JointReference, maximum_velocity: np.ndarray) -> None:
-        self.reference = reference
-        self.v_max = np.asarray(maximum_velocity, dtype=float)
-        self.target = reference.q_d.copy()
-
-    def advance(self) -> None:
-        ref = self.reference
-        error = self.target - ref.q_d
-        # Fastest speed from which the joint can still stop at the target.
-        v_stop = np.sqrt(2.0 * ASYNC_ACCELERATION * np.abs(error))
-        v_goal = np.sign(error) * np.minimum(self.v_max, v_stop)
-        dv = np.clip(v_goal - ref.dq_d, -ASYNC_ACCELERATION * DT, ASYNC_ACCELERATION * DT)
-        dq = ref.dq_d + dv
-        arrived = np.abs(error) <= np.abs(dq) * DT
-        dq = np.where(arrived, 0.0, dq)
-        q = np.where(arrived, self.target, ref.q_d + dq * DT)
-        ref.ddq_d = (dq - ref.dq_d) / DT
-        ref.dq_d = dq
-        ref.q_d = q
-
-
 class ElbowCommand:
     """The commanded elbow (elbow_c) as the robot holds it: the client's, or on a missed cycle
     extrapolated at constant acceleration like every motion signal. Published as elbow_c, it is
@@ -268,7 +236,8 @@ class Motion:
 
     def __init__(self, command_id: int, spec: MoveSpec, q_start: np.ndarray,
                  O_T_EE_start: np.ndarray | None = None, F_T_EE: np.ndarray | None = None, *,
-                 figures: MotionFigures, joint_velocity: np.ndarray | float = np.inf) -> None:
+                 figures: MotionFigures, joint_velocity: np.ndarray | float = np.inf,
+                 limits: JointLimitTable | None = None) -> None:
         self.command_id = command_id
         self.spec = spec
         self.running = False  # modes flip on the first published cycle after the Move
@@ -287,7 +256,8 @@ class Motion:
         self.kinematics: tuple[np.ndarray, np.ndarray] | None = None
         self.elbow: ElbowCommand | None = None  # while the client commands one
         self.async_target = (
-            AsyncTarget(self.reference, spec.maximum_velocity) if spec.use_async else None
+            AsyncTarget(self.reference, spec.maximum_velocity, limits) if spec.use_async
+            else None
         )
         self.tau_J_d = np.zeros(7)
         self.last_command = None
@@ -327,7 +297,8 @@ class Motion:
         return bool(command[self._finished_flag])
 
     def _follow_async(self, command) -> None:
-        self.async_target.target = np.array(command["q_c"], dtype=float)
+        if not command["motion_generation_finished"]:  # (libfranka's stopControl sends zeros)
+            self.async_target.target = command["q_c"]
         self.async_target.advance()
 
     def _follow_position(self, command) -> None:

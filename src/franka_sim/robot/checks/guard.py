@@ -12,6 +12,7 @@ import numpy as np
 from franka_sim.description.urdf import ArmDescription
 from franka_sim.robot.checks.commands import command_checker_for
 from franka_sim.robot.checks.ik_joint_side import IkJointSideChecker
+from franka_sim.robot.checks.joint_commands import AsyncTargetChecker
 from franka_sim.robot.checks.safety_controller import MeasuredChecker
 from franka_sim.robot.checks.violation import Violation
 from franka_sim.robot.motion import CARTESIAN_GENERATORS, JointReference, MoveSpec
@@ -23,7 +24,7 @@ class MotionGuard:
         self.desc = desc
         self._measured = MeasuredChecker(desc)
         # An async motion's q_c is a goal for the robot's own generator, not a stream to judge.
-        self._commands = None if spec.use_async else command_checker_for(
+        self._commands = AsyncTargetChecker(desc) if spec.use_async else command_checker_for(
             desc, spec.generator, spec.torque_controlled,
             q_start=q_start, O_T_EE_start=O_T_EE_start, elbow_start=elbow_start)
         self._ik = (IkJointSideChecker(desc, joint_discontinuity_scale)
@@ -40,8 +41,6 @@ class MotionGuard:
         cycles, self._cycles_since_applied = max(self._cycles_since_applied, 1), 0
         if braked and self._ik is not None:
             self._ik.resume()
-        if self._commands is None:
-            return []
         if cycles > 1:
             self._commands.resume(q_d)
         return self._commands.check(command, cycles)

@@ -157,3 +157,24 @@ class JointVelocityChecker(_JointStream):
         self._q = q_next
         self._v, self._a = dq, a
         self._grid.advance(n)
+
+
+class AsyncTargetChecker(CommandChecker):
+    """An async motion's q_c is a goal for the robot's own generator (robot/async_target.py),
+    not a stream: only its range is judged. A goal beyond an end is refused as a joint
+    position command beyond it is; the generator never takes the arm past where the velocity
+    law lets it move anyway. A finishing command's q_c is no goal (libfranka's stopControl
+    sends zeros)."""
+
+    def __init__(self, desc: ArmDescription) -> None:
+        self._table = joint_limits(desc)
+
+    def judge(self, command, cycles: int, out: list) -> None:
+        if command["motion_generation_finished"]:
+            return
+        q_c = np.asarray(command["q_c"], dtype=float)
+        signed = self._table.signed(q_c)
+        if not max((signed - self._table.ends).tolist()) <= 0.0:
+            out.extend(Violation(JOINT_RANGE_ERROR, f"joint {i + 1}", float(q_c[i]), limit,
+                                 quantity="target", unit="rad")
+                       for i, limit in self._table.ends_passed(signed))
