@@ -191,8 +191,9 @@ def _driver_at_a_start(probe: _Probe) -> tuple[CycleDriver, _Thread, _Endpoint]:
     _learned(harness, 2)
     world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
     driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
-                         deliver=lambda replies: None, has_client=lambda: True,
-                         watcher=ClockWatcher(), find_probe=lambda target: probe)
+                         deliver=lambda replies, clients: None, clients=lambda: None,
+                         has_client=lambda: True, watcher=ClockWatcher(),
+                         find_probe=lambda target: probe)
     asyncio.run(driver.start([endpoint]))
     thread.tick(None, True)
     assert harness.move(*TORQUE) == MoveStatus.kMotionStarted
@@ -246,8 +247,9 @@ def test_faults_on_the_link_make_the_reads_unseen():
     harness, thread, endpoint = Harness(), _Thread(), _Endpoint()
     world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
     driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
-                         deliver=lambda replies: None, has_client=lambda: True,
-                         watcher=ClockWatcher(), find_probe=lambda target: _Probe())
+                         deliver=lambda replies, clients: None, clients=lambda: None,
+                         has_client=lambda: True, watcher=ClockWatcher(),
+                         find_probe=lambda target: _Probe())
     asyncio.run(driver.start([endpoint]))
     assert driver._reads_seen(0)
     endpoint.faults = object()  # a held state would reach the client later than it left

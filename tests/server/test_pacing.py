@@ -224,8 +224,8 @@ def test_a_lockstep_cycle_waits_for_its_answer_watching_the_command_sockets():
     world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
     thread, endpoint = _Thread(), _Endpoint()
     driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
-                         deliver=lambda replies: None, has_client=lambda: True,
-                         watcher=ClockWatcher())
+                         deliver=lambda replies, clients: None, clients=lambda: None,
+                         has_client=lambda: True, watcher=ClockWatcher())
     asyncio.run(driver.start([endpoint]))
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
     deadline = thread.tick(None, True)  # the motion's first state; no answer yet
@@ -268,8 +268,8 @@ def _answered_cycles(job_comes: bool) -> int:
     thread = _Thread()
     endpoint = _AnsweringEndpoint(0, lambda: setattr(thread, "jobs_waiting", job_comes))
     driver = CycleDriver(lambda physics: world, thread, threading.Lock(), lockstep=True,
-                         deliver=lambda replies: None, has_client=lambda: True,
-                         watcher=ClockWatcher())
+                         deliver=lambda replies, clients: None, clients=lambda: None,
+                         has_client=lambda: True, watcher=ClockWatcher())
     asyncio.run(driver.start([endpoint]))
     assert harness.move(2, 4) == MoveStatus.kMotionStarted  # torque control
     thread.tick(None, True)  # the motion's first state; the client starts answering now

@@ -51,8 +51,19 @@ async def _serve(host: str, bounds: dict, box: dict, ready: threading.Event) -> 
             setattr(endpoint, name, value)
     async with sim:
         box.update(sim=sim, loop=asyncio.get_running_loop(), stop=asyncio.Event())
+        _LOOPS[id(sim)] = box["loop"]
         ready.set()
         await box["stop"].wait()
+
+
+_LOOPS: dict[int, asyncio.AbstractEventLoop] = {}
+
+
+def on_loop(sim, call):
+    """call() run on the embedded simulator's event loop (where its endpoints live); its result."""
+    async def run():
+        return call()
+    return asyncio.run_coroutine_threadsafe(run(), _LOOPS[id(sim)]).result(30)
 
 
 def _stop(box: dict, thread: threading.Thread) -> None:

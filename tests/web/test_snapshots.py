@@ -35,7 +35,8 @@ def data_of_a_free_box():
 
 def driver(endpoints) -> CycleDriver:
     made = CycleDriver(lambda physics: None, thread=None, lock=threading.Lock(), lockstep=False,
-                       deliver=lambda replies: None, has_client=lambda: True, watcher=None)
+                       deliver=lambda replies, clients: None, clients=lambda: None,
+                       has_client=lambda: True, watcher=None)
     made.endpoints = tuple(endpoints)
     return made
 

@@ -39,15 +39,18 @@ READ_POLL = 250e-6  # s between looks at a client's socket while the clock await
 class CycleDriver:
     """Runs the world's cycle (`make_cycle(physics)`, built in the cycle thread) on `thread`.
 
-    `deliver(replies)`, on the loop: write a completed world cycle's replies; `has_client()`:
+    `deliver(replies, clients)`, on the loop: write a completed world cycle's replies to the
+    `clients()` connected when it completed (asked in the cycle thread, lock held); `has_client()`:
     a client is connected to some robot or tool; `watcher`: who keeps count of what the clock
     does (Clock.watcher)."""
 
     def __init__(self, make_cycle: Callable, thread: CycleThread, lock: threading.Lock, *,
-                 lockstep: bool, deliver: Callable, has_client: Callable[[], bool],
-                 watcher: ClockWatcher, find_probe: Callable = probe_for) -> None:
+                 lockstep: bool, deliver: Callable, clients: Callable,
+                 has_client: Callable[[], bool], watcher: ClockWatcher,
+                 find_probe: Callable = probe_for) -> None:
         self.make_cycle, self.thread, self.lock = make_cycle, thread, lock
         self.lockstep, self.deliver, self.has_client = lockstep, deliver, has_client
+        self.clients = clients
         self.watcher = watcher
         # find_probe(target): whether a client at `target` has read its states
         # (server/read_probe.py), None where that cannot be seen; each robot's, by its client.
@@ -129,13 +132,13 @@ class CycleDriver:
         self._awaiting.append((self.cycle.message_id + 1, deliver))
         return True
 
-    def _sent(self, message_id: int, replies) -> None:
+    def _sent(self, message_id: int, replies, clients) -> None:
         """The state of `message_id` has left: the replies that waited for it, then its own."""
         awaiting = self._awaiting
         while awaiting and awaiting[0][0] <= message_id:
             awaiting.pop(0)[1]()
         if replies and self._running:
-            self.deliver(replies)
+            self.deliver(replies, clients)
 
     # -- the cycle thread's side -----------------------------------------------------------------
     def _send(self, states: tuple) -> float:
@@ -151,7 +154,8 @@ class CycleDriver:
     def _post(self, message_id: int, replies) -> None:
         if replies or self._awaiting:
             try:
-                self._loop.call_soon_threadsafe(self._sent, message_id, replies)
+                self._loop.call_soon_threadsafe(self._sent, message_id, replies,
+                                                self.clients() if replies else None)
             except RuntimeError:  # loop closed during shutdown
                 pass
 

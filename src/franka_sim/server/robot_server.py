@@ -208,13 +208,20 @@ class RobotServer:
         endpoint = self.tool_endpoint
         return endpoint is not None and endpoint.state_target is not None
 
-    def deliver(self, replies) -> None:
-        """A cycle's replies (robot/cycle.py Replies), on the loop, once its state has left."""
+    def clients(self) -> tuple[int, int | None]:
+        """The generations of its endpoints' clients (lock held): what a cycle's replies are for."""
+        tool = self.tool_endpoint
+        return self.fci.generation, (None if tool is None else tool.generation)
+
+    def deliver(self, replies, clients: tuple[int, int | None]) -> None:
+        """A cycle's replies (robot/cycle.py Replies), on the loop, once its state has left, to
+        the `clients` that were connected when the cycle made them."""
+        fci, tool = clients
         for reply in replies.robot:
-            self.fci.send(reply)
+            self.fci.send(reply, fci)
         for tool_replies, tool_state in replies.tools:
             for reply in tool_replies:
-                self.tool_endpoint.send(reply)
+                self.tool_endpoint.send(reply, tool)
             if tool_state is not None:
                 self.tool_endpoint.send_state(tool_state)
 

@@ -67,6 +67,7 @@ class FrankaSim(EmbeddedOperations):
         self.network_faults = NetworkFaults(seed=config.seed)
         self.driver = CycleDriver(
             self._make_cycle, self.worker, self.lock, deliver=self._deliver,
+            clients=self._clients,
             lockstep=config.clock is ClockMode.lockstep, has_client=self._has_client,
             watcher=self.network_faults)
         self.recordings = Recordings(self)
@@ -323,11 +324,14 @@ class FrankaSim(EmbeddedOperations):
             self.recordings.attach(self.recorder, physics.world, cycle=cycle, fresh=True)
         return cycle
 
-    def _deliver(self, replies) -> None:
+    def _clients(self) -> list:
+        return [robot.clients() for robot in self.robots]
+
+    def _deliver(self, replies, clients: list) -> None:
         """Each robot's replies of a world cycle, on the loop, once the states have left."""
-        for robot, robot_replies in zip(self.robots, replies.robots):
+        for robot, robot_replies, robot_clients in zip(self.robots, replies.robots, clients):
             if robot_replies:
-                robot.deliver(robot_replies)
+                robot.deliver(robot_replies, robot_clients)
 
     def _has_client(self) -> bool:
         return any(robot.has_client() for robot in self.robots)

@@ -184,6 +184,7 @@ class ClientConnection(asyncio.Protocol):
             self.owner.active = None
             log.info("%s client %s:%s disconnected", self.owner.what, *self.peer)
             with self.owner.lock:
+                self.owner.generation += 1  # (under the lock: see SingleClientEndpoint.send)
                 if self.owner.taps is not None:
                     self.owner.taps.tcp(self.owner.what, "close")
                 self.owner.on_disconnect()
@@ -227,6 +228,10 @@ class SingleClientEndpoint:
         self.message_deadline = message_deadline
         self.max_unsent = max_unsent
         self.active: ClientConnection | None = None
+        # Which client is (or was last) active: one more each time a client goes. A cycle's
+        # replies are stamped with it under the lock, where the world takes a gone client's
+        # pending replies away: a reply stamped before a client went is its, and goes nowhere.
+        self.generation = 0
         self.refused = 0  # newcomers turned away while the active client is connected
         self.taps = taps  # the robot's recording taps (server/recorder/taps.py): its traffic
         self.server: asyncio.AbstractServer | None = None
@@ -236,10 +241,12 @@ class SingleClientEndpoint:
         self.server = await loop.create_server(lambda: ClientConnection(self),
                                                sock=bound_socket(host, port))
 
-    def send(self, data: bytes) -> None:
-        """An asynchronous reply (a Move's final status, a gripper action's) to the client."""
+    def send(self, data: bytes, generation: int) -> None:
+        """An asynchronous reply (a Move's final status, a gripper action's) to the client that
+        was active at `generation`; if it has gone since, to nobody (a reply the world made just
+        before a client left must not reach the next one, whose ids start again)."""
         active = self.active
-        if active is not None:
+        if active is not None and generation == self.generation:
             active.write(active.session.wire(data))
 
     async def stop(self) -> None:
