@@ -239,7 +239,7 @@ def test_state_every_100_cycles_on_the_robot_clock(homed):
     assert [c for c in range(1, 1001) if homed.gripper.state_due(c)] == list(range(100, 1001, 100))
     state = decode_gripper_state(homed.gripper.pack_state(homed.cycle))
     assert int(state["message_id"]) == homed.cycle
-    assert state["width"] == pytest.approx(homed.width, abs=1e-12)
+    assert state["width"] == pytest.approx(homed.width, abs=1e-9)  # (to the nanometre)
     assert state["max_width"] == homed.gripper.max_width
     assert int(state["temperature"]) == 30
 
@@ -294,3 +294,34 @@ def test_split_and_batched_requests_are_all_answered():
     data = connect_bytes() + build_gripper_request(Stop, 1) + build_gripper_request(Stop, 2)
     replies = [r for i in range(len(data)) for r in session.feed(data[i:i + 1])]
     assert [struct.unpack_from("<HI", r) for r in replies] == [(0, 0), (4, 1), (4, 2)]
+
+
+def test_a_reset_hand_is_unhomed_all_through_no_wider_than_its_max_width():
+    """Homed, then reset (POST /reset): max_width is the datasheet's again, and so is the
+    widest the Hand holds its fingers. A homing stopped at the stops then holds them at
+    max_width, not at the earlier homing's, and a Move to the width it reports succeeds."""
+    hand = Hand()
+    hand.request(Homing, 1)
+    hand.until_answered()
+    hand.gripper.reset(hand.backend.measure().tool)
+    assert hand.gripper.max_width == NOMINAL_MAX_WIDTH
+    hand.request(Homing, 2)
+    hand.run(1640)  # closed, and opened again to the stops: measuring there
+    hand.request(Stop, 3)
+    hand.run(300)
+    width = float(decode_gripper_state(hand.gripper.pack_state(hand.cycle))["width"])
+    assert width <= hand.gripper.max_width
+    hand.request(Move, 4, width=width, speed=0.1)
+    assert hand.until_answered()[1] == (Move, 4, GripperStatus.kSuccess)
+
+
+def test_the_hands_width_is_reported_to_the_nanometre():
+    """Squeezing nothing, the fingers settle onto each other: the width reads a few nm at
+    most, to the nanometre, not the 1e-49 m of dust a physics settling onto its contact
+    leaves (nor 6e-17 m past max_width when held open)."""
+    hand = Hand()
+    hand.request(Grasp, 9, width=0.0, epsilon_inner=0.0, epsilon_outer=0.0, speed=0.1, force=40)
+    hand.until_answered()
+    hand.run(300)
+    width = float(decode_gripper_state(hand.gripper.pack_state(hand.cycle))["width"])
+    assert 0.0 <= width < 1e-6 and width == round(width, 9)

@@ -46,6 +46,8 @@ from franka_sim.robot.hand_actions import (MAX_FORCE, MAX_SPEED, MIN_SPEED, NOMI
 
 log = logging.getLogger(__name__)
 
+WIDTH_DECIMALS = 9  # the reported width's resolution: 1 nm
+
 __all__ = ["MAX_SPEED", "NOMINAL_MAX_WIDTH", "STATE_PERIOD", "Hand"]
 
 
@@ -126,7 +128,9 @@ class Hand:
         """The 23-byte GripperState for `cycle`."""
         s = self._buffer
         s.message_id[...] = cycle & 0xFFFFFFFF
-        s.width[...] = self.width
+        # To the nanometre: a physics settling onto 0 or onto a hold reads 1e-49 m, or 6e-17 m
+        # past max_width, which no encoder would report.
+        s.width[...] = round(self.width, WIDTH_DECIMALS)
         s.max_width[...] = self.max_width
         s.is_grasped[...] = self.is_grasped
         return s.pack()
@@ -181,7 +185,7 @@ class Hand:
         at rest (the physics put them there). Only while no action is under way."""
         if self._action is not None:
             raise ValueError("a gripper action is under way")
-        self.max_width = NOMINAL_MAX_WIDTH
+        self.max_width = self._widest_hold = NOMINAL_MAX_WIDTH
         self.width = reading.width
         self.is_grasped = False
         self._grasp = None
