@@ -22,9 +22,9 @@ fail() {
 
 case "${FRANKA_SIM_ACTION_INSTALL:-true}" in
     true)
-        requirement="${FRANKA_SIM_ACTION_PACKAGE:-}"
-        [ -n "$requirement" ] ||
-            requirement="franka-sim${FRANKA_SIM_ACTION_VERSION:+==$FRANKA_SIM_ACTION_VERSION}"
+        # Default: the franka-sim this action belongs to (the ref the workflow `uses:`), not
+        # a package index's: the name franka-sim on PyPI is another project's.
+        requirement="${FRANKA_SIM_ACTION_PACKAGE:-$(cd "$(dirname "$0")/../.." && pwd)}"
         if [ ! -x "$dir/venv/bin/franka-sim" ]; then  # a second robot reuses the first's
             python3 -m venv "$dir/venv"
             "$dir/venv/bin/pip" install --quiet --disable-pip-version-check "$requirement" ||

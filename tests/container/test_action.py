@@ -27,7 +27,7 @@ SCRIPTS = ROOT / "deploy" / "action"
 def test_the_action_takes_its_inputs_and_gives_the_address():
     assert ACTION["runs"]["using"] == "composite"
     inputs = ACTION["inputs"]
-    assert {"version", "package", "install", "host", "args", "wait", "stop"} <= inputs.keys()
+    assert {"package", "install", "host", "args", "wait", "stop"} <= inputs.keys()
     assert all(spec.get("description") for spec in inputs.values())
     assert inputs["host"]["default"] == "127.0.0.1" and inputs["stop"]["default"] == "false"
     outputs = ACTION["outputs"]
@@ -127,3 +127,28 @@ def test_a_server_that_cannot_start_fails_the_step_at_once_with_its_log(tmp_path
     assert took < 30  # not the whole wait: the server's exit ends it
     assert "::error title=franka-sim::franka-sim did not become ready" in started.stdout
     assert f"{host}:1337 is already in use" in started.stdout  # the log's tail
+
+
+def test_by_default_it_installs_the_franka_sim_it_belongs_to(tmp_path):
+    """Not `pip install franka-sim`: that name on PyPI is another project's (a simulator with
+    no `franka-sim` command, binding 0.0.0.0). The runner's python3 is replaced by one whose
+    venv's pip writes down what it was asked for, then gives the franka-sim installed here."""
+    shims, asked = tmp_path / "shims", tmp_path / "asked"
+    shims.mkdir()
+    sim = shutil.which("franka-sim") or str(Path(sys.executable).parent / "franka-sim")
+    (shims / "python3").write_text(f"""#!/bin/sh
+[ "$1 $2" = "-m venv" ] || exit 2
+mkdir -p "$3/bin"
+printf '#!/bin/sh\\necho "$@" >>{asked}\\nln -s {sim} %s/bin/franka-sim\\n' "$3" >"$3/bin/pip"
+chmod +x "$3/bin/pip"
+""")
+    (shims / "python3").chmod(0o755)
+    host = fresh_loopback_address()
+    env = _runner_env(tmp_path, host=host, install="true", wait="60")
+    env["PATH"] = f"{shims}{os.pathsep}{env['PATH']}"
+    started = _script("start.sh", env)
+    try:
+        assert started.returncode == 0, started.stdout + started.stderr
+        assert asked.read_text().split()[-1] == str(ROOT)
+    finally:
+        _script("stop.sh", env)

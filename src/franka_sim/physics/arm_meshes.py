@@ -44,7 +44,8 @@ def find_meshes(root: str | os.PathLike, robot: str) -> dict[str, Path]:
                       for folder in folders]
         path = _first(candidates)
         if path is None:
-            looked = f"{_ARM_LAYOUTS[0].format(robot=folders[0], name=link)}.{{dae,obj,stl}}"
+            suffixes = ",".join(suffix[1:] for suffix in _SUFFIXES)
+            looked = f"{_ARM_LAYOUTS[0].format(robot=folders[0], name=link)}.{{{suffixes}}}"
             raise MeshError(f"{root}: no visual mesh of the {robot}'s {link} (looked for "
                             f"{looked} and the older meshes/visual/{link}.*)")
         found[link] = path
