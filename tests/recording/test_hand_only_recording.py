@@ -3,6 +3,7 @@ every tool still does what it can with it."""
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
@@ -138,3 +139,33 @@ def test_render_and_view_span_a_hand_acting_after_the_arms_last_state(tmp_path):
     done = franka_sim("plot", str(path), *window, "--fields", "elbow")
     assert done.returncode == 1 and done.stderr.strip() == (
         "franka-sim: --fields: no arm state in the window --from/--to (only its tool's)")
+
+
+def test_a_hostile_request_is_recorded_as_strict_json(tmp_path):
+    """A Move whose width is NaN and a Grasp whose force is infinite (answered kFail): the
+    recording's decoded requests spell them as strings, so a strict JSON reader (Foxglove's)
+    opens every message, and replay still compares identical."""
+    import json
+    import socket
+    import struct
+
+    def strict(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    path = tmp_path / "hostile.mcap"
+    with running_sim("--record", str(path), "--clock", "lockstep") as sim:
+        with socket.create_connection((sim.host, 1338), timeout=20) as s:
+            s.sendall(struct.pack("<HIIHH", 0, 1, 14, 3, 0))
+            s.sendall(struct.pack("<HIIdd", 3, 2, 26, math.nan, 0.1))
+            s.sendall(struct.pack("<HIIddddd", 2, 3, 50, 0.02, 0.005, 0.005, 0.1, math.inf))
+            replies = b""
+            while len(replies) < 14 + 12 + 12:
+                replies += s.recv(64)
+    assert struct.unpack("<HIIH", replies[14:26])[3] == 1  # kFail
+    decoded = [json.loads(entry.data, parse_constant=strict)
+               for entry in open_recording(path).of("tcp")]
+    requests = [r for event in decoded for r in event.get("requests", [])]
+    assert {"width": "NaN"}.items() <= requests[1].items()
+    assert {"force": "Infinity"}.items() <= requests[2].items()
+    done = franka_sim("replay", str(path))
+    assert done.returncode == 0 and done.stdout.startswith("identical"), done.stdout

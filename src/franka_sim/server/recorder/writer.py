@@ -17,6 +17,7 @@ import errno
 import fcntl
 import json
 import logging
+import math
 import os
 import stat
 import threading
@@ -249,7 +250,24 @@ class RecordingWriter:
                                sequence=sequence & 0xFFFFFFFF)
 
     def _json(self, key, wall: int, value: dict, sequence: int) -> None:
-        self._add(key, wall, json.dumps(value, default=_default).encode(), sequence)
+        try:
+            text = json.dumps(value, default=_default, allow_nan=False)
+        except ValueError:  # a non-finite number (a hostile request's width, say): strict JSON
+            text = json.dumps(_spelled(value), default=_default, allow_nan=False)  # for Foxglove
+        self._add(key, wall, text.encode(), sequence)
+
+
+def _spelled(value):
+    """`value` with each non-finite float written as the string JavaScript would print."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
+    if isinstance(value, dict):
+        return {k: _spelled(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_spelled(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _spelled(value.tolist())
+    return value
 
 
 def _default(value):
