@@ -348,6 +348,23 @@ def scenario_reflex_recovery(host: str) -> dict:
     return out
 
 
+def scenario_burst_reflex(host: str) -> dict:
+    """Joint 1 out and back while a burst of 25 lost cycles (served --inject burst=25@3s)
+    trips communication_constraints_violation: libfranka's exception counts the cycles between
+    the last two states it read."""
+    import franky
+
+    robot = _connect(host)
+    out = {"aborted": None}
+    try:
+        for sign in (1, -1, 1, -1):
+            robot.move(franky.JointMotion((np.array(READY) + [0.3 * sign, 0, 0, 0, 0, 0, 0])
+                                          .tolist()))
+    except franky.ControlException as exc:
+        out["aborted"] = str(exc)
+    return out
+
+
 def scenario_gripper(host: str) -> dict:
     import franky
 
@@ -541,6 +558,18 @@ def test_reflex_then_automatic_error_recovery():
     after = out["after"]
     assert after["mode"] == "Idle" and not after["has_errors"] and after["current_errors"] == "[]"
     assert out["moved_again"] == "Idle"
+
+
+def test_a_reflex_inside_a_burst_reads_as_the_robot_reports_it():
+    """In lockstep the world settles after the reflex in one tick; the burst dropped the
+    reflex's own state, so the settle's states go until one reaches the client (as the
+    robot's next would), and the exception counts the burst's 25, not the settle's hundreds."""
+    with running_sim("--clock", "lockstep", "--enforce-comm-constraints",
+                     "--inject", "burst=25@3s") as sim:
+        out = _run("burst_reflex", sim.host)
+    assert "communication_constraints_violation" in out["aborted"]
+    assert "control_command_success_rate: 0.75" in out["aborted"]
+    assert "packets lost in a row in the last sample: 25" in out["aborted"]
 
 
 def test_gripper(lockstep_sim):

@@ -22,7 +22,8 @@ reproduces to the bit however long the client takes between them:
 - a world that is not at rest (an arm settling onto its hold after a motion or a Hand action, a
   recovery or a lost client's stop under way) runs on, cycle after cycle, in one tick, until it
   is at rest (WorldCycle.at_rest); no request is taken meanwhile (the driver holds the lock),
-  only the tick's first state and the last are sent, and the replies of all those cycles go out
+  only the tick's first state and the last are sent (or, where an injected fault dropped the
+  first, each until one reaches the client), and the replies of all those cycles go out
   after it. With nothing under way it gets TREMBLE_CYCLES: one that still is not at rest (a
   grasped object's contacts tremble for ever) is taken as it is. A client's request gives it
   them again, as do a motion's end, a tool's action and a change through the control API; a
@@ -104,13 +105,17 @@ class Clock:
     def __init__(self, cycle: Cycle, *, lockstep: bool, send: Callable[[tuple], float],
                  post: Callable[[int, object], None], has_client: Callable[[], bool],
                  pacer: Pacer | None = None,
-                 reads_seen: Callable[[int], bool] = lambda robot: False) -> None:
+                 reads_seen: Callable[[int], bool] = lambda robot: False,
+                 unseen: Callable[[int], bool] = lambda since: False) -> None:
         self.cycle = cycle
         self.lockstep = lockstep
         self.send = send  # send(states) -> the time they left
         self.post = post  # post(message_id, replies): once that state left, write them
         self.has_client = has_client
         self.reads_seen = reads_seen  # reads_seen(robot): its client's reads can be seen
+        # unseen(since): a connected client was sent no state of cycle `since` or later (an
+        # injected fault dropped them)
+        self.unseen = unseen
         self.pacer = pacer or Pacer()
         self.watcher = ClockWatcher()
         self.paused = False
@@ -308,9 +313,15 @@ class Clock:
         event however fast this machine is. Of the cycles run here only the last state is sent
         (hundreds of states in a few ms would overflow the client's socket, and a read would
         then find one of them, a different one each run), and every reply of the way waits for
-        it. Then the world is left as it is (`_frozen`) until the client's next event."""
+        it. Then the world is left as it is (`_frozen`) until the client's next event.
+
+        Unless an injected fault dropped the tick's first state (a burst over a motion's
+        reflex): then the cycles' states go until one reaches each client, as the robot's next
+        would, so its client sees the motion end a few cycles on, not at the last (libfranka
+        counts the cycles between the last two states it read as lost)."""
         cycle = self.cycle
         settled, more = 0, False
+        first, last_sent = released.message_id, True
         paused = self._count_unwatched()
         while not paused and not cycle.at_rest:
             if cycle.tool_busy:  # a tool's action takes its time (a client may watch it and
@@ -326,10 +337,13 @@ class Clock:
                 more = True  # work this long goes on in the next tick (requests may come between)
                 break
             released = cycle.release()
+            last_sent = self.unseen(first)
+            if last_sent:
+                sent_at = self.send(released.states)
             replies = replies.then(cycle.complete(released))
             settled += 1
             paused = self._count_unwatched()
-        if settled:
+        if not last_sent:
             sent_at = self.send(released.states)
         # Tool states of cycles on the way to rest would reach a client late: only the last.
         self.post(released.message_id, replies)

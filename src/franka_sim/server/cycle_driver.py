@@ -80,7 +80,7 @@ class CycleDriver:
             self.cycle = await self.thread.call(self.make_cycle)
             self.clock = Clock(self.cycle, lockstep=self.lockstep, send=self._send,
                                post=self._post, has_client=self.has_client,
-                               reads_seen=self._reads_seen)
+                               reads_seen=self._reads_seen, unseen=self._unseen)
             self.clock.watcher = self.watcher
             self.clock.server_busy = self._busy
         self._sockets = tuple(endpoint.sock for endpoint in self.endpoints)
@@ -212,6 +212,12 @@ class CycleDriver:
         if due and prepared:  # no command can answer an idle state: what came
             self._read()  # (strays, junk) is read once the state has left
         return deadline
+
+    def _unseen(self, since: int) -> bool:
+        """Whether a connected client was sent no state of cycle `since` or later (lock held):
+        an injected fault dropped or holds them."""
+        return any(link is not None and endpoint.target is not None and link.newest < since
+                   for endpoint in self.endpoints for link in (endpoint.faults,))
 
     def _reads_seen(self, robot: int) -> bool:
         """Whether robot `robot`'s client's reads can be seen (lock held): a client on this
