@@ -365,6 +365,21 @@ def scenario_burst_reflex(host: str) -> dict:
     return out
 
 
+def scenario_elbow_beyond_its_range(host: str) -> dict:
+    """A Cartesian motion whose elbow target (joint 3) lies past joint 3's upper end."""
+    import franky
+
+    robot = _connect(host)
+    pose = franky.Affine([0.4, 0.0, 0.4], [1.0, 0.0, 0.0, 0.0])
+    out = {"aborted": None}
+    try:
+        robot.move(franky.CartesianMotion(franky.RobotPose(pose, franky.ElbowState(3.2))))
+    except franky.ControlException as exc:
+        out["aborted"] = str(exc)
+    out["elbow_c"] = robot.state.elbow_c.joint_3_pos
+    return out
+
+
 def scenario_gripper(host: str) -> dict:
     import franky
 
@@ -570,6 +585,16 @@ def test_a_reflex_inside_a_burst_reads_as_the_robot_reports_it():
     assert "communication_constraints_violation" in out["aborted"]
     assert "control_command_success_rate: 0.75" in out["aborted"]
     assert "packets lost in a row in the last sample: 25" in out["aborted"]
+
+
+def test_an_elbow_past_joint_3s_end_is_an_elbow_limit_violation():
+    """franky plans the elbow smoothly, so only its range is wrong: 3.2 rad against joint 3's
+    upper end of 2.9065."""
+    with running_sim("--clock", "lockstep", "--enforce-motion-limits") as sim:
+        out = _run("elbow_beyond_its_range", sim.host)
+        assert sim.log_matching("cartesian_motion_generator_elbow_limit_violation: elbow "
+                                "position 2.9")
+    assert "cartesian_motion_generator_elbow_limit_violation" in out["aborted"]
 
 
 def test_gripper(lockstep_sim):

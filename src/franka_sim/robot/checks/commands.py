@@ -15,6 +15,7 @@ from franka_sim.robot.checks.checker import CheckerChain, CommandChecker
 from franka_sim.robot.checks.elbow_command import ElbowChecker
 from franka_sim.robot.checks.figures import motion_figures
 from franka_sim.robot.checks.joint_commands import JointPositionChecker, JointVelocityChecker
+from franka_sim.robot.checks.joint_table import joint_limits
 from franka_sim.robot.checks.torque_command import TorqueChecker
 
 
@@ -28,6 +29,8 @@ def command_checker_for(desc: ArmDescription, generator: Gen, torque_controlled:
     """
     generator = Gen(generator)
     figures = motion_figures(desc)
+    table = joint_limits(desc)
+    elbow_range = (float(table.lower[2]), float(table.upper[2]))
     checkers: list[CommandChecker] = []
     if generator is Gen.kJointPosition:
         checkers.append(JointPositionChecker(desc, q_start))
@@ -35,9 +38,10 @@ def command_checker_for(desc: ArmDescription, generator: Gen, torque_controlled:
         checkers.append(JointVelocityChecker(desc, q_start))
     elif generator is Gen.kCartesianPosition:
         checkers += (CartesianPoseChecker(O_T_EE_start, figures),
-                     ElbowChecker(elbow_start, figures))
+                     ElbowChecker(elbow_start, figures, elbow_range))
     elif generator is Gen.kCartesianVelocity:
-        checkers += (CartesianVelocityChecker(figures), ElbowChecker(elbow_start, figures))
+        checkers += (CartesianVelocityChecker(figures),
+                     ElbowChecker(elbow_start, figures, elbow_range))
     if torque_controlled:
         checkers.append(TorqueChecker(desc))
     return checkers[0] if len(checkers) == 1 else CheckerChain(*checkers)

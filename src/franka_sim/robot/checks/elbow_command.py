@@ -1,7 +1,8 @@
 """The elbow a Cartesian command may carry: elbow_c = (joint-3 angle, flip sign).
 
 Judged only on cycles that command it (valid_elbow): otherwise elbow_c is zero fill, not a
-signal. The first commanded angle must be the start elbow; the flip sign must never change.
+signal. The first commanded angle must be the start elbow; the flip sign must never change;
+the angle must stay in joint 3's range (an elbow beyond it is one the arm cannot take).
 """
 
 from __future__ import annotations
@@ -22,8 +23,10 @@ from franka_sim.robot.checks.violation import Violation
 class ElbowChecker(CommandChecker):
     """elbow_c against the start elbow (None: unknown, the first sample anchors the history)."""
 
-    def __init__(self, elbow_start=None, figures: MotionFigures = FR3) -> None:
+    def __init__(self, elbow_start=None, figures: MotionFigures = FR3,
+                 joint_range: tuple[float, float] = (-math.inf, math.inf)) -> None:
         self._envelope = figures.elbow
+        self._lowest, self._highest = joint_range  # joint 3's, rad
         self._thr = derivative_thresholds(self._envelope, ELBOW_MAGNITUDE, 0)
         self._grid = SampleGrid()
         self._first = True
@@ -48,6 +51,10 @@ class ElbowChecker(CommandChecker):
             name = ELBOW_START_SIGN_ERROR if start is not None else ELBOW_SIGN_ERROR
             out.append(Violation(name, "elbow", sign, self._flip, quantity="sign"))
         self._flip = sign or self._flip
+        if not self._lowest <= position <= self._highest:
+            limit = self._highest if position > self._highest else self._lowest
+            out.append(Violation(ELBOW_NAMES.velocity, "elbow", position, limit,
+                                 quantity="position", unit="rad"))
         n += grid.pending
         if self._elbow is None:  # nothing to difference against: this sample anchors the history
             self._elbow = (position, 0.0, 0.0)
