@@ -30,8 +30,8 @@ VISUAL = dict(contype=0, conaffinity=0, group=VISUAL_GROUP)
 
 # The Hand's body in the flange frame: a box across the finger direction (45° about z),
 # standing on the flange, and the flange's dark disc under it.
-HAND_BOX_CENTRE = (0.0, 0.0, 0.045)
-HAND_BOX_HALF = (0.1, 0.028, 0.035)
+HAND_BOX_CENTRE = (0.0, 0.0, 0.031)  # (the housing physics/arm_model.py's capsule envelopes)
+HAND_BOX_HALF = (0.1, 0.028, 0.028)
 HAND_YAW = np.pi / 4
 
 

@@ -57,10 +57,13 @@ COLLISION_CAPSULES: dict[str, tuple[Capsule, ...]] = {
     "link7": (((0, 0, -0.01), (0, 0, 0.07), 0.045),),  # joint-7 housing up to the flange
 }
 # The Hand, in the flange frame: a bar across the finger direction (the hand's y axis is the
-# flange's y turned −45° about z), standing on the flange.
+# flange's y turned −45° about z), standing on the flange, 0.2 m long and 56 mm thick. Its
+# underside is where the fingers leave the housing (their joints 58.4 mm below the flange, as
+# franka_description has them), so a top grasp may close with the pads' middle at an object's
+# centre; franka_description's coarse capsule, meant for self-collision margins, reaches 80 mm.
 _FINGER_DIR = np.array([np.sqrt(0.5), np.sqrt(0.5), 0.0])
-HAND_CAPSULES = ((tuple(-0.07 * _FINGER_DIR + [0, 0, 0.045]),
-                  tuple(0.07 * _FINGER_DIR + [0, 0, 0.045]), 0.04),)
+HAND_CAPSULES = ((tuple(-0.072 * _FINGER_DIR + [0, 0, 0.031]),
+                  tuple(0.072 * _FINGER_DIR + [0, 0, 0.031]), 0.028),)
 
 # Contact filtering: each arm body gets its own contype bit (bit 0 is the environment's), and
 # its conaffinity omits its neighbours' bits, so adjacent links (whose envelopes overlap at the
