@@ -380,6 +380,21 @@ def scenario_elbow_beyond_its_range(host: str) -> dict:
     return out
 
 
+def scenario_centred_top_grasp(host: str) -> dict:
+    """The open Hand lowered over the default scene's 5 cm cube until the TCP is at its
+    centre, then closed on it."""
+    import franky
+
+    robot = _connect(host)
+    for z in (0.1, 0.025):
+        robot.move(franky.CartesianMotion(franky.Affine([0.45, 0.0, z], [1.0, 0.0, 0.0, 0.0])))
+    state = _fresh(robot)
+    out = {"mode": state.robot_mode.name, "force_z": state.O_F_ext_hat_K[2],
+           "tcp_z": state.O_T_EE.translation[2]}
+    out["grasped"] = franky.Gripper(host).grasp(0.05, 0.05, 20.0, 0.005, 0.005)
+    return out
+
+
 def scenario_gripper(host: str) -> dict:
     import franky
 
@@ -595,6 +610,14 @@ def test_an_elbow_past_joint_3s_end_is_an_elbow_limit_violation():
         assert sim.log_matching("cartesian_motion_generator_elbow_limit_violation: elbow "
                                 "position 2.9")
     assert "cartesian_motion_generator_elbow_limit_violation" in out["aborted"]
+
+
+def test_a_top_grasp_at_the_cubes_centre_touches_it_with_the_pads_only(lockstep_sim):
+    """The palm's underside is where the fingers leave it: with the TCP at the cube's centre
+    it stays 2 cm above the top face, nothing pushes back, and the grasp holds."""
+    out = _run("centred_top_grasp", lockstep_sim.host)
+    assert out["mode"] == "Idle" and abs(out["tcp_z"] - 0.025) < 1e-3
+    assert abs(out["force_z"]) < 0.5 and out["grasped"] is True
 
 
 def test_gripper(lockstep_sim):
