@@ -71,56 +71,54 @@ def test_a_cartesian_pose_motion_with_one_withheld_command_finishes(clock):
         del robot
 
 
-def test_a_velocity_motion_goes_on_after_a_long_gap_where_the_arm_was_held():
-    """A joint velocity motion whose commands are lost for 4000 cycles (a burst on the
-    command path, as a client paused in a debugger loses them; its states still come, so no
-    receive of the client's times out) while joint 4 moves at -0.2 rad/s: the robot brakes the
-    arm and holds it, and the client going on at that speed is judged where the arm was held,
-    not 0.8 rad further, past joint 4's lower end. Lockstep and a burst: the same cycles every
-    run."""
+def _velocity_motion_through_a_long_gap(start, command_at) -> tuple[list[int], object]:
+    """A velocity motion of 4.8 s ramped up and down over 0.2 s whose commands are lost for
+    4000 cycles from its 300th (a burst on the command path, as a client paused in a debugger
+    loses them; its states still come, so no receive of the client's times out). Lockstep and
+    a burst: the same cycles every run. Returns the states' message_ids and the state after."""
     from franka_sim.control import Control
 
     with running_sim("--clock", "lockstep", "--enforce-motion-limits") as sim:
         control = Control(sim.host)
         control.health()  # (its HTTP server loaded before the motion calls it)
         robot = connect(sim.host)
-        loop = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+        loop = start(robot)
         loop.readOnce()
-        ids, speed = [], np.zeros(7)
+        ids = []
         for k in range(4800):
             state, _ = loop.readOnce()
             ids.append(round(state.time.to_sec() * 1000))
-            speed[3] = -0.2 * min(k, 200, 4600 - k if k < 4600 else 0) / 200
-            command = pylibfranka.JointVelocities(speed.tolist())
+            command = command_at(min(k, 200, 4600 - k if k < 4600 else 0) / 200)
             command.motion_finished = k == 4799
             loop.writeOnce(command)
             if k == 300:
                 control.set_faults("burst=4000@0.002s,dir=commands")
-        state = robot.read_once()
+        return ids, robot.read_once()
+
+
+def test_a_velocity_motion_goes_on_after_a_long_gap_where_the_arm_was_held():
+    """Joint 4 at -0.2 rad/s through the gap: the robot brakes the arm and holds it, and the
+    client going on at that speed is judged where the arm was held, not 0.8 rad further, past
+    joint 4's lower end."""
+    def command_at(share):
+        speed = np.zeros(7)
+        speed[3] = -0.2 * share
+        return pylibfranka.JointVelocities(speed.tolist())
+
+    ids, state = _velocity_motion_through_a_long_gap(
+        lambda robot: robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance),
+        command_at)
     assert state.robot_mode == pylibfranka.RobotMode.Idle
     assert ids[-1] - ids[0] > 4700  # (every state read: only commands were lost)
 
 
 def test_a_cartesian_velocity_motion_goes_on_after_a_long_gap_where_the_arm_was_held():
-    """The same gap in a Cartesian velocity motion at 0.05 m/s: the robot brakes and holds the
-    arm, and when the client is heard again the IK starts from rest at the client's speed.
-    That step is the gap's: the joint side of the motion is not aborted for it."""
-    from franka_sim.control import Control
-
-    with running_sim("--clock", "lockstep", "--enforce-motion-limits") as sim:
-        control = Control(sim.host)
-        control.health()
-        robot = connect(sim.host)
-        loop = robot.start_cartesian_velocity_control(pylibfranka.ControllerMode.JointImpedance)
-        loop.readOnce()
-        for k in range(4800):
-            loop.readOnce()
-            v = 0.05 * min(k, 200, 4600 - k if k < 4600 else 0) / 200
-            command = pylibfranka.CartesianVelocities([v, 0.0, 0.0, 0.0, 0.0, 0.0])
-            command.motion_finished = k == 4799
-            loop.writeOnce(command)
-            if k == 300:
-                control.set_faults("burst=4000@0.002s,dir=commands")
-        state = robot.read_once()
+    """The same gap in a Cartesian velocity motion at 0.05 m/s: when the client is heard again
+    the IK starts from rest at the client's speed. That step is the gap's: the joint side of
+    the motion is not aborted for it."""
+    _, state = _velocity_motion_through_a_long_gap(
+        lambda robot: robot.start_cartesian_velocity_control(
+            pylibfranka.ControllerMode.JointImpedance),
+        lambda share: pylibfranka.CartesianVelocities([0.05 * share, 0.0, 0.0, 0.0, 0.0, 0.0]))
     assert state.robot_mode == pylibfranka.RobotMode.Idle
     assert not bool(state.last_motion_errors)
