@@ -61,8 +61,8 @@ class ArmParts:
         return ArmCycle(self.core, physics, self.tool, tool_state_wanted=tool_state_wanted)
 
     def robot_session(self) -> Session:
-        pairing = PAIRINGS[self.robot] if self.config.strict_versions else None
-        return robot_session(self.core, self.model_library, pairing)
+        return robot_session(self.core, self.model_library, PAIRINGS[self.robot],
+                             strict=self.config.strict_versions)
 
     def model_library(self, request) -> bytes | None:
         """The model library a LoadModelLibrary asks for (libfranka before 0.18 only, so

@@ -198,8 +198,20 @@ def test_a_pairing_refuses_the_versions_its_robot_does_not_speak(kind, refused, 
     the session closes."""
     from franka_sim.robot.session import PAIRINGS
 
-    session = Session(ROBOT, _Robot().handle, None, PAIRINGS[kind])
+    session = Session(ROBOT, _Robot().handle, None, PAIRINGS[kind], strict=True)
     (reply,) = session.feed(_request(v5, v5.Command.Connect, 0, version=refused,
                                      udp_port=4242))
     assert struct.unpack_from("<IIIBH", reply) == (0, 0, 15, 1, own)
     assert session.closed and session.handshake is None
+
+
+@pytest.mark.parametrize("kind, own", [("fer", 5), ("fr3", 10)])
+def test_a_version_nobody_serves_is_refused_with_the_robots_own(kind, own):
+    """libfranka 0.8 (protocol 4) at a Panda, strict or not: the reply names 5, the
+    libfranka to use with this robot, not the newest the simulator serves."""
+    from franka_sim.robot.session import PAIRINGS
+
+    session = Session(ROBOT, _Robot().handle, None, PAIRINGS[kind])
+    (reply,) = session.feed(_request(v5, v5.Command.Connect, 0, version=4, udp_port=4242))
+    assert struct.unpack_from("<IIIBH", reply) == (0, 0, 15, 1, own)
+    assert session.closed

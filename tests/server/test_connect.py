@@ -10,6 +10,8 @@ import sys
 import pylibfranka
 import pytest
 
+from franka_sim.testing import running_sim
+
 
 ROBOT_PORT = 1337
 
@@ -63,6 +65,14 @@ def test_wrong_library_version_gets_incompatible_and_our_version(sim, version):
     # ...and the robot is still there for a client that speaks v10.
     r = _connect(sim.host)
     assert r.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_a_panda_refusing_a_version_names_its_own():
+    """libfranka 0.8 (protocol 4) at a Panda: the refusal names 5, the libfranka to use with
+    this robot, not the newest the simulator serves (--strict-versions or not)."""
+    with running_sim("--robot", "fer") as panda:
+        reply = _raw_connect(panda.host, version=4)
+    assert struct.unpack("<IIIBH", reply[:15]) == (0, 0, 15, 1, 5)
 
 
 def test_port_taken_is_a_clear_one_line_error_and_nonzero_exit(sim):

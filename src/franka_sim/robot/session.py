@@ -89,11 +89,12 @@ class Session:
 
     def __init__(self, service: Service, handle: Callable[..., list[bytes]],
                  library: Callable[[object], bytes | None] | None = None,
-                 pairing: "Pairing | None" = None) -> None:
+                 pairing: "Pairing | None" = None, strict: bool = False) -> None:
         self.service = service
         self.handle = handle
-        # The versions this robot speaks (--strict-versions); None: every one the service does.
-        self.pairing = pairing
+        # The robot kind's own versions, and the one a refusal names (None: the service's);
+        # `strict` (--strict-versions): only those are served, else every one the service does.
+        self.pairing, self.strict = pairing, strict
         # library(request) → the robot's model library for a LoadModelLibrary (older clients
         # build their Model from it), or None: answered kError.
         self.library = library
@@ -165,7 +166,7 @@ class Session:
         version = int(request.version)
         make_dialect = service.dialects.get(version)
         pairing = self.pairing
-        if pairing is not None and version not in pairing.versions:
+        if self.strict and pairing is not None and version not in pairing.versions:
             log.warning("client speaks %s protocol version %d, this %s speaks %s "
                         "(--strict-versions): rejected", service.name, version, pairing.robot,
                         pairing.said)
@@ -175,7 +176,9 @@ class Session:
                 if service.dialects else ""
             log.warning("client speaks %s protocol version %d, we speak %d%s: rejected",
                         service.name, version, service.version, older)
-            return self._incompatible(command_id, service.version)
+            # (A Panda names its own version: the libfranka to use with it, not the newest.)
+            return self._incompatible(command_id, service.version if pairing is None
+                                      else pairing.version)
         state = command = None
         if make_dialect is not None:
             self.dialect = dialect = make_dialect()
@@ -216,11 +219,12 @@ PAIRINGS = {"fer": Pairing("Panda", frozenset({5}), 5),
 
 
 def robot_session(robot, library: Callable[[object], bytes | None] | None = None,
-                  pairing: Pairing | None = None) -> Session:
+                  pairing: Pairing | None = None, strict: bool = False) -> Session:
     """The robot's conversation: requests go to the robot (robot/fci.py: an arm or a base);
     `library`: its model library for older clients (model_library/), if it has one;
-    `pairing`: the versions it alone accepts (None: every one served)."""
-    return Session(ROBOT, robot.handle, library, pairing)
+    `pairing`: its kind's versions (a refusal names its own); `strict`: it accepts those
+    alone (else every one served)."""
+    return Session(ROBOT, robot.handle, library, pairing, strict)
 
 
 def tool_session(service: Service, device) -> Session:
