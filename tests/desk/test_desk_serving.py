@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import shutil
+import socket
 import ssl
 import subprocess
 import sys
@@ -52,6 +53,25 @@ def test_the_certificate_is_made_once_and_kept(tmp_path):
     kept = tmp_path / "franka-sim" / "desk"
     assert served[0] == served[1] == (kept / "cert.pem").read_text()
     assert (kept / "key.pem").stat().st_mode & 0o077 == 0
+
+
+@pytest.mark.parametrize("maker", ["openssl", "cryptography"])
+def test_a_client_that_trusts_the_certificate_verifies_it_as_the_robots(tmp_path, maker,
+                                                                       monkeypatch):
+    """panda-python's forced take listens for the Pilot over TLS verified against the name
+    robot.franka.de: a client given the kept certificate as its trust gets on, under that name
+    as under localhost."""
+    if maker == "cryptography":
+        pytest.importorskip("cryptography")
+        monkeypatch.setattr(shutil, "which", lambda name: None)
+    cert, key = certificate.kept_certificate(tmp_path)
+    with running_sim("--desk-port", str(PORT), "--desk-cert", str(cert),
+                     "--desk-key", str(key)) as sim:
+        for name in ("robot.franka.de", "localhost"):
+            trusting = ssl.create_default_context(cafile=str(cert))
+            with socket.create_connection((sim.host, PORT), timeout=20) as raw:
+                with trusting.wrap_socket(raw, server_hostname=name) as tls:
+                    assert tls.version() is not None
 
 
 def test_ones_own_certificate_is_served(tmp_path):

@@ -226,3 +226,31 @@ def test_holding_a_moving_arm_aborts_its_motion():
     assert (5, 0, MoveStatus.kAborted) in [(cid, 0, status) for _, cid, status in
                                             robot.statuses()]
     assert robot.core.motion is None and int(robot.state["robot_mode"]) == RobotMode.kOther
+
+
+def test_the_older_desk_answers_what_panda_pythons_desk_asks():
+    """panda-python 1.1.1's `Desk`: a forced take reads how long its requester has to press
+    the Pilot's button (/admin/api/safety), `deactivate_fci` DELETEs the FCI with the token in
+    its body, and `lock` closes the brakes with its session alone."""
+    service = _service()
+    login = _call(service, "POST", "/admin/api/login",
+                  {"login": USER, "password": browser_password(USER, PASSWORD)}, auth=None)
+    cookie = {"cookie": f"authorization={login.text}"}
+
+    def call(method, path, body=b"", **headers):
+        return service.handle(Call(method, path, {}, dict(cookie, **headers), body))
+
+    safety = call("GET", "/admin/api/safety")
+    assert safety.status == 200 and safety.body["tokenForceTimeout"] > 0
+    token = call("POST", "/admin/api/control-token/request",
+                 json.dumps({"requestedBy": USER}).encode()).body["token"]
+    for path in ("/desk/api/robot/open-brakes", "/desk/api/operating-mode/execution"):
+        assert call("POST", path, **{"x-control-token": token}).status == 200
+    body = json.dumps({"token": token}).encode()
+    assert call("POST", "/admin/api/control-token/fci", body).status == 200
+    assert service.desk.fci_active
+    assert call("DELETE", "/admin/api/control-token/fci", body).status == 200
+    assert not service.desk.fci_active
+    assert call("DELETE", "/admin/api/control-token/fci", b'{"token": "not-it"}').status == 403
+    assert call("POST", "/desk/api/robot/close-brakes").status == 200
+    assert service.desk.brakes == "Locked"

@@ -17,6 +17,9 @@ import tempfile
 from pathlib import Path
 
 SUBJECT = "franka-sim Desk"
+# The name Desk clients that verify the robot's certificate give its TLS (panda-python's Pilot
+# events), whatever address they connect to: a client that trusts this certificate gets on.
+ROBOT_NAME = "robot.franka.de"
 DAYS = 3650
 
 
@@ -62,7 +65,7 @@ def _with_openssl(cert: Path, key: Path) -> None:
     command = ["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt",
                "ec_paramgen_curve:prime256v1", "-nodes", "-keyout", str(key), "-out", str(cert),
                "-days", str(DAYS), "-subj", f"/CN={SUBJECT}",
-               "-addext", "subjectAltName=DNS:localhost,IP:127.0.0.1"]
+               "-addext", f"subjectAltName=DNS:localhost,DNS:{ROBOT_NAME},IP:127.0.0.1"]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
@@ -91,7 +94,8 @@ def _with_cryptography(cert: Path, key: Path) -> None:
         .public_key(private.public_key()).serial_number(x509.random_serial_number())
         .not_valid_before(now).not_valid_after(now + datetime.timedelta(days=DAYS))
         .add_extension(x509.SubjectAlternativeName([
-            x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            x509.DNSName("localhost"), x509.DNSName(ROBOT_NAME),
+            x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
             critical=False)
         .sign(private, hashes.SHA256()))
     key.write_bytes(private.private_bytes(serialization.Encoding.PEM,

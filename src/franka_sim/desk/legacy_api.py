@@ -10,8 +10,8 @@ import base64
 import binascii
 
 from franka_sim.desk.calls import Answer, Call, Routes
-from franka_sim.desk.state import (EXECUTION, JOINTS, LOCKED, PROGRAMMING, UNLOCKED, Desk,
-                                   DeskRefusal)
+from franka_sim.desk.state import (EXECUTION, FORCE_CONFIRM_SECONDS, JOINTS, LOCKED,
+                                   PROGRAMMING, UNLOCKED, Desk, DeskRefusal)
 from franka_sim.desk.users import Users
 
 
@@ -43,6 +43,16 @@ def routes(desk: Desk, users: Users) -> Routes:
         body = call.json_object()
         desk.set_fci(call.control_token or body.get("token"), True)
         return Answer()
+
+    @add("DELETE", "/admin/api/control-token/fci")
+    def fci_off_with_token(call: Call) -> Answer:
+        body = call.json_object(optional=True)
+        desk.set_fci(call.control_token or body.get("token"), False)
+        return Answer()
+
+    @add("GET", "/admin/api/safety")
+    def safety(call: Call) -> Answer:
+        return Answer(body={"tokenForceTimeout": FORCE_CONFIRM_SECONDS})
 
     @add("GET", "/admin/api/system-status")
     def system_status(call: Call) -> Answer:
@@ -89,7 +99,7 @@ def routes(desk: Desk, users: Users) -> Routes:
     api.actions([
         # System 4's brake actions: their multipart body ("force") changes nothing here.
         ("/desk/api/robot/open-brakes", lambda token: desk.set_brakes(token, UNLOCKED)),
-        ("/desk/api/robot/close-brakes", lambda token: desk.set_brakes(token, LOCKED)),
+        ("/desk/api/robot/close-brakes", lambda token: desk.lock_brakes()),
         ("/desk/api/gripper/homing", desk.home_gripper),
         # No recoverable safety error is simulated: nothing left to acknowledge.
         ("/admin/api/safety/recoverable-safety-errors/acknowledge", desk.check_token),

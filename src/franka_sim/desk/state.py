@@ -23,6 +23,9 @@ PILOT_BUTTONS = ("circle", "cross", "check", "up", "down", "left", "right")
 # The button that confirms physical access for a forced control-token take (the Pilot's top,
 # circle button, as franky's prompt asks for).
 CONFIRM_BUTTON = "circle"
+# Seconds a forced take's requester is told it has to press it (/admin/api/safety's
+# tokenForceTimeout; the real Desk's figure is unpublished: ours). The take itself waits on.
+FORCE_CONFIRM_SECONDS = 15
 JOINTS = 7
 BOOTS = DESK_BOOTS
 
@@ -216,6 +219,12 @@ class Desk:
     def set_brakes(self, secret: str | None, state: str) -> None:
         self.check_token(secret)
         self.brakes = state
+        self._changed()
+
+    def lock_brakes(self) -> None:
+        """The older Desk's close-brakes: locking makes nothing move, so any logged-in user
+        may (panda-python's `lock` sends no control token)."""
+        self.brakes = LOCKED
         self._changed()
 
     def set_operating_mode(self, secret: str | None, mode: str) -> None:
