@@ -54,6 +54,7 @@ async def _serve(host: str, bounds: dict, box: dict, ready: threading.Event) -> 
         _LOOPS[id(sim)] = box["loop"]
         ready.set()
         await box["stop"].wait()
+        del _LOOPS[id(sim)]
 
 
 _LOOPS: dict[int, asyncio.AbstractEventLoop] = {}
