@@ -54,6 +54,7 @@ class SimHandle:
         self.settings = settings  # franka_sim.testing.server_pool.SimSettings
         self.server = server  # franka_sim.testing.ServerProcess: pid, the whole log
         self._log_start = len(server.sync())
+        self._log_end: int | None = None  # where the test ended (the fixture's teardown)
         self.recording: Path | None = None  # this test's recording, while it is made
         self.faults: str | dict | None = faults  # the marker's, injected after the reset
 
@@ -69,7 +70,12 @@ class SimHandle:
     def log(self) -> list[str]:
         from franka_sim.testing.server_pool import at_level, shown_level
 
-        return at_level(self.server.sync()[self._log_start:], shown_level(os.environ))
+        return at_level(self.server.sync()[self._log_start:self._log_end],
+                        shown_level(os.environ))
+
+    def ended(self) -> None:
+        """The test is over: lines after are the next test's, or the session's end."""
+        self._log_end = len(self.server.sync())
 
     def __repr__(self) -> str:
         faults = f" faults={self.faults!r}" if self.faults is not None else ""
@@ -169,13 +175,28 @@ def franka_sim(request: pytest.FixtureRequest, franka_sim_servers):
         handle.recording = path
         request.node.stash[_RECORDING] = _Recording(path)
     yield handle
-    if path is not None:
+    died = _died(server)
+    handle.ended()
+    if path is not None and died is None:
         from franka_sim.control import ControlError
 
         try:
             control.finish_recording()
-        except ControlError as exc:  # the server died: what it wrote is kept if the test failed
+        except ControlError as exc:
             request.node.stash[_RECORDING].trouble = f"not finished: {exc}"
+    if died is not None:  # the test's own outcome aside, the robot it ran against is gone
+        if path is not None:
+            request.node.stash[_RECORDING].trouble = "not finished: the simulator died"
+        pytest.fail(f"the simulator at {server.host} died during the test ({died}); "
+                    f"the next test gets a fresh one", pytrace=False)
+
+
+def _died(server) -> str | None:
+    """How the test's server ended, if it did (None: it still serves)."""
+    code = server.proc.poll()
+    if code is None:
+        return None
+    return f"killed by signal {-code}" if code < 0 else f"exit status {code}"
 
 
 def _discard_recording(control, path: Path) -> None:
@@ -261,10 +282,12 @@ def _absolute(path, base: Path) -> str | None:
 
 
 class _Recording:
-    """A test's recording: where, and whether a phase of the test failed."""
+    """A test's recording: where, whether a phase of the test failed, and whether a report
+    already named it."""
 
     def __init__(self, path: Path) -> None:
         self.path, self.failed, self.trouble = path, False, ""
+        self.named = False
 
 
 def _recording_path(item: pytest.Item) -> Path | None:
@@ -328,7 +351,8 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
         return
     if report.failed:
         recording.failed = True
-        if report.when == "call":
+        if not recording.named:  # the first failing phase's report (setup, call or teardown)
+            recording.named = True
             report.sections.append(("franka-sim recording",
                                     f"{recording.path}\n(franka-sim replay {recording.path})"))
     if report.when == "teardown":

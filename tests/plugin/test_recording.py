@@ -193,3 +193,54 @@ def test_a_run_whose_tests_all_pass_leaves_no_recordings_directory(tmp_path):
     done = subprocess.run(command, cwd=project, env=env, capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0 and (project / "franka-sim-recordings").is_dir()
+
+
+FAILING_AROUND = '''
+import os, signal, time
+
+import pylibfranka
+import pytest
+
+
+def test_server_dies(franka_sim):
+    pylibfranka.Robot(franka_sim.host, pylibfranka.RealtimeConfig.kIgnore).read_once()
+    os.kill(franka_sim.server.pid, signal.SIGKILL)  # as a crash would
+    while franka_sim.server.proc.poll() is None:
+        time.sleep(0.01)
+
+
+@pytest.fixture
+def breaks_after():
+    yield
+    raise RuntimeError("the user's own fixture fails in its teardown")
+
+
+def test_teardown_fails(franka_sim, breaks_after):
+    pylibfranka.Robot(franka_sim.host, pylibfranka.RealtimeConfig.kIgnore).read_once()
+'''
+
+
+def test_a_simulator_that_died_and_a_teardown_that_failed_are_reported(tmp_path):
+    """A test whose simulator died errors at teardown saying so (the test itself passed: its
+    report alone would say nothing), its recording unfinished; a test whose own fixture fails
+    at teardown names its recording there, and its log ends with the test (not with the
+    session's server stopping after the last test)."""
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "test_around.py").write_text(FAILING_AROUND)
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
+        cwd=project, capture_output=True, text=True, timeout=600,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+    output = done.stdout + done.stderr
+    assert done.returncode == 1 and "2 passed, 2 errors" in output, output
+    died, teardown = output.split("ERROR at teardown of test_teardown_fails")
+    died = died.split("ERROR at teardown of test_server_dies")[1]
+    assert "died during the test (killed by signal 9)" in died
+    assert "not finished: the simulator died" in died
+    teardown = teardown.split("= short test summary")[0]
+    path = project / "franka-sim-recordings" / recording_name("test_around.py::test_teardown_fails")
+    assert f"franka-sim replay {path}" in teardown and path.exists()
+    assert "stopping" not in teardown
