@@ -353,6 +353,10 @@ def check(
     # (click's ParameterSource, by name: typer may bring its own click)
     if getattr(ctx.get_parameter_source("host"), "name", None) == "COMMANDLINE":
         serving_file = None
+    if host.count(":") == 1:  # (an IPv6 address has more)
+        typer.echo(f"franka-sim check: {host}: HOST is an address alone; the control API's "
+                   "port is --control-port", err=True)
+        raise typer.Exit(1)
     if serving_file is None and not fci and not control_port:
         typer.echo("franka-sim check: control port 0: no control API to ask (--fci asks the "
                    "robot's FCI)", err=True)

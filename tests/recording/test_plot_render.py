@@ -103,6 +103,9 @@ def test_a_recording_whose_first_robot_sent_nothing_plots_the_first_that_did(tmp
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+    asked = franka_sim("plot", str(path), "-o", str(tmp_path / "l.png"), "--robot", "left")
+    assert asked.returncode == 1
+    assert "robot 'left' sent no state (--robot right did)" in asked.stderr
 
 
 def test_the_vacuum_grippers_panel_draws_its_vacuum_shaded_where_a_part_was_present():

@@ -46,6 +46,13 @@ def test_a_ready_simulator_passes_through_health_and_through_the_fci():
         assert sim.wait_for_log("FCI client") and sim.wait_for_log("disconnected")
 
 
+def test_a_host_with_a_port_is_told_where_the_port_goes():
+    code, stderr = _check("127.0.0.1:1340")
+    assert code == 1
+    assert _one_line(stderr) == ("franka-sim check: 127.0.0.1:1340: HOST is an address alone; "
+                                 "the control API's port is --control-port")
+
+
 def test_no_simulator_fails_on_one_line_saying_refused():
     host = _vacant_address()
     code, stderr = _check(host)

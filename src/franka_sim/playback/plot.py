@@ -111,6 +111,10 @@ def figure(recording: Recording, *, joints: list[int] | None = None, start: floa
     states = recording.states(robot)
     tool = recording.tool_states(robot)
     if not len(states) and tool is None:
+        sent = [name for name in recording.robots if name != robot
+                and (recording.of("robot_state", name) or recording.tool_states(name) is not None)]
+        if sent:
+            raise PlotError(f"robot {robot!r} sent no state (--robot {sent[0]} did)")
         raise PlotError("no robot or tool state recorded: nothing to plot")
     if not len(states) and fields:
         raise PlotError("--fields: no arm state recorded (only its tool's)")
