@@ -305,6 +305,7 @@ def _recording_path(item: pytest.Item) -> Path | None:
     path = directory.resolve() / recording_name(item.nodeid)
     if _recorded_now(path):  # another run of this project records this test now
         path = path.with_name(f"{path.stem}-{os.getpid()}{path.suffix}")
+    config.pluginmanager.get_plugin("franka-sim-recordings").started[path] = item.nodeid
     return path
 
 
@@ -356,6 +357,8 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
             report.sections.append(("franka-sim recording",
                                     f"{recording.path}\n(franka-sim replay {recording.path})"))
     if report.when == "teardown":
+        item.config.pluginmanager.get_plugin("franka-sim-recordings").started.pop(
+            recording.path, None)
         keep = recording.failed or item.config.getoption("--franka-sim-record") == "all"
         if keep and recording.path.exists():
             report.user_properties.append((PROPERTY, str(recording.path)))
@@ -374,6 +377,9 @@ class _KeptRecordings:
         self.kept: list[tuple[str, str]] = []
         self.directory: Path | None = None  # where they go, and whether this run made it
         self.made = False
+        # Recordings begun and not yet kept or removed (this process's tests): at the summary,
+        # those of a run interrupted mid-test (Ctrl-C), kept as far as they were written.
+        self.started: dict[Path, str] = {}
 
     def pytest_unconfigure(self, config: pytest.Config) -> None:
         """A directory this run made and kept nothing in goes again (every test passed)."""
@@ -394,9 +400,12 @@ class _KeptRecordings:
         if self.unavailable is not None:
             terminalreporter.section("franka-sim recordings")
             terminalreporter.line(f"no test was recorded: {self.unavailable}")
-        if not self.kept:
+        interrupted = [(nodeid, path) for path, nodeid in self.started.items() if path.exists()]
+        if not self.kept and not interrupted:
             return
         terminalreporter.section("franka-sim recordings")
+        for nodeid, path in interrupted:
+            terminalreporter.line(f"{nodeid}: {path} (interrupted: kept as far as it was written)")
         for nodeid, path in self.kept[:self.SUMMARY_LINES]:
             terminalreporter.line(f"{nodeid}: {path}")
         if len(self.kept) > self.SUMMARY_LINES:

@@ -244,3 +244,31 @@ def test_a_simulator_that_died_and_a_teardown_that_failed_are_reported(tmp_path)
     path = project / "franka-sim-recordings" / recording_name("test_around.py::test_teardown_fails")
     assert f"franka-sim replay {path}" in teardown and path.exists()
     assert "stopping" not in teardown
+
+
+INTERRUPTED = '''
+import pylibfranka
+
+
+def test_interrupted(franka_sim):
+    pylibfranka.Robot(franka_sim.host, pylibfranka.RealtimeConfig.kIgnore).read_once()
+    raise KeyboardInterrupt  # as Ctrl-C in the middle of the test would
+'''
+
+
+def test_a_run_interrupted_mid_test_lists_the_recording_it_leaves(tmp_path):
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "test_interrupted.py").write_text(INTERRUPTED)
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
+        cwd=project, capture_output=True, text=True, timeout=600,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+    output = done.stdout + done.stderr
+    path = project / "franka-sim-recordings" / recording_name(
+        "test_interrupted.py::test_interrupted")
+    assert done.returncode == 2 and path.exists(), output  # pytest's: interrupted
+    assert (f"test_interrupted.py::test_interrupted: {path} (interrupted: kept as far as it "
+            "was written)") in output
