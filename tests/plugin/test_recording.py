@@ -195,6 +195,19 @@ def test_a_run_whose_tests_all_pass_leaves_no_recordings_directory(tmp_path):
     assert done.returncode == 0 and (project / "franka-sim-recordings").is_dir()
 
 
+def _run_module(tmp_path: Path, name: str, text: str):
+    """pytest (no workers) on a project of one test module: (its directory, the run)."""
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / name).write_text(text)
+    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
+    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
+    return project, subprocess.run(
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
+        cwd=project, capture_output=True, text=True, timeout=600,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+
+
 FAILING_AROUND = '''
 import os, signal, time
 
@@ -225,15 +238,7 @@ def test_a_simulator_that_died_and_a_teardown_that_failed_are_reported(tmp_path)
     report alone would say nothing), its recording unfinished; a test whose own fixture fails
     at teardown names its recording there, and its log ends with the test (not with the
     session's server stopping after the last test)."""
-    project = tmp_path / "project"
-    project.mkdir()
-    (project / "test_around.py").write_text(FAILING_AROUND)
-    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
-    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
-    done = subprocess.run(
-        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
-        cwd=project, capture_output=True, text=True, timeout=600,
-        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+    project, done = _run_module(tmp_path, "test_around.py", FAILING_AROUND)
     output = done.stdout + done.stderr
     assert done.returncode == 1 and "2 passed, 2 errors" in output, output
     died, teardown = output.split("ERROR at teardown of test_teardown_fails")
@@ -257,15 +262,7 @@ def test_interrupted(franka_sim):
 
 
 def test_a_run_interrupted_mid_test_lists_the_recording_it_leaves(tmp_path):
-    project = tmp_path / "project"
-    project.mkdir()
-    (project / "test_interrupted.py").write_text(INTERRUPTED)
-    installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
-    plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
-    done = subprocess.run(
-        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
-        cwd=project, capture_output=True, text=True, timeout=600,
-        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+    project, done = _run_module(tmp_path, "test_interrupted.py", INTERRUPTED)
     output = done.stdout + done.stderr
     path = project / "franka-sim-recordings" / recording_name(
         "test_interrupted.py::test_interrupted")
