@@ -32,15 +32,14 @@ from pick_and_place import CUBE_SIZE, GRASP_FORCE, READY, SPEED, move_joints, so
 BASE = {"left": np.array([0.0, 0.35, 0.0]), "right": np.array([0.0, -0.35, 0.0])}  # scene sites
 CUBE = np.array([0.45, 0.15, 0.025])  # on the table, nearer the left arm
 HANDOVER = np.array([0.45, 0.0, 0.30])  # the cube's centre while it changes hands
-# Left: pointing down, fingers closing along x; TCP high on the cube (pads on its upper 1.75 cm).
+# Left: pointing down, fingers closing along x; TCP at the cube's top face (the pads, 18.5 mm
+# tall about the TCP, on its upper 9 mm).
 FROM_ABOVE = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 LEFT_GRIP = np.array([0.0, 0.0, 0.025])
-# Right: level, pointing +y, fingers closing along x; TCP low (pads on its lower 2.2 cm), and
-# 5 mm towards +x: in franka-sim's Hand, whose fingers are driven alike but not coupled, a lifted
-# cube slides along the closing axis to left's finger 1 (at +x), 15.5 mm off centre; aimed there
-# the open fingers (81 mm) clear both a centred and a slid cube.
+# Right: level, pointing +y, fingers closing along x; TCP 11 mm below the cube's centre (the
+# pads from 2 to 20 mm below it), clear of left's fingers above.
 FROM_SIDE = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
-RIGHT_GRIP = np.array([0.005, 0.0, -0.011])
+RIGHT_GRIP = np.array([0.0, 0.0, -0.011])
 LEVEL = np.array([0.0, 0.15, 0.1, -2.4, 1.6, 1.6, -1.77])  # right's joints near FROM_SIDE
 APPROACH = 0.12  # m: how far off each grasp the hand starts and retreats
 TIMEOUT = 120.0  # s a process waits for the other at the barrier

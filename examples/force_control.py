@@ -35,7 +35,7 @@ GRAVITY = 9.81  # m/s²
 MAX_DRIFT = 0.01  # m from the start position: beyond it the example gives up
 
 SPOT = (0.4, -0.2)  # on the table, clear of the cube at (0.45, 0)
-TOUCH = 0.0175  # m: TCP height at which the fingertips touch the table
+TOUCH = 0.0095  # m: TCP height at which the fingertips touch the table (tips 9.5 mm beyond it)
 PRELOAD = 0.0005  # m below the touch: the fingertips rest on the table, barely pressing
 REPORT_EVERY = 1.0  # s
 

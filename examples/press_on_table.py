@@ -22,7 +22,7 @@ import pylibfranka
 import pick_and_place as pp  # the offline IK and joint motions of the pick-and-place example
 
 K_X = [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0]  # N/m, Nm/rad
-TOUCH = 0.0175  # m: TCP height at which the fingertips touch the table
+TOUCH = 0.0095  # m: TCP height at which the fingertips touch the table (tips 9.5 mm beyond it)
 SPOT = (0.35, 0.2)  # on the table, clear of the cube
 DEPTH = 0.03  # m: from 2 cm above the touch to 1 cm below it
 DOWN, HOLD = 1.0, 1.0  # s

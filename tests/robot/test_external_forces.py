@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from franka_sim.physics.fingers import FINGERS
+from franka_sim.physics.fingers import FINGERS, TIP_BEYOND_TCP
 from franka_sim.config import READY_POSE
 from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.backend import JointCommand
@@ -168,11 +168,25 @@ def test_a_push_reads_as_the_force_the_robot_exerts_on_the_pusher():
                                atol=2e-3)
 
 
+@pytest.mark.parametrize("above, touches", [(0.002, False), (-0.001, True)])
+def test_the_fingertips_reach_where_the_real_ones_do(above, touches):
+    """franka_description's fingertips end 9.5 mm beyond the TCP (docs/figures.md, "The Franka
+    Hand"): a TCP held 2 mm higher than that over the table leaves them clear of it, 1 mm
+    lower puts them on it."""
+    assert TIP_BEYOND_TCP == pytest.approx(0.0095, abs=1e-9)
+    h = table_harness()
+    q = pp.solve_ik([0.35, 0.2, 0.0095 + above], pp.READY)
+    assert joint_motion(h, q, 1.5) == [(Command.Move, 5, MoveStatus.kSuccess)]
+    h.cycle(300)
+    on_robot, _ = table_contacts(h.backend)
+    assert (on_robot[2] > 0.5) == touches
+
+
 def test_pressing_on_the_table_reads_the_contact_force_downwards():
     h = table_harness()
     h.core.settings.collision = thresholds(lower_force=5.0)
     # The fingertips commanded 2 mm into the top: the contact yields ~0.7 mm, the impedance the rest.
-    q = pp.solve_ik([0.35, 0.2, 0.0175 - 0.002], pp.READY)
+    q = pp.solve_ik([0.35, 0.2, TIP_BEYOND_TCP - 0.002], pp.READY)
     assert joint_motion(h, q, 1.5) == [(Command.Move, 5, MoveStatus.kSuccess)]
     h.cycle(300)
     s = h.state
@@ -254,7 +268,7 @@ def test_a_collision_during_a_motion_is_a_reflex(reflex, limits):
 def test_hitting_the_table_with_thresholds_lowered_aborts_the_motion():
     h = table_harness()
     h.core.settings.collision = thresholds(lower_force=5.0, upper_force=15.0)
-    q = pp.solve_ik([0.35, 0.2, 0.0175 - 0.005], pp.READY)  # 5 mm into the table
+    q = pp.solve_ik([0.35, 0.2, TIP_BEYOND_TCP - 0.005], pp.READY)  # 5 mm into the table
     assert joint_motion(h, q, 1.5) == [(Command.Move, 5, MoveStatus.kReflexAborted)]
     s = h.state
     assert s["reflex_reason"][error_index("cartesian_reflex")]

@@ -8,6 +8,8 @@ import numpy as np
 import pylibfranka
 import pytest
 
+from franka_sim.physics.fingers import TIP_BEYOND_TCP
+
 
 def connect(host: str) -> pylibfranka.Robot:
     return pylibfranka.Robot(host, pylibfranka.RealtimeConfig.kIgnore)
@@ -62,7 +64,7 @@ def cartesian_pose_motion(robot, targets, controller=pylibfranka.ControllerMode.
 # -- a press on the table (the default scene) until the robot's reflex ------------------------------
 
 
-PAD_BOTTOM = 0.0175  # m under the TCP: where the fingers first touch the table
+PAD_BOTTOM = TIP_BEYOND_TCP  # m under the TCP: where the fingers first touch the table
 SPOT = (0.35, 0.2)  # on the table, clear of the cube
 SPEED = 0.03  # m/s down
 RAMP = 0.05  # s to reach it

@@ -48,14 +48,20 @@ FINGER_ORIGIN_Z = 0.0584  # m along the hand axis from the flange
 FINGER_STROKE = 0.0405  # m per finger: the mechanical stop (joint range [0, FINGER_STROKE])
 OPEN_WIDTH = 0.08  # m: the datasheet opening; the fingers start here
 
-# Our own finger: a knuckle box under the hand, then a pad whose centre is the TCP (0.1034 m).
+# The finger: a knuckle box under the hand, then the pad (the rubber tip, where an object is
+# gripped). The pad is franka_description's tip collision box (docs/figures.md, "The Franka
+# Hand"): 18.5 mm tall about the TCP (0.1034 m), so the tips end 9.5 mm beyond it, 0.1129 m from
+# the flange. The knuckle is ours: set back from the pad's face, it reaches down to the pad.
 FINGER_MASS = 0.03  # kg (the CAD fingers weigh ~0.029 kg: docs/figures.md, "The Franka Hand")
 FINGER_COM = np.array([0.0, 0.012, 0.028])  # in the finger frame
 FINGER_INERTIA = np.diag([9.8e-6, 1.0e-5, 2.0e-6])  # about the CoM, finger axes (a box's)
 PAD_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
 # (centre, half-size) boxes in the finger frame; the pad's inner face is the plane y = 0.
-FINGER_BOXES = (((0.0, 0.0045, 0.045), (0.011, 0.0045, 0.0175)),  # pad
-                ((0.0, 0.0135, 0.0135), (0.011, 0.009, 0.0135)))  # knuckle
+FINGER_BOXES = (((0.0, 0.0076, 0.04525), (0.00875, 0.0076, 0.00925)),  # pad
+                ((0.0, 0.0135, 0.018), (0.011, 0.009, 0.018)))  # knuckle
+# How far the fingertips reach beyond the TCP (along the hand axis): 9.5 mm. A TCP this high
+# above a surface brings the tips onto it.
+TIP_BEYOND_TCP = FINGER_ORIGIN_Z + FINGER_BOXES[0][0][2] + FINGER_BOXES[0][1][2] - 0.1034
 
 # The fingers touch the environment only (objects, the table), never their arm or each other: a
 # bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
