@@ -17,6 +17,7 @@ from support.clients import connect
 PUSH = {"body": "hand", "force": [1.0, 0.0, 0.0], "duration": 0.1}
 CUBE = "/bodies/scene/cube"
 
+HUGE = b"1" + b"0" * 400  # an integer past any float (JSON has no bound on integers)
 BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", b"{", 400, "malformed JSON"),
     ("POST", "/push", b"[1, 2]", 400, "expected a JSON object, not an array"),
@@ -32,6 +33,11 @@ BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", b'{"body": "hand", "force": [NaN, 0, 0]}', 400, "NaN is not a JSON"),
     ("POST", "/push", b'{"body": "hand", "force": [1e999, 0, 0]}', 400, "force must be finite"),
     ("POST", "/push", {**PUSH, "torque": [0, 0, None]}, 400, "torque must be 3 numbers"),
+    ("POST", "/push", b'{"body": "hand", "force": [%s, 0, 0]}' % HUGE, 400,
+     "force must be finite"),
+    ("POST", "/push", b'{"body": "hand", "force": [1, 0, 0], "duration": %s}' % HUGE, 400,
+     "duration must be finite"),
+    ("POST", "/reset", b'{"gripper_width": %s}' % HUGE, 400, "gripper_width must be finite"),
     # (past these the step fails, and the server with it, or the arm is torn past its limits)
     ("POST", "/push", {**PUSH, "force": [0, 0, 1e6]}, 400, "force 1e+06 N is over the 1000 N"),
     ("POST", "/push", {**PUSH, "force": [800, 800, 0]}, 400, "force 1131.37 N is over"),
@@ -146,10 +152,12 @@ MALFORMED_HTTP = [  # what aiohttp's own parser refuses before a handler sees it
      "refused (400): Invalid character in chunk size"),
     (b"GET /health HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 500 + b"\r\n",
      "refused (400): Too many headers"),
+    (b"POST /reset HTTP/1.1\r\nHost: x\r\nContent-Encoding: gzip\r\nContent-Length: 2\r\n\r\n{}",
+     "refused (400): the request's body cannot be read: Can not decode content-encoding: gzip"),
 ]
 
 
-@pytest.mark.parametrize(("raw", "line"), MALFORMED_HTTP, ids=["length", "chunk", "headers"])
+@pytest.mark.parametrize(("raw", "line"), MALFORMED_HTTP, ids=["length", "chunk", "headers", "gzip"])
 def test_malformed_http_is_one_line_each_and_serving_goes_on(served, watched, raw, line):
     import socket
 

@@ -80,6 +80,9 @@ def test_a_spec_string_replaces_what_was_set(faults: Control):
     (b'{"delay": "2 hours"}', "not a duration"),
     (b'{"burst": "25"}', "expected N@T"),
     (b'{"burst": [25]}', "expected N@T"),
+    (b'{"burst": "25@1e400s"}', "the start is a whole ms"),  # (its ms overflow to infinity)
+    (b'{"spec": "burst=25@1e308s"}', "the start is a whole ms"),
+    ('{"burst": "\u00b2@3s"}'.encode(), "expected N@T"),  # a digit int() does not read
     (b'{"dir": "up"}', "expected both, states, commands"),
     (b'{"spec": "loss=0.1", "loss": 0.1}', "either spec or the fields"),
     (b'{"spec": "los=0.1"}', "unknown fault 'los'"),

@@ -42,6 +42,26 @@ def test_a_token_is_required_on_every_resource_and_never_shown_on_the_command_li
         assert b"\0franka-sim\0serve\0" in cmdline and b"--control-token\0***" in cmdline
 
 
+def test_a_token_beyond_ascii_works_from_the_client_and_latin_1_bytes_are_unauthorized():
+    """The token as UTF-8, as curl sends it; the Python client sends it so too (http.client
+    alone would send Latin-1, or refuse what Latin-1 lacks). Bytes that are not UTF-8 are a
+    wrong token (401), not a failure of the server."""
+    with running_sim("--control-token", "clé-ключ") as sim:
+        assert Control(sim.host, token="clé-ключ").health()["ready"] is True
+        connection = http.client.HTTPConnection(sim.host, 1340, timeout=10)
+        connection.putrequest("GET", "/health")
+        connection.putheader("Authorization", b"Bearer cl\xe9")  # (Latin-1)
+        connection.endheaders()
+        assert connection.getresponse().status == 401
+        connection.close()
+        assert "wrong bearer token" in sim.log_matching("refused (401)")[-1]
+    for token in ("a\r\nX-Injected: 1", "", " padded "):
+        with pytest.raises(ValueError, match="token must be"):
+            Control("127.0.0.1", token=token)
+    with pytest.raises(TypeError, match="cannot be sent as JSON"):  # a set has no order
+        Control("127.0.0.1").set_pose("cube", {0.45, 0.0, 0.3})
+
+
 def test_port_and_token_from_the_environment():
     env = {"FRANKA_SIM_CONTROL_PORT": "1345", "FRANKA_SIM_CONTROL_TOKEN": "t0ken"}
     with running_sim(env=env) as sim:

@@ -209,6 +209,9 @@ def test_the_server_runs_without_the_cli_machinery():
 @pytest.mark.parametrize("args, env, reason", [
     (["--inject", "loss=2"], {}, "loss=2: a probability is in [0, 1]"),
     (["--inject", "burst=20"], {}, "expected N@T"),
+    (["--inject", "burst=25@1e400s"], {}, "the start is a whole ms"),
+    (["--control-token", " s3cret"], {}, "spaces around it or control characters"),
+    (["--inject", "burst=\u00b2@3s"], {}, "expected N@T"),
     ([], {"FRANKA_SIM_INJECT": "delay=fast"}, "--inject (from FRANKA_SIM_INJECT): "),
     (["--inject", "loss=0.1", "--seed", "-1"], {}, "--seed"),
     (["--joint-discontinuity-scale", "nan"], {}, "nan is not a finite scale"),

@@ -29,7 +29,7 @@ def _jsonable(value):
         return os.fspath(value)
     if hasattr(value, "tolist"):  # a numpy array or number: plain lists and numbers
         return value.tolist()
-    if isinstance(value, Iterable) and not isinstance(value, (str, bytes, dict)):
+    if isinstance(value, Iterable) and not isinstance(value, (str, bytes, dict, set, frozenset)):
         return list(value)
     raise TypeError(f"{value!r} cannot be sent as JSON")
 
@@ -46,7 +46,12 @@ class Control:
         self.host, self.port, self.timeout = host, port, timeout
         self._headers = {"Accept": "application/json"}
         if token is not None:
-            self._headers["Authorization"] = f"Bearer {token}"
+            if not isinstance(token, str) or not token or not token.isprintable() \
+                    or token != token.strip():
+                raise ValueError(f"token must be the server's --control-token (printable text, "
+                                 f"no leading or trailing space), not {token!r}")
+            # (as UTF-8, as the server reads it: http.client would send Latin-1)
+            self._headers["Authorization"] = b"Bearer " + token.encode()
 
     def __repr__(self) -> str:
         return f"Control({self.host!r}, {self.port})"

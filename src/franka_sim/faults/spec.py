@@ -155,7 +155,7 @@ def _duration_ms(key: str, value: str, most: float) -> float:
 def _burst(value: str) -> Burst:
     count, at, when = value.partition("@")
     usage = f"burst={value}: expected N@T (e.g. 20@5s: 20 cycles lost from 5 s of simulated time)"
-    if not at or not count.strip().isdigit():
+    if not at or not count.strip().isascii() or not count.strip().isdigit():
         raise FaultSpecError(usage)
     cycles = int(count)
     if not 1 <= cycles <= MAX_BURST_CYCLES:
@@ -165,7 +165,6 @@ def _burst(value: str) -> Burst:
         raise FaultSpecError(usage)
     ms = float(match.group(1)) * (1000.0 if match.group(2) in (None, "s") else
                                   _UNIT_MS[match.group(2)])
-    start = round(ms)
-    if not math.isfinite(ms) or abs(ms - start) > 1e-6 or start >= 2**62:
+    if not math.isfinite(ms) or abs(ms - round(ms)) > 1e-6 or round(ms) >= 2**62:
         raise FaultSpecError(f"burst={value}: the start is a whole ms of simulated time")
-    return Burst(start, cycles)
+    return Burst(round(ms), cycles)

@@ -27,7 +27,10 @@ def numbers(name: str, value: Any, n: int) -> np.ndarray:
     if not all(isinstance(v, (Real, np.floating, np.integer)) and not isinstance(v, bool)
                for v in value):
         raise BadRequest(f"{name} must be {n} numbers, not {list(value)!r}")
-    array = np.array(value, dtype=float)
+    try:
+        array = np.array(value, dtype=float)
+    except OverflowError:  # an integer past any float (JSON's 1 and 400 zeros)
+        raise BadRequest(f"{name} must be finite, not {list(value)!r}"[:300]) from None
     if not np.all(np.isfinite(array)):
         raise BadRequest(f"{name} must be finite, not {array.tolist()}")
     return array
@@ -47,7 +50,10 @@ def number(name: str, value: Any) -> float:
     """`value` as one finite number, or BadRequest."""
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
         raise BadRequest(f"{name} must be a number, not {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer past any float
+        raise BadRequest(f"{name} must be finite, not {value!r}"[:300]) from None
     if not math.isfinite(value):
         raise BadRequest(f"{name} must be finite, not {value}")
     return value

@@ -22,6 +22,7 @@ import logging
 import re
 
 from aiohttp import web
+from aiohttp.web_protocol import RequestPayloadError
 
 from franka_sim.control.errors import BadRequest, ControlError, NotFound, Unauthorized
 from franka_sim.control.table import OPERATIONS, Operation, served_by
@@ -107,7 +108,9 @@ class ControlApi:
                                        "<token>, the server's --control-token)"
                                        if not given else "not a bearer token (Authorization: "
                                        "Bearer <token>)")
-                if not hmac.compare_digest(credentials.strip().encode(), self._expected):
+                # (the header's bytes as sent: aiohttp keeps those that are not UTF-8 escaped)
+                sent = credentials.strip().encode("utf-8", "surrogateescape")
+                if not hmac.compare_digest(sent, self._expected):
                     raise Unauthorized("wrong bearer token")
             return await handler(request)
         except ControlError as refusal:
@@ -120,6 +123,11 @@ class ControlApi:
                 message = f"{request.method} is not allowed on {request.path}"
             elif exc.status == 404:
                 message = f"no resource {request.path} (see docs/control_api.md)"
+        except RequestPayloadError as exc:  # a body its Content-Encoding does not decode
+            # (aiohttp's text: "400, message:\n  Can not decode content-encoding: gzip")
+            said = " ".join(line.strip() for line in str(exc).splitlines())
+            status = 400
+            message = f"the request's body cannot be read: {said.split('message:')[-1].strip()}"
         except ConnectionError:  # (the client hung up before its body was whole)
             log.warning("control API: %s %s: the client left before its request was whole",
                         request.method, request.path)

@@ -4,11 +4,14 @@ Before a request reaches the control API's or the Desk's handlers, aiohttp's own
 refuse it (a malformed Content-Length or chunk, a line or header over its limits) and answers
 400; it logs each refusal as an error with a traceback of its parser, and so does a handler
 whose client hung up mid-body. Neither is the server's error: each becomes one warning naming
-what was wrong and who sent it."""
+what was wrong and who sent it. A body whose Content-Encoding does not decode is refused by the
+handler, which says so; aiohttp's own traceback of it, as it drains the rest, is dropped."""
 
 from __future__ import annotations
 
 import logging
+
+from aiohttp.web_protocol import RequestPayloadError
 
 
 class _OneLine(logging.Filter):
@@ -16,6 +19,8 @@ class _OneLine(logging.Filter):
         exc = record.exc_info[1] if record.exc_info else None
         if exc is None:
             return True
+        if isinstance(exc, RequestPayloadError):
+            return False  # a body that does not decode: the handler refused it (its one line)
         if isinstance(exc, ConnectionError):
             said = "the client left before its request was whole"
         elif isinstance(getattr(exc, "code", None), int) and hasattr(exc, "message"):
