@@ -133,6 +133,16 @@ def test_a_push_reads_as_the_force_the_robot_exerts_and_ends_after_its_duration(
     del robot
 
 
+def test_a_push_longer_than_the_idle_clock_runs_to_its_end_with_no_client(control):
+    """With nobody connected the clock runs 2 s after a change: a longer push keeps it going
+    to its end (a pause halfway would leave it on for the next client to feel)."""
+    assert not control.health()["client_connected"]
+    q = control.state()["q"]
+    control.push("link7", force=[0.0, 0.0, -40.0], duration=2.5)
+    wait_cycles(control, 3600)  # the push's 2500 cycles, then the hold takes the arm back
+    assert control.state()["q"] == q
+
+
 def test_the_strongest_push_taken_leaves_a_simulator_that_serves(control):
     for direction in ([0.0, 0.0, 1.0], [-0.6, 0.0, -0.8]):  # (~1 MN broke the step)
         control.reset()

@@ -130,6 +130,24 @@ def test_a_paused_clock_starts_again_when_a_client_wakes_it():
     assert len(left) == sent + 1 and not clock.paused
 
 
+def test_a_push_with_no_client_runs_its_whole_duration_before_the_clock_pauses():
+    """A change that acts for a while (a push of 2500 cycles, given through the control API
+    with nobody connected) keeps the clock going for all of it and PAUSE_AFTER more: a
+    pause halfway would leave the push on for the next client to feel."""
+    ticks = []
+    harness = Harness()
+    world = WorldCycle([harness.robot_cycle], harness.backend.world.step)
+    clock = Clock(world, send=lambda states: len(ticks) * PERIOD,
+                  post=lambda message_id, replies: None, has_client=lambda: False,
+                  lockstep=False)
+    clock.world_changed(2500)
+    deadline = clock.tick(True, False, False)
+    while deadline is not None and len(ticks) < 10_000:
+        ticks.append(deadline)
+        deadline = clock.tick(True, False, False)
+    assert clock.paused and len(ticks) == 2500 + PAUSE_AFTER - 1
+
+
 def test_the_spacing_counts_from_when_the_state_left_not_when_its_cycle_began():
     """A thread held up inside a send (preempted, a busy host) sends that state late; the next
     state must still leave at least min_spacing after it, not min_spacing after the late

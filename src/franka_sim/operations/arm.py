@@ -349,7 +349,7 @@ class ArmOps(DeskOps, FaultOps):
             except Immovable as exc:
                 raise Conflict(f"{exc.args[0]!r} does not move under a push: {exc.args[1]}"
                                ) from None
-            self.driver.keep_running()
+            self.driver.keep_running(cycles)
             return {"body": world.bodies.find(body), "force": force.tolist(),
                     "torque": torque.tolist(), "cycles": cycles}
         return await self._job(push, ("push", {

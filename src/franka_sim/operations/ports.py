@@ -23,5 +23,6 @@ class Pacer(Protocol):
     def withdraw_prepared(self) -> int | None:
         """Take back the idle cycle released ahead (its state not sent): its message_id."""
 
-    def keep_running(self) -> None:
-        """A change was made: run the clock a while even with no client."""
+    def keep_running(self, cycles: int = 0) -> None:
+        """A change was made that acts for `cycles` (a push): run the clock that long and a
+        while more, even with no client."""

@@ -330,7 +330,7 @@ class _Driver:
         replayer.cycle.rewind(last)
         return last
 
-    def keep_running(self) -> None:
+    def keep_running(self, cycles: int = 0) -> None:
         pass
 
 

@@ -124,7 +124,7 @@ class Clock:
         # deadline waits for (`client_read`), else None.
         self.awaits_read: int | None = None
         self.prepared = None  # an idle cycle released ahead (realtime)
-        self._unwatched = 0  # cycles since a client was last connected
+        self._unwatched = 0  # cycles since a client was last connected (< 0: a push still acts)
         # Client events and the count the last released cycle followed: in lockstep, an idle
         # cycle goes at once when they differ.
         self._events = 0
@@ -147,11 +147,11 @@ class Clock:
         self._events += 1
         self._disturbed = self._disturbed or disturbing
 
-    def world_changed(self) -> None:
-        """The world was changed from outside (the control API): the clock runs on, or again,
-        for PAUSE_AFTER cycles, so the change plays out with no client; in lockstep it is an
-        event as a client's request is."""
-        self._unwatched = 0
+    def world_changed(self, cycles: int = 0) -> None:
+        """The world was changed from outside (the control API), a change that acts for
+        `cycles` (a push): the clock runs on, or again, for those and PAUSE_AFTER more, so the
+        change plays out with no client; in lockstep it is an event as a client's request is."""
+        self._unwatched = min(0, self._unwatched, -cycles)
         if self.lockstep:
             self._events += 1
             self._disturbed = True

@@ -106,9 +106,9 @@ class CycleDriver:
         if self.lockstep:
             self.thread.wake()
 
-    def keep_running(self) -> None:
+    def keep_running(self, cycles: int = 0) -> None:
         """Cycle thread: the world was changed from outside (Clock.world_changed)."""
-        self.clock.world_changed()
+        self.clock.world_changed(cycles)
         if self.lockstep or self.clock.paused:
             self.thread.wake()
 
