@@ -3,8 +3,8 @@
 #   docker build -t franka-sim .
 #   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1338:1338 -p 127.0.0.1:1340:1340 franka-sim
 #   docker run --rm --network host -e FRANKA_SIM_HOST=127.0.0.2 franka-sim
-#   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1340:1340 -p 127.0.0.1:443:443 \
-#       -e FRANKA_SIM_DESK_PORT=443 franka-sim --desk-boot locked
+#   docker run --rm -p 127.0.0.1:1337:1337 -p 127.0.0.1:1338:1338 -p 127.0.0.1:1340:1340 \
+#       -p 127.0.0.1:443:443 -e FRANKA_SIM_DESK_PORT=443 franka-sim --desk-boot locked
 #   docker run --rm --network host -v recordings:/home/franka-sim/recordings franka-sim \
 #       --arm left=127.0.0.2 --arm right=127.0.0.3 --scene dual_arm_table \
 #       --record /home/franka-sim/recordings/run.mcap

@@ -38,15 +38,19 @@ case "${FRANKA_SIM_ACTION_INSTALL:-true}" in
 esac
 
 log="$dir/logs/franka-sim-$host.log"
+# What it serves, written once every robot listens: the args may name other addresses (--arm,
+# --mobile-base), another control port or a token, which the check then asks.
+serving="$dir/serving-$host.json"
+rm -f "$serving"
 # shellcheck disable=SC2086  # the extra flags are meant to split into words
-nohup "$sim" serve --host "$host" --control-port "$port" ${FRANKA_SIM_ACTION_ARGS:-} \
-    >"$log" 2>&1 </dev/null &
+FRANKA_SIM_SERVING_FILE="$serving" nohup "$sim" serve --host "$host" --control-port "$port" \
+    ${FRANKA_SIM_ACTION_ARGS:-} >"$log" 2>&1 </dev/null &
 server=$!
 echo "$server $host" >>"$dir/servers"
 
 # Ready when `franka-sim check` says so; a server that exits first (a taken port, a bad flag)
 # ends the wait at once.
-"$sim" check "$host" --control-port "$port" --wait "$wait_s" &
+"$sim" check --serving-file "$serving" --wait "$wait_s" &
 checker=$!
 while alive "$checker"; do
     if ! alive "$server"; then
@@ -62,9 +66,13 @@ if ! wait "$checker"; then
     fail "franka-sim did not become ready on $host within ${wait_s} s (its log is above)"
 fi
 
+# The first robot it serves (the args' first --arm, if any), as the serving file says (one
+# line of JSON; in the token, were it to hold such text, the quotes are escaped).
+host="$(sed -n 's/^.*"robots": \[{[^}]*"host": "\([^"]*\)".*$/\1/p' "$serving")"
+port="$(sed -n 's/^.*"robots": \[{[^}]*"control_port": \([0-9]*\).*$/\1/p' "$serving")"
 echo "franka-sim ready on $host (log: $log)"
 {
     echo "host=$host"
-    echo "control-url=http://$host:$port"
+    if [ "$port" != 0 ]; then echo "control-url=http://$host:$port"; else echo "control-url="; fi
     echo "log=$log"
 } >>"${GITHUB_OUTPUT:-/dev/stdout}"

@@ -107,6 +107,22 @@ def test_start_serves_until_stop_which_keeps_the_log(tmp_path):
     assert _script("stop.sh", env).stdout.strip() == "no franka-sim was started in this job"
 
 
+def test_the_args_may_name_a_token_and_other_addresses(tmp_path):
+    """Ready is asked where the args say it serves (the serving file), with their token; the
+    output names the first arm."""
+    left, right = fresh_loopback_address(), fresh_loopback_address()
+    env = _runner_env(tmp_path, host=fresh_loopback_address(), wait="60",
+                      args=f"--control-token abc --arm left={left} --arm right={right} "
+                           "--scene dual_arm_table --clock lockstep")
+    started = _script("start.sh", env)
+    try:
+        assert started.returncode == 0, started.stdout + started.stderr
+        out = _outputs(tmp_path)
+        assert out["host"] == left and out["control-url"] == f"http://{left}:1340"
+    finally:
+        assert _script("stop.sh", env).returncode == 0
+
+
 def _state(pid: str) -> str:
     try:
         return Path(f"/proc/{pid}/stat").read_text().split(")")[1].split()[0]
