@@ -113,11 +113,17 @@ class Gui:
     def add_uplot(self, data, series, **kwargs):
         plot = Plot(data)
         plot.scales = kwargs["scales"]
+        plot.order = kwargs.get("order") or float(id(plot))
         return plot
 
 
 class Plot(Field):
     """A uPlot's handle: its data is what it draws (`value` here)."""
+
+    removed = False
+
+    def remove(self) -> None:
+        self.removed = True
 
     @property
     def data(self):
@@ -234,7 +240,11 @@ def test_a_plot_whose_values_are_all_zero_shows_them_about_zero():
     assert tau.scales["y"] == {"auto": True}
     state["q"][0] = 0.25
     show(2.0)
-    assert q.scales["y"] == {"auto": True} and force.scales["y"]["range"] == [-1.0, 1.0]
+    # Another scale is a plot of its own, in the place of the one it replaces (viser's uPlot
+    # given new scales keeps its time axis where it was).
+    assert panel.plots[0].scales["y"] == {"auto": True} and q.removed
+    assert panel.plots[0].order == q.order and panel.plots[1:] == (tau, force, rate)
+    assert force.scales["y"]["range"] == [-1.0, 1.0] and not force.removed
 
 
 def test_a_recordings_panel_shows_the_events_and_plots_as_recorded_whatever_the_scrubbing():

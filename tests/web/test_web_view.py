@@ -141,6 +141,40 @@ def test_motions_move_the_arm_on_screen_and_the_readouts_match_state(page, serve
              "the q plot to draw its lines")  # (its next update, however busy the machine)
 
 
+# Each uPlot's time data and the time span its axis shows (viser's test hooks on the page).
+CHARTS = """const charts = (window.__viserTestpoints || {}).uplots || {};
+return Object.values(charts).map(({chart}) => {const x = chart.data[0];
+  return [x[0], x[x.length - 1], chart.scales.x.min, chart.scales.x.max];});"""
+
+
+def test_every_plots_time_axis_follows_its_data_after_a_motion(page, served):
+    """A motion changes some plots' y scale (a success rate of 0 becomes 1): each plot still
+    shows its whole window up to the latest state, not the time span it had then."""
+    def shown_for(seconds):
+        charts = page.execute_script(CHARTS)
+        return charts if charts and min(x1 for _, x1, _, _ in charts) >= seconds else None
+    start = max(x1 for _, x1, _, _ in wait_for(lambda: shown_for(0.0), 60, "the plots"))
+    wait_for(lambda: shown_for(start + 3.0), 60, "the plots to go on while idle")
+    client = Client(served.host)
+    try:
+        turned = list(READY_POSE)
+        turned[3] += 0.3
+        client.move(turned)
+        client.move(READY_POSE)
+    finally:
+        client.close()
+
+    def following():
+        charts = page.execute_script(CHARTS)
+        if len(charts) < 4 or min(x1 for _, x1, _, _ in charts) < start + 8.0:
+            return None  # (3 s idle, the motions' 3 s and 2 s after them, shown)
+        if all(abs(shown_from - x0) < 0.5 and abs(shown_to - x1) < 0.5
+               for x0, x1, shown_from, shown_to in charts):
+            return charts
+        return None
+    wait_for(following, 60, "every plot's time axis to show its data's window")
+
+
 def plot_has_lines(browser, title: str) -> bool:
     """The uPlot of that title shows its series' colours (web/arm_panel.py's strokes)."""
     from PIL import Image

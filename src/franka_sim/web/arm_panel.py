@@ -214,16 +214,24 @@ class ArmPanel:
                 (t, np.array([r[6] for r in rows])))
         zero = tuple(not any(np.any(v) for v in values[1:]) for values in data)
         if self.plots is None:
-            gui = self._gui
-            with self._folder:
-                self.plots = tuple(
-                    gui.add_uplot(values, _series(*labels), title=title, aspect=2.0,
-                                  scales=_ZERO_SCALES if flat else _SCALES, axes=_AXES)
-                    for values, (title, labels), flat in zip(data, _PLOTS, zero))
+            self.plots = tuple(self._add_plot(values, spec, flat, None)
+                               for values, spec, flat in zip(data, _PLOTS, zero))
             self._zero = zero
             return
-        for plot, values, flat, was in zip(self.plots, data, zero, self._zero):
-            if flat != was:
-                plot.scales = _ZERO_SCALES if flat else _SCALES
-            plot.data = values
-        self._zero = zero
+        plots = list(self.plots)
+        for k, (values, flat, was) in enumerate(zip(data, zero, self._zero)):
+            if flat != was:  # another y scale: a plot of its own in the same place
+                plots[k] = self._add_plot(values, _PLOTS[k], flat, plots[k].order)
+                self.plots[k].remove()
+            else:
+                plots[k].data = values
+        self.plots, self._zero = tuple(plots), zero
+
+    def _add_plot(self, values, spec, flat: bool, order: float | None):
+        """A uPlot, its y scale _ZERO_SCALES where `flat`. (Not a new `scales` on the one
+        there: viser 1.1's uPlot then keeps its time axis where it was, the data moving on.)"""
+        title, labels = spec
+        with self._folder:
+            return self._gui.add_uplot(values, _series(*labels), title=title, aspect=2.0,
+                                       scales=_ZERO_SCALES if flat else _SCALES, axes=_AXES,
+                                       order=order)
