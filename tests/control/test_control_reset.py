@@ -105,6 +105,9 @@ def test_a_reset_into_the_table_is_refused_and_the_arm_stays_where_it_was(contro
     after = robot.read_once()
     assert after.q == before.q and max(map(abs, after.tau_ext_hat_filtered)) < 0.5
     assert control.reset(q=[0.0, 0.9, 0.0, -0.9, 0.0, 1.9, 0.78])["q"][1] == 0.9  # just clear
+    # Nor folded into itself, every joint within its range: the hand inside link 2.
+    with pytest.raises(Conflict, match=r"inside another body: link2 into hand"):
+        control.reset(q=[0.0, -1.7, 0.0, -3.0, 0.0, 0.6, 0.0])
     del robot
 
 

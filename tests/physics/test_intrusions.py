@@ -34,6 +34,18 @@ def test_the_hand_reaching_through_the_table_is_inside_it_and_nothing_moves():
     assert world.intrusions("", np.array(READY_POSE)) == []  # the cube and table: not the arm's
 
 
+FOLDED = np.array([0.0, -1.7, 0.0, -3.0, 0.0, 0.6, 0.0])  # within every joint's range
+
+
+def test_an_arm_folded_into_itself_is_inside_its_own_link():
+    """Each joint in its range, yet the hand would be inside link 2: the engine's contact
+    between the two would hold the arm off that pose (tau_J at its limit) rather than rest."""
+    world = _world(ArmPlacement(DESC, tool=FINGERS))
+    found = world.intrusions("", FOLDED)
+    assert {(i.arm_body, i.other) for i in found} == {("link2", "hand")}
+    assert found[0].depth > 0.03
+
+
 def test_the_fingers_are_where_the_reset_puts_them():
     """Over the cube, the Hand open (as a reset leaves it) is clear of it; closed to 1 cm
     (a reset's `gripper_width`) its fingers would be inside it."""

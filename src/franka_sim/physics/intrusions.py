@@ -1,7 +1,8 @@
-"""What an arm put at a pose would be inside: its bodies' overlaps with the rest of the world.
+"""What an arm put at a pose would be inside: its bodies' overlaps with the rest of the world,
+and with each other.
 
-A real arm cannot be set down inside the table. A reset or a starting pose that would put it
-there is refused (the control API's 409, serve's start), rather than leaving MuJoCo's contact
+A real arm cannot be set down inside the table, nor folded into itself. A reset or a starting
+pose that would put it there is refused (the control API's 409, serve's start), rather than leaving MuJoCo's contact
 to push the arm out with hundreds of newtons in the first steps. Contacts are found on a data
 of their own (the world's state is not touched), from the model's collision pairs as the
 engine steps them: an overlap deeper than DEPTH counts; shallower is touching (a resting
@@ -53,9 +54,10 @@ def contacts(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[int, int,
 
 def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
                mocap: tuple[np.ndarray, np.ndarray] | None = None) -> list[Intrusion]:
-    """The overlaps deeper than DEPTH of the `arm`'s bodies with any other body, the world at
-    `qpos` and its mocap bodies (the mobile base) at `mocap` (positions, quaternions; None:
-    where the model puts them): deepest first, one per pair of bodies."""
+    """The overlaps deeper than DEPTH of the `arm`'s bodies with any other body, or with one
+    another (the pairs the engine collides: not a joint's two bodies), the world at `qpos` and
+    its mocap bodies (the mobile base) at `mocap` (positions, quaternions; None: where the
+    model puts them): deepest first, one per pair of bodies."""
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
     if mocap is not None:
@@ -63,9 +65,9 @@ def intrusions(model: mujoco.MjModel, qpos: np.ndarray, arm: frozenset[int],
     mujoco.mj_fwdPosition(model, data)
     deepest: dict[tuple[int, int], float] = {}
     for a, b, depth in contacts(model, data):
-        if (a in arm) == (b in arm):
-            continue  # the arm's own bodies, or two others
-        if b in arm:
+        if a not in arm:
+            if b not in arm:
+                continue  # two other bodies
             a, b = b, a
         if depth > DEPTH and depth > deepest.get((a, b), 0.0):
             deepest[(a, b)] = depth
