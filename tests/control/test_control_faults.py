@@ -63,6 +63,15 @@ def test_faults_set_at_runtime_are_counted_and_cleared(faults: Control, served):
     assert report["states"] == report["commands"] == NOTHING
 
 
+@pytest.mark.parametrize("given", [{"loss": 0}, {"delay": 0, "dir": "states"}, {"burst": []},
+                                   {"spec": "loss=0,reorder=0"}])
+def test_faults_that_inject_nothing_are_none(faults: Control, given):
+    """A sweep's baseline (loss=0) replaces what was set with nothing, reported as nothing."""
+    faults.set_faults(loss=0.5)
+    report = faults.set_faults(**given)
+    assert report["spec"] is None and report["fields"] is None and report["origin"] is None
+
+
 def test_a_spec_string_replaces_what_was_set(faults: Control):
     faults.set_faults(loss=0.5)
     report = faults.set_faults("burst=25@3s,burst=5@1s,reorder=0.01")

@@ -49,6 +49,11 @@ class FaultSpec:
     bursts: tuple[Burst, ...] = field(default=())
     dir: str = "both"
 
+    @property
+    def injects(self) -> bool:
+        """Some fault acts (loss=0 alone, a sweep's baseline, injects nothing)."""
+        return bool(self.loss or self.delay or self.jitter or self.reorder or self.bursts)
+
     def text(self) -> str:
         """The spec as --inject takes it (parse_spec(spec.text()) == spec)."""
         parts = [f"loss={_number(self.loss)}"] if self.loss else []

@@ -93,9 +93,10 @@ class NetworkFaults(ClockWatcher):
         return spec_from_fields(fields), seed
 
     def set(self, arm: int, spec: FaultSpec | None, seed: int | None = None) -> None:
-        """Arm `arm`'s faults from the next datagram on (None: none)."""
+        """Arm `arm`'s faults from the next datagram on (None, or a spec that injects nothing:
+        none)."""
         link = self._linked()[arm]
-        if spec is None:
+        if spec is None or not spec.injects:
             link.set_plan(None)
             self.seeds[arm] = None
             if self.attached and all(link.plan is None for link in self.links):
