@@ -127,6 +127,9 @@ def test_embedded_the_faults_are_async_methods_with_the_same_errors():
             first = await sim.faults()
             with pytest.raises(BadRequest, match="unknown fault"):
                 await sim.set_faults({"spec": "lost=0.1"})
+            with pytest.raises(BadRequest, match="a spec .* or its fields as a dict"):
+                await sim.set_faults(["loss=0.1"])
+            assert (await sim.set_faults("delay=2ms"))["spec"] == "delay=2ms"  # a spec alone
             second = await sim.set_faults({"burst": "10@60s"})
             cleared = await sim.clear_faults()
             return first, second, cleared, sim.driver.faults, sim.udp.faults

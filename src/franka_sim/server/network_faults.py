@@ -84,7 +84,13 @@ class NetworkFaults(ClockWatcher):
 
     def check(self, fields: dict) -> tuple[FaultSpec, int | None]:
         """POST /faults's fields (the spec's, or "spec"; "seed" optional) as (spec, seed; None:
-        the server's), to `set` later; ValueError (FaultSpecError, a bad seed) says why not."""
+        the server's), to `set` later; ValueError (FaultSpecError, a bad seed) says why not. A
+        string alone is a spec (as the Python client's set_faults takes it)."""
+        if isinstance(fields, str):
+            fields = {"spec": fields}
+        if not isinstance(fields, dict):
+            raise ValueError(f"faults are a spec (\"loss=0.01\") or its fields as a dict, not "
+                             f"{fields!r}")
         fields = dict(fields)
         seed = fields.pop("seed", None)
         seed = None if seed is None else check_seed(seed)
