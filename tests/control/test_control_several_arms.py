@@ -36,6 +36,9 @@ def test_reset_acts_on_its_arm_only_and_bodies_are_shared():
         assert names == {b["name"] for b in Control(left).bodies()}
         with pytest.raises(NotFound, match="did you mean 'left/link7' or 'right/link7'"):
             Control(left).push("link7", [10.0, 0.0, 0.0])  # (a link is its arm's)
+        with pytest.raises(NotFound, match="did you mean 'left/link7' or 'right/link7'"):
+            Control(left).pose("fr3_link7")
+        assert Control(left).pose("left/fr3_link7") == Control(left).pose("left/link7")
         assert Control(left).health()["arm"] == "left"
         assert Control(right).health()["arm"] == "right"
         # Each line about one arm names it: its client, its requests, its cycles.

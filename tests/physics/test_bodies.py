@@ -29,6 +29,7 @@ def test_names_free_bodies_and_the_names_other_descriptions_use(world_backend):
     assert "world" not in bodies.names
     assert [name for name in bodies.names if bodies.is_free(name)] == ["scene/cube"]
     assert bodies.find("fr3_link7") == "link7" and bodies.find("fr3_hand") == "hand"
+    assert bodies.find("fer_link7") == bodies.find("panda_link7") == "link7"  # a Panda's
     assert bodies.find("cube") == "scene/cube" and bodies.find("scene/cube") == "scene/cube"
     with pytest.raises(UnknownBody):
         bodies.find("link9")

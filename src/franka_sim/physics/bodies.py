@@ -8,8 +8,9 @@ its contact flags and its collision reflexes see it. It is counted down in steps
 time, so the same pushes at the same cycles give the same bits.
 
 Names are MuJoCo's: the arm's links ("link1" … "link7", "link0" its base), "hand", the fingers,
-and the scene's bodies ("scene/cube"). `find` also takes the names other descriptions use for
-the same bodies ("fr3_link7", "fr3_hand") and a scene body without its prefix ("cube").
+and the scene's bodies ("scene/cube"). `find` also takes the names franka_description uses for
+the same bodies ("fr3_link7", "fr3_hand"; a Panda's "fer_link7", older ones' "panda_link7"),
+after an arm's name too ("left/fr3_link7"), and a scene body without its prefix ("cube").
 """
 
 from __future__ import annotations
@@ -23,7 +24,18 @@ from franka_sim.physics.scene import SCENE_PREFIX
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 _XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # a body's own frame (mjOBJ_BODY: its centre of mass)
-ROBOT_PREFIX = "fr3_"  # franka_description's link names: fr3_link7, fr3_hand
+# franka_description's link names: fr3_link7, fr3_hand; the Panda's fer_link7 (panda_ before)
+ROBOT_PREFIXES = ("fr3_", "fer_", "panda_")
+
+
+def _without_prefix(name: str) -> str:
+    """`name` with franka_description's prefix taken off its last part ("left/fr3_link7":
+    "left/link7")."""
+    arm, slash, link = name.rpartition("/")
+    for prefix in ROBOT_PREFIXES:
+        if link.startswith(prefix):
+            return arm + slash + link.removeprefix(prefix)
+    return name
 
 
 class UnknownBody(KeyError):
@@ -73,7 +85,7 @@ class Bodies:
 
     def find(self, name: str) -> str:
         """The body's own name for `name` (see the module docstring); UnknownBody if none."""
-        for candidate in (name, SCENE_PREFIX + name, name.removeprefix(ROBOT_PREFIX)):
+        for candidate in (name, SCENE_PREFIX + name, _without_prefix(name)):
             if candidate in self._ids:
                 return candidate
         raise UnknownBody(name)
@@ -101,7 +113,7 @@ class Bodies:
     def named_like(self, name: str) -> list[str]:
         """The bodies `name` may have meant: in a world of several arms a link is its arm's
         (`left/link7` for `link7`)."""
-        tail = "/" + name.removeprefix(ROBOT_PREFIX)
+        tail = "/" + _without_prefix(name).rpartition("/")[2]
         return [body for body in self.names if body.endswith(tail)]
 
     def state(self, name: str) -> BodyState:
