@@ -169,3 +169,16 @@ def test_a_hostile_request_is_recorded_as_strict_json(tmp_path):
     assert {"force": "Infinity"}.items() <= requests[2].items()
     done = franka_sim("replay", str(path))
     assert done.returncode == 0 and done.stdout.startswith("identical"), done.stdout
+
+
+def test_a_recording_no_client_was_sent_a_state_in_says_nothing_was_compared(tmp_path):
+    """Only control API changes recorded: replay does not claim to have checked them."""
+    from franka_sim.control import Control
+
+    path = tmp_path / "api.mcap"
+    with running_sim("--record", str(path), "--clock", "lockstep") as sim:
+        Control(sim.host).push("link7", force=[0.0, 10.0, 0.0], duration=0.1)
+    done = franka_sim("replay", str(path))
+    assert done.returncode == 0
+    assert done.stdout.strip() == ("identical (0 cycles: no client was sent a state, so nothing "
+                                   "was compared)")

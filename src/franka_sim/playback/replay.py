@@ -56,6 +56,9 @@ class Outcome:
 
     def line(self) -> str:
         if self.identical:
+            if not self.cycles and not self.tool_states:
+                return ("identical (0 cycles: no client was sent a state, so nothing was "
+                        "compared)")
             tools = f", {_counted(self.tool_states, 'tool state')}" if self.tool_states else ""
             return f"identical ({_counted(self.cycles, 'cycle')}{tools})"
         return f"diverged at cycle {self.divergence}: {', '.join(self.fields)}" + (
