@@ -48,6 +48,11 @@ BAD = [  # (method, path, body, status, what the error says)
     ("POST", "/push", {**PUSH, "duration": 1e300}, 400, "duration 1e+300 s is over the 60 s"),
     ("POST", "/push", {**PUSH, "body": 7}, 400, "body must be a body's name"),
     ("POST", "/push", {**PUSH, "body": "link9"}, 404, "no body named 'link9'"),
+    # what the 1 ms step cannot integrate: the 0.1 kg cube at 20 m/s, spun at 2500 rad/s
+    ("POST", "/push", {"body": "cube", "force": [0, 20, 0], "duration": 0.1}, 400,
+     "would move scene/cube (0.1 kg) at up to 20 m/s"),
+    ("POST", "/push", {"body": "cube", "force": [0, 0, 0], "torque": [0, 0, 0.1],
+                       "duration": 1.0}, 400, "would spin scene/cube (0.1 kg) at up to"),
     ("GET", "/bodies/link9", None, 404, "no body named 'link9'"),
     ("PUT", "/bodies/link9", {"position": [0, 0, 1]}, 404, "no body named 'link9'"),
     ("PUT", "/bodies/link3", {"position": [0, 0, 1]}, 409, "'link3' is not a free body"),

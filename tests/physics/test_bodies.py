@@ -60,6 +60,23 @@ def test_a_push_acts_for_exactly_its_steps_and_reads_as_external_torque(world_ba
     assert not world.data.xfrc_applied.any()
 
 
+def test_a_push_on_a_free_body_gives_what_it_says_and_no_more_than_the_step_integrates(
+        world_backend):
+    """1 N on the 0.1 kg cube for 0.1 s, lifting it (gravity cancelled): 1 m/s; ten times that
+    impulse and more is refused, the world untouched."""
+    from franka_sim.physics.bodies import MAX_PUSHED_SPEED, TooViolent
+
+    world = world_backend.world
+    world.push("cube", [0.0, 0.0, 0.981 + 1.0], [0.0, 0.0, 0.0], 100)
+    for _ in range(100):
+        world_backend.step(HOLD)
+    assert world.body_state("scene/cube").linear_velocity[2] == pytest.approx(1.0, rel=0.01)
+    with pytest.raises(TooViolent, match=f"over the {MAX_PUSHED_SPEED:g} m/s"):
+        world.push("cube", [0.0, 0.0, 10.5], [0.0, 0.0, 0.0], 100)
+    with pytest.raises(TooViolent, match="would spin scene/cube"):
+        world.push("cube", [0.0, 0.0, 0.0], [0.0, 0.0, 0.01], 1000)
+
+
 def test_a_reset_puts_the_world_back_and_ends_every_push(world_backend):
     world = world_backend.world
     start = world.body_state("cube")

@@ -29,7 +29,7 @@ from franka_sim.operations.ports import Jobs, Pacer
 from franka_sim.control.table import Kind
 from franka_sim.operations.values import (body_name, mode_name, number, numbers,
                                           refuse_if_failed, within)
-from franka_sim.physics.bodies import Immovable, NotFree, UnknownBody
+from franka_sim.physics.bodies import Immovable, NotFree, TooViolent, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
@@ -349,6 +349,8 @@ class ArmOps(DeskOps, FaultOps):
             except Immovable as exc:
                 raise Conflict(f"{exc.args[0]!r} does not move under a push: {exc.args[1]}"
                                ) from None
+            except TooViolent as exc:
+                raise BadRequest(str(exc)) from None
             self.driver.keep_running(cycles)
             return {"body": world.bodies.find(body), "force": force.tolist(),
                     "torque": torque.tolist(), "cycles": cycles}

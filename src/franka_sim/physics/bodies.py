@@ -50,6 +50,18 @@ class Immovable(ValueError):
     """A push cannot move the body: args (its name, why: `Bodies.anchored`)."""
 
 
+class TooViolent(ValueError):
+    """A push would fling a free body faster than the step integrates it (the message says
+    how fast)."""
+
+
+# What a push may give a free body from rest, were nothing in its way: faster, a 1 ms step
+# no longer integrates it (a 5 cm cube spun at 1e4 rad/s gains energy and leaves the world;
+# one at ~7 m/s passes through a 4 cm tabletop before the soft contact stops it).
+MAX_PUSHED_SPEED = 10.0  # m/s
+MAX_PUSHED_SPIN = 100.0  # rad/s
+
+
 @dataclass(frozen=True)
 class BodyState:
     """A body's frame in the world: position (3,), quaternion (w, x, y, z), and the velocity of
@@ -92,6 +104,23 @@ class Bodies:
 
     def id(self, name: str) -> int:
         return self._ids[self.find(name)]
+
+    def check_push(self, name: str, force, torque, seconds: float) -> None:
+        """TooViolent if a wrench held `seconds` on a free body would take it, from rest and
+        unopposed, past MAX_PUSHED_SPEED or MAX_PUSHED_SPIN (an arm's link: its joints hold)."""
+        body = self.id(name)
+        if body not in self._free:
+            return
+        m = self._model
+        mass = float(m.body_subtreemass[body])
+        speed = float(np.linalg.norm(force)) * seconds / mass
+        spin = float(np.linalg.norm(torque)) * seconds / float(np.min(m.body_inertia[body]))
+        for what, value, most, unit in (("move", speed, MAX_PUSHED_SPEED, "m/s"),
+                                        ("spin", spin, MAX_PUSHED_SPIN, "rad/s")):
+            if value > most:
+                raise TooViolent(f"this push would {what} {self.find(name)} ({mass:g} kg) at up "
+                                 f"to {value:.3g} {unit} (from rest, were nothing in its way): "
+                                 f"over the {most:g} {unit} the 1 ms step integrates")
 
     def anchored(self, body: int) -> str:
         """Why no force moves body `body` ("" when one does): welded to the world (the

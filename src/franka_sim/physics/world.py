@@ -308,4 +308,5 @@ class World:
         body = self.bodies.id(name)
         if why := self.bodies.anchored(body):
             raise Immovable(self.bodies.find(name), why)
+        self.bodies.check_push(name, force, torque, steps * self.timestep)
         self._pushes.push(body, force, torque, steps)

@@ -256,6 +256,7 @@ class GenesisWorld:
     def push(self, name: str, force, torque, steps: int) -> None:
         if steps <= 0:
             raise ValueError(f"a push lasts at least one step, not {steps}")
+        self.bodies.check_push(name, force, torque, steps * self.timestep)
         link = self.bodies.link(name).idx_local
         self._pushes[link] = [np.asarray(force, float), np.asarray(torque, float), steps]
         self._still, self._asleep = 0, False
