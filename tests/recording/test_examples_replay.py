@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ast
 import re
+from collections import Counter
 import shlex
 import subprocess
 import sys
@@ -107,3 +108,8 @@ def test_the_recorded_program_replays_identical(program, clock, tmp_path):
     cycles = len(recording.states())  # same (its CLI path: test_record_replay.py)
     assert cycles > 0
     assert replay(recording).line() == identical_line(recording)
+    # On the wire: every reply once (one connection: each command id answered once per status).
+    sent = Counter((reply["service"], r.get("command"), r.get("command_id"), r.get("status"))
+                   for reply in (e.json() for e in recording.of("reply", None))
+                   for r in reply["replies"])
+    assert [key for key, n in sent.items() if n > 1] == []

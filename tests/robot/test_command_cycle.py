@@ -445,3 +445,19 @@ def test_a_client_gone_mid_motion_without_enforcement_leaves_the_robot_idle():
     h.cycle()
     assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
     assert h.move(0, 1) == MoveStatus.kMotionStarted
+
+
+def test_replies_taken_before_a_later_reply_stay_as_they_were():
+    """A cycle with no robot reply but a tool's state keeps what it took (arm_cycle.complete);
+    in lockstep's settling it goes out together with later cycles' replies (Replies.then). A
+    Move's final status answered in a later cycle must go out once, not also with the earlier
+    cycle's (the live list once was handed out: a duplicate kSuccess on the wire)."""
+    from franka_sim.robot.cycle import Replies
+    from franka_sim.robot.status import RobotStatus
+
+    status = RobotStatus()
+    earlier = Replies(status.take_replies(), (([], b"a tool state"),))
+    status.answer_move(4, MoveStatus.kSuccess)
+    later = Replies(status.take_replies())
+    assert earlier.robot == [] and len(later.robot) == 1
+    assert len(earlier.then(later).robot) == 1

@@ -15,6 +15,8 @@ from franka_sim.protocol.enums import Command, MoveStatus, RobotMode
 from franka_sim.protocol.errors import NUM_ERRORS, error_index
 from franka_sim.protocol.robot_messages import build_response
 
+_NO_REPLIES: list[bytes] = []  # what take_replies gives when there are none (never written to)
+
 
 class RobotStatus:
     def __init__(self) -> None:
@@ -59,6 +61,9 @@ class RobotStatus:
     def take_replies(self) -> list[bytes]:
         replies = self.replies
         if not replies:
-            return replies  # empty: no new list per cycle (callers only read it)
+            # Not the live list, which a later cycle's reply is appended to: an earlier
+            # cycle's replies still waiting to go out (a tool's state with them) would send
+            # it too. One shared empty list, never written to: no new list per cycle.
+            return _NO_REPLIES
         self.replies = []
         return replies
