@@ -272,7 +272,11 @@ def scenario_stop(host: str) -> dict:
 
     robot = _connect(host)
     out = {}
-    robot.move(franky.JointMotion((np.array(READY) + [0.3, 0, 0, 0, 0, 0, 0]).tolist()), asynchronous=True)
+    # Long (2 rad at 5 % of the limits: ~15 s of robot time), so the stop 200 ms in meets it
+    # running however long a loaded machine keeps this thread from sending it while franky's
+    # control thread goes on (in lockstep, several times faster than real time).
+    robot.move(franky.JointMotion((np.array(READY) + [2.0, 0, 0, 0, 0, 0, 0]).tolist(),
+                                  relative_dynamics_factor=0.05), asynchronous=True)
     _moving(robot)
     _wait_robot_ms(robot, 200)
     robot.stop()
