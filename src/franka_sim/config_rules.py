@@ -41,8 +41,8 @@ def checked(config: Config) -> Config:
                           "of at least 1e-06")
     if config.control_token is not None and not config.control_token.strip():
         raise ConfigError("--control-token", "an empty token protects nothing")
-    if config.control_token is not None and (not config.control_token.isprintable()
-                                             or config.control_token != config.control_token.strip()):
+    token = config.control_token
+    if token is not None and (not token.isprintable() or token != token.strip()):
         raise ConfigError("--control-token", "spaces around it or control characters in it "
                           "cannot be sent in an HTTP header")
     if config.mobile_base is not None:

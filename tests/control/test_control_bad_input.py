@@ -162,7 +162,8 @@ MALFORMED_HTTP = [  # what aiohttp's own parser refuses before a handler sees it
 ]
 
 
-@pytest.mark.parametrize(("raw", "line"), MALFORMED_HTTP, ids=["length", "chunk", "headers", "gzip"])
+@pytest.mark.parametrize(("raw", "line"), MALFORMED_HTTP,
+                         ids=["length", "chunk", "headers", "gzip"])
 def test_malformed_http_is_one_line_each_and_serving_goes_on(served, watched, raw, line):
     import socket
 

@@ -2,11 +2,11 @@
 and with each other.
 
 A real arm cannot be set down inside the table, nor folded into itself. A reset or a starting
-pose that would put it there is refused (the control API's 409, serve's start), rather than leaving MuJoCo's contact
-to push the arm out with hundreds of newtons in the first steps. Contacts are found on a data
-of their own (the world's state is not touched), from the model's collision pairs as the
-engine steps them: an overlap deeper than DEPTH counts; shallower is touching (a resting
-contact's own depth is well under a millimetre).
+pose that would put it there is refused (the control API's 409, serve's start), rather than
+leaving MuJoCo's contact to push the arm out with hundreds of newtons in the first steps.
+Contacts are found on a data of their own (the world's state is not touched), from the model's
+collision pairs as the engine steps them: an overlap deeper than DEPTH counts; shallower is
+touching (a resting contact's own depth is well under a millimetre).
 """
 
 from __future__ import annotations
