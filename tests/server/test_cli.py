@@ -246,6 +246,19 @@ def test_faults_and_their_seed_from_the_environment():
         server.stop()
 
 
+def test_faults_that_inject_nothing_are_not_said_to_be_on():
+    """--inject loss=0 (a sweep's baseline): nothing is set, and the start's log says none."""
+    from franka_sim.control import Control
+
+    server = ServerProcess(fresh_loopback_address(), env={"FRANKA_SIM_INJECT": "loss=0"})
+    try:
+        server.wait_ready()
+        assert Control(server.host).faults()["spec"] is None
+        assert server.log_matching("serving on") and not server.log_matching("network faults")
+    finally:
+        server.stop()
+
+
 def test_render_help_names_every_video_it_writes():
     from franka_sim.playback.render import VIDEO_SUFFIXES
 
