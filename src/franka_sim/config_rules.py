@@ -10,6 +10,7 @@ import math
 import ipaddress
 
 from franka_sim.config import DESK_BOOTS, ROBOTS, WORLD_REACH, ClockMode, Config
+from franka_sim.control.errors import header_safe
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
 
@@ -41,8 +42,7 @@ def checked(config: Config) -> Config:
                           "of at least 1e-06")
     if config.control_token is not None and not config.control_token.strip():
         raise ConfigError("--control-token", "an empty token protects nothing")
-    token = config.control_token
-    if token is not None and (not token.isprintable() or token != token.strip()):
+    if config.control_token is not None and not header_safe(config.control_token):
         raise ConfigError("--control-token", "spaces around it or control characters in it "
                           "cannot be sent in an HTTP header")
     if config.mobile_base is not None:

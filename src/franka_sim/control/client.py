@@ -17,7 +17,7 @@ import os
 from collections.abc import Iterable
 from urllib.parse import quote
 
-from franka_sim.control.errors import ControlError, Unreachable, error_for
+from franka_sim.control.errors import ControlError, Unreachable, error_for, header_safe
 from franka_sim.control.table import OPERATIONS, Operation
 
 DEFAULT_PORT = 1340
@@ -46,8 +46,7 @@ class Control:
         self.host, self.port, self.timeout = host, port, timeout
         self._headers = {"Accept": "application/json"}
         if token is not None:
-            if not isinstance(token, str) or not token or not token.isprintable() \
-                    or token != token.strip():
+            if not isinstance(token, str) or not header_safe(token):
                 raise ValueError(f"token must be the server's --control-token (printable text, "
                                  f"no leading or trailing space), not {token!r}")
             # (as UTF-8, as the server reads it: http.client would send Latin-1)

@@ -65,3 +65,9 @@ def error_for(status: int, message: str) -> ControlError:
     kinds = {400: BadRequest, 422: BadRequest, 401: Unauthorized, 404: NotFound, 409: Conflict,
              503: Failed}
     return kinds.get(status, ControlError)(message, status)
+
+
+def header_safe(token: str) -> bool:
+    """A bearer token an HTTP header carries as given: printable, no space around it (the
+    server strips the header's value)."""
+    return bool(token) and token.isprintable() and token == token.strip()

@@ -61,7 +61,8 @@ FINGER_BOXES = (((0.0, 0.0076, 0.04525), (0.00875, 0.0076, 0.00925)),  # pad
                 ((0.0, 0.0135, 0.018), (0.011, 0.009, 0.018)))  # knuckle
 # How far the fingertips reach beyond the TCP (along the hand axis): 9.5 mm. A TCP this high
 # above a surface brings the tips onto it.
-TIP_BEYOND_TCP = FINGER_ORIGIN_Z + FINGER_BOXES[0][0][2] + FINGER_BOXES[0][1][2] - 0.1034
+TIP_BEYOND_TCP = (FINGER_ORIGIN_Z + FINGER_BOXES[0][0][2] + FINGER_BOXES[0][1][2]
+                  - float(hand.F_T_NE_HAND[2, 3]))
 
 # The fingers touch the environment only (objects, the table), never their arm or each other: a
 # bit of their own that no arm geom accepts, and conaffinity with the environment's bit alone.
