@@ -56,8 +56,9 @@ class TooViolent(ValueError):
 
 
 # What a push may give a free body from rest, were nothing in its way: faster, a 1 ms step
-# no longer integrates it (a 5 cm cube spun at 1e4 rad/s gains energy and leaves the world;
-# one at ~7 m/s passes through a 4 cm tabletop before the soft contact stops it).
+# no longer integrates it (1 Nm about z on the 5 cm cube for 1 s spins it to ~2e4 rad/s and,
+# a torque that cannot lift it, lifts it 16 m; dropped at ~8 m/s it passes through the 4 cm
+# tabletop before the soft contact stops it, at ~6 m/s it does not).
 MAX_PUSHED_SPEED = 10.0  # m/s
 MAX_PUSHED_SPIN = 100.0  # rad/s
 
