@@ -27,18 +27,19 @@ def _filtered(T: np.ndarray, T_last: np.ndarray) -> np.ndarray:
 
     out = T.copy()
     out[:3, 3] = GAIN * T[:3, 3] + (1 - GAIN) * T_last[:3, 3]
-    out[:3, :3] = exp_rotation(GAIN * rotation_vector(T[:3, :3] @ T_last[:3, :3].T)) @ T_last[:3, :3]
+    turn = rotation_vector(T[:3, :3] @ T_last[:3, :3].T)
+    out[:3, :3] = exp_rotation(GAIN * turn) @ T_last[:3, :3]
     return out
 
 
-def _arc(robot, skip: int) -> list[int]:
+def _arc(robot, skip: int, read: list[tuple[int, bool]]) -> None:
     """An arc of 0.3 m radius (peak ≈ 0.37 m/s), skipping the answer to the `skip`-th state;
-    returns the message_ids of the states answered."""
+    appends each state's message_id and whether it was answered to `read`."""
     control = robot.start_cartesian_pose_control(pylibfranka.ControllerMode.JointImpedance)
     control.readOnce()  # the state that shows the motion started: libfranka leaves it unanswered
     first, _ = control.readOnce()
     T0, t0 = pose(first.O_T_EE_c), round(first.time.to_sec() * 1000)
-    state, answered, k = first, [], 0
+    state, k = first, 0
     while True:
         t = (round(state.time.to_sec() * 1000) - t0) * 1e-3
         angle = math.pi / 4 * 0.5 * (1 - math.cos(2 * math.pi * min(t, SECONDS) / SECONDS))
@@ -49,26 +50,56 @@ def _arc(robot, skip: int) -> list[int]:
             T = _filtered(T, pose(state.O_T_EE_c))
         command = pylibfranka.CartesianPose(T.ravel(order="F").tolist())
         command.motion_finished = t >= SECONDS
-        if k != skip or command.motion_finished:
+        answer = k != skip or command.motion_finished
+        read.append((round(state.time.to_sec() * 1000), answer))
+        if answer:
             control.writeOnce(command)
-            answered.append(round(state.time.to_sec() * 1000))
         if command.motion_finished:
-            return answered
+            return
         state, _ = control.readOnce()
         k += 1
 
 
-@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
-def test_a_cartesian_pose_motion_with_one_withheld_command_finishes(clock):
+def _run(clock: str, path) -> tuple[int | None, set[int], Exception | None, object]:
+    """One recorded arc withholding its 500th command (at 0.5 s, at full speed): the withheld
+    state's message_id (None if the motion aborted before), the cycles the robot lost from the
+    arc's first state on (not those before, which start leaves unanswered), the client's
+    exception if the motion aborted, and the state after."""
+    from franka_sim.playback.timeline import lost_cycles
+    from franka_sim.recording.reader import open_recording
+
     with running_sim("--enforce-motion-limits", "--enforce-comm-constraints",
-                     "--clock", clock) as sim:
+                     "--clock", clock, "--record", str(path)) as sim:
         robot = connect(sim.host)
-        answered = _arc(robot, skip=500)  # at 0.5 s, at full speed
-        assert answered[500] - answered[499] >= 2  # a state went unanswered
+        read: list[tuple[int, bool]] = []
+        try:
+            _arc(robot, skip=500, read=read)
+            error = None
+        except pylibfranka.ControlException as e:
+            error = e
         state = robot.read_once()
-        assert state.robot_mode == pylibfranka.RobotMode.Idle
-        assert not bool(state.last_motion_errors) and not bool(state.current_errors)
         del robot
+    first = read[0][0] if read else 0
+    lost = {mark.cycle for mark in lost_cycles(open_recording(path)) if mark.cycle >= first}
+    withheld = [n for n, answer in read if not answer]
+    return (withheld[0] if withheld else None), lost, error, state
+
+
+@pytest.mark.parametrize("clock", ["lockstep", "realtime"])
+def test_a_cartesian_pose_motion_with_one_withheld_command_finishes(clock, tmp_path):
+    """In realtime the host may also hold the client up past another cycle: that run lost two
+    commands at full speed, which the robot may abort (as a real one would). The claim is about
+    one lost command, so such a run is tried again; lockstep loses exactly the one."""
+    for attempt in range(3):
+        withheld, lost, error, state = _run(clock, tmp_path / f"run{attempt}.mcap")
+        assert withheld is None or withheld in lost
+        if withheld is not None and lost == {withheld}:
+            assert error is None, error
+            assert state.robot_mode == pylibfranka.RobotMode.Idle
+            assert not bool(state.last_motion_errors) and not bool(state.current_errors)
+            return
+        assert clock == "realtime", f"lockstep lost {sorted(lost)}, not only {withheld}"
+    pytest.skip(f"the host held the client up past another cycle in each of {attempt + 1} runs")
 
 
 def _velocity_motion_through_a_long_gap(start, command_at) -> tuple[list[int], object]:
