@@ -2,7 +2,8 @@
 
 Each published state opens a cycle; the command echoing its message_id closes it on time if
 it arrives before the next cycle is released. Misses are extrapolated, counted, reported as
-control_command_success_rate, and — with enforcement — abort after 20 in a row.
+control_command_success_rate, and — with enforcement — abort after 20 in a row
+(tests/robot/test_silent_client.py).
 """
 
 from __future__ import annotations
@@ -18,17 +19,7 @@ from franka_sim.protocol.enums import (
     MoveStatus,
     RobotMode,
 )
-from franka_sim.protocol.errors import error_index
-from support.harness import Harness
-
-COMM = error_index("communication_constraints_violation")
-
-
-def _running_velocity_motion(**kwargs) -> Harness:
-    h = Harness(**kwargs)
-    assert h.move(0, 1) == MoveStatus.kMotionStarted
-    h.cycle()
-    return h
+from support.harness import Harness, running_velocity_motion
 
 
 def test_modes_flip_on_the_first_state_after_motion_started():
@@ -40,7 +31,7 @@ def test_modes_flip_on_the_first_state_after_motion_started():
 
 
 def test_success_rate_counts_answered_cycles_over_the_last_100():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     for _ in range(100):  # all answered: outside the window by the end
         assert h.send(dq_c=np.zeros(7))
         h.cycle()
@@ -52,7 +43,7 @@ def test_success_rate_counts_answered_cycles_over_the_last_100():
 
 
 def test_a_loss_burst_leaves_the_rate_once_100_answered_cycles_followed():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     h.send(dq_c=np.zeros(7))
     h.cycle(51)  # 50 lost in a row
     assert h.state["control_command_success_rate"] < 0.6
@@ -64,7 +55,7 @@ def test_a_loss_burst_leaves_the_rate_once_100_answered_cycles_followed():
 
 def test_the_rate_starts_with_the_first_command():
     """libfranka never answers the state on which the modes flip: that is not a loss."""
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     h.cycle()  # the flip state, unanswered as libfranka leaves it
     for _ in range(10):
         h.send(dq_c=np.zeros(7))
@@ -73,7 +64,7 @@ def test_the_rate_starts_with_the_first_command():
 
 
 def test_idle_success_rate_is_zero():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     for _ in range(10):
         h.send(dq_c=np.zeros(7))
         h.cycle()
@@ -89,7 +80,7 @@ def test_idle_success_rate_is_zero():
 def test_a_late_command_is_dropped_and_counts_as_lost():
     """As the robot drops it: its cycle was extrapolated already, and applied a cycle late it
     would step the stream back by one cycle's travel."""
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     stale = int(h.state["message_id"])
     h.cycle()  # the window of `stale` closed unanswered
     assert not h.send(message_id=stale, dq_c=np.full(7, 0.1))
@@ -99,7 +90,7 @@ def test_a_late_command_is_dropped_and_counts_as_lost():
 
 
 def test_an_id_never_published_answers_nothing():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     future = int(h.state["message_id"]) + 5
     assert not h.send(message_id=future, dq_c=np.zeros(7))
     h.cycle()
@@ -107,7 +98,7 @@ def test_an_id_never_published_answers_nothing():
 
 
 def test_missed_cycles_extrapolate_at_constant_acceleration():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     for dq in (0.0, 0.001, 0.002):
         h.send(dq_c=np.full(7, dq))
         h.cycle()
@@ -133,111 +124,11 @@ def test_missed_cycles_extrapolate_at_constant_acceleration():
         assert np.array_equal(h.state["q_d"], q_d)
 
 
-def _silent_at(speed: float, **kwargs) -> tuple[Harness, np.ndarray]:
-    """A joint-velocity motion ramped to `speed` (1 rad/s²) whose client then falls silent (or,
-    with `gone`, closes its connection); the measured q of its last answered state."""
-    gone = kwargs.pop("gone", False)
-    h = _running_velocity_motion(**kwargs)
-    for dq in np.arange(0.0, speed + 1e-9, 0.001):
-        h.send(dq_c=np.full(7, dq))
-        h.cycle()
-    if gone:
-        h.core.client_gone()
-    return h, np.array(h.state["q"], dtype=float)
-
-
-@pytest.mark.parametrize("gone", [False, True], ids=["silent", "connection closed"])
-def test_a_lost_client_s_motion_runs_on_twenty_cycles_then_brakes_to_rest(gone):
-    """As the robot does: its commands are extrapolated for the 20 cycles it tolerates, then
-    its stop decelerates the arm (at most 10 rad/s²: from 0.3 rad/s over ~4.5 mrad), never an
-    instant freeze, and the arm is held where it stopped (no springing back)."""
-    h, q_last = _silent_at(0.3, gone=gone)
-    travel = []
-    for _ in range(700):
-        h.cycle()
-        travel.append(np.asarray(h.state["q"], dtype=float) - q_last)
-    travel = np.array(travel)
-    np.testing.assert_allclose(travel[19], 0.3 * 0.020, rtol=0.05)  # on at 0.3 rad/s
-    assert np.all(np.abs(h.state["dq"]) < 1e-6)  # then at rest,
-    stop = travel[-1] - travel[19]
-    assert np.all(stop > 0.003) and np.all(stop < 0.008)  # several mrad further: a braking
-    assert np.all(travel[-1] >= travel[19:].max(axis=0) - 0.004)  # it stays (little springing)
-    if gone:  # nobody to answer: idle at once, and the next client may move at once
-        assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
-        assert h.statuses() == []
-    else:  # the motion waits for its client
-        assert h.state["robot_mode"] == RobotMode.kMove and h.core.client_silent
-
-
-def test_a_silent_client_heard_again_goes_on_from_where_the_arm_was_braked():
-    h, _ = _silent_at(0.1)
-    h.cycle(100)
-    q_d = np.array(h.state["q_d"], dtype=float)
-    assert h.core.client_silent
-    h.send(dq_c=np.zeros(7))
-    h.cycle()
-    assert not h.core.client_silent
-    np.testing.assert_allclose(h.state["q_d"], q_d, atol=1e-6)  # float32 on the wire
-    assert h.state["robot_mode"] == RobotMode.kMove
-
-
-def test_a_velocity_stream_heard_again_is_judged_where_the_robot_held_the_arm():
-    """A client paused for 4 s at -0.2 rad/s on joint 4 (a debugger), then going on at that
-    speed: the robot braked and held the arm, so the stream goes on from there (~0.7 rad from
-    joint 4's lower end), not from the 0.8 rad further the paused speed would have taken it
-    over the whole gap, past the end, where the velocity law allows 0 rad/s."""
-    h = _running_velocity_motion(enforce_motion_limits=True)
-    on_joint_4 = np.zeros(7)
-    for dq in np.arange(0.0, 0.2 + 1e-9, 0.001):
-        on_joint_4[3] = -dq
-        h.send(dq_c=on_joint_4)
-        h.cycle()
-    h.cycle(4000)
-    assert h.core.client_silent
-    held = np.array(h.state["q_d"], dtype=float)
-    for _ in range(10):
-        h.send(dq_c=on_joint_4)
-        h.cycle()
-    assert h.state["robot_mode"] == RobotMode.kMove and not h.state["errors"].any()
-    assert h.statuses() == []
-    np.testing.assert_allclose(h.state["q_d"][3], held[3] - 0.2 * 0.010, atol=1e-5)
-
-
-def test_twenty_lost_cycles_abort_with_communication_constraints_violation():
-    h = _running_velocity_motion(enforce_comm_constraints=True)
-    h.send(dq_c=np.zeros(7))
-    h.cycle()  # closes the answered cycle
-    h.cycle(19)
-    assert h.state["robot_mode"] == RobotMode.kMove  # 19 lost: still running
-    h.cycle()
-    assert h.state["robot_mode"] == RobotMode.kReflex
-    assert h.state["errors"][COMM] and h.state["reflex_reason"][COMM]
-    assert (Command.Move, 5, MoveStatus.kReflexAborted) in h.statuses()
-    # A Move before recovery is refused as the robot refuses it.
-    assert h.move(0, 1) == MoveStatus.kCommandNotPossibleRejected
-    assert h.core.request_recovery(9) == []  # answered once the arm is at rest
-    h.cycle(3)
-    assert (Command.AutomaticErrorRecovery, 9, AER.kSuccess) in h.statuses()
-    assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
-    assert h.move(0, 1) == MoveStatus.kMotionStarted
-
-
-def test_without_enforcement_losses_are_only_counted_and_the_arm_stops():
-    h = _running_velocity_motion()
-    h.send(dq_c=np.full(7, 0.2))  # a jump from rest: 200 rad/s², and 20 cycles extrapolated
-    h.cycle()
-    h.cycle(1500)  # the client fell silent: braking at 10 rad/s² from where that took the arm
-    assert h.state["robot_mode"] == RobotMode.kMove
-    assert not h.state["errors"].any()
-    assert np.max(np.abs(h.state["dq"])) < 1e-3  # it came to rest instead of running away
-    assert h.state["control_command_success_rate"] < 0.05
-
-
 def test_a_limit_check_that_only_logs_runs_once_the_state_has_left(caplog):
     """Without enforcement a violation changes nothing a client sees, so its check waits until
     the state is out (a lockstep client is not kept waiting for it): still logged, and the
     command still applied."""
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     with caplog.at_level(logging.WARNING, logger="franka_sim.robot.checks"):
         assert h.send(dq_c=np.full(7, 0.5))  # a jump from rest: a discontinuity
         assert not caplog.records  # not judged yet
@@ -248,7 +139,7 @@ def test_a_limit_check_that_only_logs_runs_once_the_state_has_left(caplog):
 
 
 def test_non_finite_command_is_dropped_not_applied():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     bad = np.zeros(7)
     bad[2] = np.nan
     assert not h.send(dq_c=bad)
@@ -275,7 +166,7 @@ def test_finishing_answers_the_move_and_holds_the_final_pose():
 
 
 def test_finishing_while_still_moving_is_a_reflex_abort():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     h.send(dq_c=np.full(7, 0.3), motion_generation_finished=True)
     h.cycle()
     assert (Command.Move, 5, MoveStatus.kReflexAborted) in h.statuses()
@@ -315,12 +206,12 @@ def test_async_motion_needs_a_maximum_velocity():
 
 
 def test_a_second_motion_is_refused_while_one_runs():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     assert h.move(0, 0) == MoveStatus.kCommandNotPossibleRejected
 
 
 def test_stop_move_preempts_the_motion_and_is_always_answered():
-    h = _running_velocity_motion()
+    h = running_velocity_motion()
     replies = h.core.request_stop(8)
     from support.harness import reply_status
 
@@ -400,7 +291,7 @@ def test_invalid_move_arguments_are_rejected_as_invalid_arguments(kwargs, what):
 
 
 def test_recovery_waits_for_the_arm_to_come_to_rest():
-    h = _running_velocity_motion(enforce_comm_constraints=True)
+    h = running_velocity_motion(enforce_comm_constraints=True)
     for k in range(1, 301):  # up to 0.3 rad/s at 1 rad/s²
         h.send(dq_c=np.full(7, 0.001 * k))
         h.cycle()
@@ -421,30 +312,6 @@ def test_recovery_waits_for_the_arm_to_come_to_rest():
     assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
     assert h.statuses() == [(Command.AutomaticErrorRecovery, 9, AER.kSuccess),
                             (Command.AutomaticErrorRecovery, 10, AER.kSuccess)]
-
-
-def test_a_client_gone_mid_motion_under_enforcement_leaves_the_reflex(caplog):
-    h = _running_velocity_motion(enforce_comm_constraints=True)
-    h.send(dq_c=np.zeros(7))
-    h.cycle()
-    with caplog.at_level("WARNING"):
-        h.core.client_gone()
-    assert [r.getMessage() for r in caplog.records] == [
-        "the client left during its motion: communication_constraints_violation"]
-    h.cycle()
-    assert h.state["robot_mode"] == RobotMode.kReflex
-    assert h.state["errors"][COMM] and h.state["reflex_reason"][COMM]
-    assert h.move(0, 1) == MoveStatus.kCommandNotPossibleRejected
-
-
-def test_a_client_gone_mid_motion_without_enforcement_leaves_the_robot_idle():
-    h = _running_velocity_motion()
-    h.send(dq_c=np.zeros(7))
-    h.cycle()
-    h.core.client_gone()
-    h.cycle()
-    assert h.state["robot_mode"] == RobotMode.kIdle and not h.state["errors"].any()
-    assert h.move(0, 1) == MoveStatus.kMotionStarted
 
 
 def test_replies_taken_before_a_later_reply_stay_as_they_were():

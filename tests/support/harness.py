@@ -15,7 +15,7 @@ from franka_sim.description.urdf import default_urdf_text, load_arm_description
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.protocol import robot_messages as msg
 from franka_sim.protocol.codec import decode_command, decode_state, encode_command
-from franka_sim.protocol.enums import Command
+from franka_sim.protocol.enums import Command, MoveStatus
 from franka_sim.protocol.framing import decode_request, Frame
 from franka_sim.robot.arm_core import ArmCore
 from franka_sim.robot.arm_cycle import ArmCycle
@@ -76,3 +76,11 @@ class Harness:
         out = [reply_status(r) for r in self.replies]
         self.replies.clear()
         return out
+
+
+def running_velocity_motion(**kwargs) -> Harness:
+    """A joint-velocity motion (joint impedance) started, its first state out."""
+    h = Harness(**kwargs)
+    assert h.move(0, 1) == MoveStatus.kMotionStarted
+    h.cycle()
+    return h
