@@ -160,8 +160,9 @@ def _desk(config: Config) -> None:
         except ValueError as exc:
             raise ConfigError("--desk-user", str(exc)) from None
     if (config.desk_cert is None) != (config.desk_key is None):
-        raise ConfigError("--desk-cert", "a certificate and its key go together "
-                          "(--desk-cert and --desk-key)")
+        given, missing = (("--desk-cert", "--desk-key") if config.desk_key is None
+                          else ("--desk-key", "--desk-cert"))
+        raise ConfigError(given, f"a certificate and its key go together: give {missing} too")
 
 
 def _web(config: Config) -> None:

@@ -15,6 +15,15 @@ def _no_constants(name: str) -> float:
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _integer(text: str) -> int:
+    """An integer as json reads it; past the 4300 digits Python reads, a reason of ours (its
+    own names an interpreter setting)."""
+    digits = len(text.lstrip("-"))
+    if digits > 4300:
+        raise ValueError(f"a number of {digits} digits, past any figure a call takes")
+    return int(text)
+
+
 def json_object(raw: bytes, *, optional: bool = False) -> dict:
     """The body's JSON object ({} for an empty `optional` one); ValueError says why not:
     empty, malformed (NaN and Infinity too: no JSON numbers), nested too deeply, or another
@@ -24,7 +33,8 @@ def json_object(raw: bytes, *, optional: bool = False) -> dict:
             return {}
         raise ValueError("expected a JSON object in the request body")
     try:
-        value = json.loads(raw.decode("utf-8"), parse_constant=_no_constants)
+        value = json.loads(raw.decode("utf-8"), parse_constant=_no_constants,
+                           parse_int=_integer)
     except (UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError is a ValueError
         raise ValueError(f"malformed JSON: {exc}") from None
     except RecursionError:

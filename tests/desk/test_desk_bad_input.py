@@ -110,3 +110,42 @@ def test_an_unpowered_end_effector_does_not_answer(sim):
     assert gripper.read_once().max_width > 0.07
     del gripper
     Control(sim.host).reset()
+
+
+def test_a_take_says_what_its_body_lacks(sim):
+    for body, reason in [({"owner": "t"}, "no timeout"),
+                         ({"owner": 5, "timeout": 1}, "owner 5: expected the requester's name"),
+                         ({"owner": "", "timeout": 1}, "owner '': expected"),
+                         ({"owner": "t", "timeout": 10 ** 5000}, "a number of 5001 digits")]:
+        raw = json.dumps(body).encode() if "timeout" not in body or body["timeout"] != 10 ** 5000 \
+            else b'{"owner": "t", "timeout": 1' + b"0" * 5000 + b"}"
+        status, answer = _request(sim.host, "POST", "/api/system/control-token:take", raw)
+        assert status == 400 and reason in answer["error"], (body, answer)
+    assert Control(sim.host).desk()["control_token"] is None
+
+
+def test_a_request_line_aiohttp_refuses_is_one_warning(sim):
+    """Not a method at all: the HTTP layer's 400, said in one line as every refusal is."""
+    sim.sync()
+    context = ssl._create_unverified_context()
+    with socket.create_connection((sim.host, PORT), timeout=10) as raw:
+        with context.wrap_socket(raw) as tls:
+            tls.sendall(b"FOO{} / HTTP/1.1\r\nHost: x\r\n\r\n")
+            answer = tls.recv(4096)
+    assert answer.startswith(b"HTTP/1.") and b" 400 " in answer.split(b"\r\n")[0]
+    lines = sim.wait_for_log("refused (400)")
+    assert len(lines) == 1 and "HTTP request from 127." in lines[0], lines
+    assert _request(sim.host, "GET", "/api/fci") == (200, {"status": "Active"})
+
+
+def test_the_desks_homing_of_an_arm_without_a_hand_is_409(tmp_path):
+    """Refused before anything is applied, in one line (as with the Hand busy:
+    test_desk_state.py)."""
+    with running_sim("--desk-port", str(PORT), "--tool", "none",
+                     env={"XDG_DATA_HOME": str(tmp_path)}) as sim:
+        token = _take(sim.host)
+        status, body = _request(sim.host, "POST", "/desk/api/gripper/homing",
+                                headers={**BASIC, "X-Control-Token": token})
+        assert status == 409 and "no Franka Hand on this arm" in body["error"], body
+        lines = [line for line in sim.sync() if "/desk/api/gripper/homing" in line]
+        assert len(lines) == 1 and "refused (409 Conflict)" in lines[0], lines

@@ -35,13 +35,40 @@ def test_bad_desk_flags_are_refused_on_one_line(args, reason):
     assert reason in done.stderr and "Traceback" not in done.stderr
 
 
-def test_a_certificate_needs_its_key(tmp_path):
-    cert, _ = certificate.kept_certificate(tmp_path)
-    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
-                           fresh_loopback_address(), "--desk-cert", str(cert)],
-                          capture_output=True, text=True, timeout=60,
-                          env={**os.environ, "COLUMNS": "200"})
-    assert done.returncode != 0 and "--desk-key" in done.stderr
+def _serve(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
+                           fresh_loopback_address(), *args], capture_output=True, text=True,
+                          timeout=60, env={**os.environ, "COLUMNS": "200", **(env or {})})
+
+
+def test_a_certificate_needs_its_key_and_a_key_its_certificate(tmp_path):
+    cert, key = certificate.kept_certificate(tmp_path)
+    done = _serve("--desk-port", str(PORT), "--desk-cert", str(cert))
+    assert done.returncode == 2 and "--desk-cert" in done.stderr  # (a command line refused)
+    assert "give --desk-key too" in done.stderr
+    done = _serve("--desk-port", str(PORT), "--desk-key", str(key))
+    assert done.returncode == 2 and "--desk-key: " in done.stderr
+    assert "give --desk-cert too" in done.stderr
+
+
+def test_a_pair_that_is_not_one_is_refused_saying_why(tmp_path):
+    """Not PEM, or another certificate's key: one line each, and how to mend it (a kept
+    certificate: delete it)."""
+    cert, key = certificate.kept_certificate(tmp_path / "one")
+    _, other_key = certificate.kept_certificate(tmp_path / "two")
+    garbage = tmp_path / "garbage.pem"
+    garbage.write_text("not a certificate")
+    for pair, reason in [((garbage, key), "not a PEM certificate and its PEM private key"),
+                         ((cert, other_key), "the key is not the certificate's")]:
+        done = _serve("--desk-port", str(PORT), "--desk-cert", str(pair[0]),
+                      "--desk-key", str(pair[1]))
+        assert done.returncode == 1 and reason in done.stderr, done.stderr
+        assert "PEM lib" not in done.stderr and "Traceback" not in done.stderr
+    data = tmp_path / "data"
+    kept, _ = certificate.kept_certificate(data / "franka-sim" / "desk")
+    kept.write_text("damaged")
+    done = _serve("--desk-port", str(PORT), env={"XDG_DATA_HOME": str(data)})
+    assert done.returncode == 1 and f"delete {kept.parent}" in done.stderr, done.stderr
 
 
 def test_the_certificate_is_made_once_and_kept(tmp_path):

@@ -254,3 +254,28 @@ def test_the_older_desk_answers_what_panda_pythons_desk_asks():
     assert call("DELETE", "/admin/api/control-token/fci", b'{"token": "not-it"}').status == 403
     assert call("POST", "/desk/api/robot/close-brakes").status == 200
     assert service.desk.brakes == "Locked"
+
+
+def test_a_homing_the_hand_cannot_start_is_refused_before_it_is_applied():
+    """The Desk's homing with no Hand on the arm, or the Hand's action under way: refused,
+    saying which, and dropped (not started once the Hand is free)."""
+    from types import SimpleNamespace
+
+    from franka_sim.server.desk_effects import DeskEffects
+
+    service = _service("ready")
+    hand = SimpleNamespace(busy=True)
+    control = SimpleNamespace(desk_state=service.desk, hand=hand)
+    effects = DeskEffects(SimpleNamespace(control=control))
+    token = _take(service)
+    assert effects.homing_refused() is None  # none asked for
+    assert _call(service, "POST", "/desk/api/gripper/homing", token=token).status == 200
+    assert "the Hand is busy" in effects.homing_refused()
+    hand.busy = False
+    assert effects.homing_refused() is None and effects.homings == 1  # dropped
+    assert _call(service, "POST", "/desk/api/gripper/homing", token=token).status == 200
+    assert effects.homing_refused() is None and effects.homings == 1  # this one goes
+    control.hand = None
+    assert _call(service, "POST", "/desk/api/gripper/homing", token=token).status == 200
+    assert "no Franka Hand on this arm" in effects.homing_refused()
+

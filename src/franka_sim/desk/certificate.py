@@ -104,10 +104,11 @@ def _with_cryptography(cert: Path, key: Path) -> None:
     cert.write_bytes(certificate.public_bytes(serialization.Encoding.PEM))
 
 
-def server_context(cert: Path, key: Path):
-    """The TLS context the Desk serves with (CertificateError: unreadable or not a pair). A
-    handshake it refuses (a client speaking plain HTTP, garbage) is one log line: the event
-    loop drops that connection without a word."""
+def server_context(cert: Path, key: Path, kept: bool = False):
+    """The TLS context the Desk serves with (CertificateError: unreadable or not a pair;
+    `kept`: the store's, which a new one replaces once it is deleted). A handshake it refuses
+    (a client speaking plain HTTP, garbage) is one log line: the event loop drops that
+    connection without a word."""
     import logging
     import ssl
 
@@ -129,5 +130,22 @@ def server_context(cert: Path, key: Path):
     try:
         context.load_cert_chain(cert, key)
     except (OSError, ssl.SSLError) as exc:
-        raise CertificateError(f"cannot serve the Desk with {cert} and {key}: {exc}") from None
+        fix = (f"; delete {cert.parent} to have a new one made" if kept
+               else " (--desk-cert/--desk-key)")
+        raise CertificateError(f"cannot serve the Desk with {cert} and {key}: "
+                               f"{_why(exc)}{fix}") from None
     return context
+
+
+def _why(exc: OSError) -> str:
+    """What OpenSSL's terse reasons mean for a certificate and key given as files."""
+    import ssl
+
+    if not isinstance(exc, ssl.SSLError):
+        return exc.strerror or str(exc)
+    reason = exc.reason or ""
+    if reason == "KEY_VALUES_MISMATCH":
+        return "the key is not the certificate's"
+    if reason in ("PEM_LIB", "NO_START_LINE") or "PEM lib" in str(exc):
+        return "not a PEM certificate and its PEM private key"
+    return f"OpenSSL refused them ({reason or exc})"

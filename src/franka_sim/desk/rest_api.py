@@ -46,7 +46,10 @@ def routes(desk: Desk) -> Routes:
     @add("POST", "/api/system/control-token:take")
     def take(call: Call) -> Answer:
         body = call.json_object()
-        owner, timeout = body.get("owner", call.user), body.get("timeout", 0)
+        owner, timeout = body.get("owner", call.user), body.get("timeout")
+        if timeout is None:
+            raise DeskRefusal(400, "BadRequest", "no timeout: the seconds to wait for the "
+                              f"token while another holds it, in (0, {MAX_TAKE_WAIT:g}]")
         if (isinstance(timeout, bool) or not isinstance(timeout, (int, float))
                 or not math.isfinite(timeout) or timeout <= 0 or timeout > MAX_TAKE_WAIT):
             raise DeskRefusal(400, "BadRequest", f"timeout {timeout!r}: expected seconds in "

@@ -156,7 +156,8 @@ class Desk:
         """Ask for the token: granted at once when free, else a pending Request (one at a
         time: a newer one replaces it)."""
         if not isinstance(owner, str) or not owner:
-            raise DeskRefusal(400, "BadRequest", "the requester's name is missing")
+            raise DeskRefusal(400, "BadRequest", f"owner {owner!r}: expected the requester's "
+                              "name, a non-empty string")
         request = Request(self._issue(owner), force)
         if self.token is None:
             self._grant(request)

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import logging
 
-from franka_sim.control.errors import NotFound
-
 log = logging.getLogger(__name__)
 
 
@@ -46,7 +44,18 @@ class DeskEffects:
             await robot.control.desk_arm()
         while self.homings < desk.gripper_homings:
             self.homings += 1
-            try:
-                await robot.control.home_gripper()
-            except NotFound as refusal:  # the arm carries another tool (the vacuum gripper)
-                log.warning("the Desk's gripper homing: %s", refusal)
+            await robot.control.home_gripper()  # (ControlError: the Hand busy by now)
+
+    def homing_refused(self) -> str | None:
+        """Why a homing the Desk was just asked for cannot start (no Hand on this arm, or an
+        action under way), said before anything is applied; None: it can. A refused one is
+        dropped, not started later."""
+        desk = self.robot.control.desk_state
+        if self.homings == desk.gripper_homings:
+            return None
+        hand = self.robot.control.hand
+        why = ("no Franka Hand on this arm (its tool: --tool hand puts one there)" if hand is None
+               else "the Hand is busy: an action is under way" if hand.busy else None)
+        if why is not None:
+            self.homings = desk.gripper_homings
+        return why

@@ -28,11 +28,13 @@ class DeskPort(LazyPort):
         from franka_sim.desk.certificate import kept_certificate, server_context
 
         config = self.robot.config
-        if config.desk_cert is not None:
+        kept = config.desk_cert is None
+        if not kept:
             cert, key = config.desk_cert, config.desk_key
         else:
             cert, key = await asyncio.to_thread(kept_certificate)
-        self._context = server_context(cert, key)  # (a robot of several: its lines name it)
+        # (a robot of several: its lines name it)
+        self._context = server_context(cert, key, kept=kept)
         await super().start(host, port)
 
     async def _load(self, sock):

@@ -78,6 +78,9 @@ class DeskServer:
         if answer.request is not None:
             answer = await self._wait(call, answer)
         if answer.status == 200 and call.method != "GET":
+            refused = self.effects.homing_refused()
+            if refused is not None:
+                return _response(self.service.refused(call, DeskRefusal(409, "Conflict", refused)))
             log.info("Desk: %s %s by %s", call.method, call.path,
                      call.user or "someone logging in")
             try:
@@ -87,10 +90,8 @@ class DeskServer:
                           exc.strerror or exc)
                 answer = Answer(status=500, body={
                     "code": "InternalError", "error": f"could not be applied: {exc}"})
-            except ControlError as refusal:  # the robot refused it (the Hand busy homing)
-                log.info("Desk: %s %s refused: %s", call.method, call.path, refusal.message)
-                answer = Answer(status=refusal.status, body={
-                    "code": type(refusal).__name__, "error": refusal.message})
+            except ControlError as refusal:  # the robot refused it (the Hand busy by now)
+                answer = self.service.refused(call, DeskRefusal(409, "Conflict", refusal.message))
         return _response(answer)
 
     async def _wait(self, call: Call, answer: Answer) -> Answer:
