@@ -163,6 +163,9 @@ def _desk(config: Config) -> None:
         given, missing = (("--desk-cert", "--desk-key") if config.desk_key is None
                           else ("--desk-key", "--desk-cert"))
         raise ConfigError(given, f"a certificate and its key go together: give {missing} too")
+    if config.desk_cert is not None and not config.desk_port:
+        raise ConfigError("--desk-cert", "the certificate is the Desk's: give --desk-port too "
+                          "(the robot's is 443)")
 
 
 def _web(config: Config) -> None:

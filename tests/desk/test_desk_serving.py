@@ -26,6 +26,7 @@ PORT = 8443
     (["--desk-boot", "sideways"], "one of ready, locked"),
     (["--desk-port", "1338"], "another service's port"),
     (["--desk-boot", "locked"], "give --desk-port too"),
+    (["--desk-cert", __file__, "--desk-key", __file__], "the certificate is the Desk's"),
 ])
 def test_bad_desk_flags_are_refused_on_one_line(args, reason):
     done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host",
