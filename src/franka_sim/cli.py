@@ -222,6 +222,11 @@ def serve(
     if arms and getattr(ctx.get_parameter_source("host"), "name", "") == "COMMANDLINE":
         typer.echo(f"franka-sim serve: --host {host} serves nothing beside --arm (each arm "
                    "names its own address)", err=True)
+    # What the engine does not serve is said before what is missing for it (config_rules.py
+    # refuses --web with another engine).
+    if viewer and physics is not PhysicsEngine.mujoco:
+        raise typer.BadParameter("MuJoCo's viewer shows the MuJoCo world only",
+                                 param_hint="--viewer")
     if viewer:
         from franka_sim.server.viewer import NoDisplay, check_display
 
@@ -230,15 +235,12 @@ def serve(
         except NoDisplay as exc:
             typer.echo(f"franka-sim: {exc}", err=True)
             raise typer.Exit(1) from None
-    if web:
+    if web and physics is PhysicsEngine.mujoco:
         from franka_sim.web import web_missing
 
         if missing := web_missing():
             typer.echo(f"franka-sim: --web: {missing}", err=True)
             raise typer.Exit(1)
-    if viewer and physics is not PhysicsEngine.mujoco:
-        raise typer.BadParameter("MuJoCo's viewer shows the MuJoCo world only",
-                                 param_hint="--viewer")
     from franka_sim.physics.engine_choice import engine_missing
 
     if missing := engine_missing(physics.value):

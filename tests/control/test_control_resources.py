@@ -90,6 +90,10 @@ def test_set_pose_moves_the_cube_and_pose_reads_it_back(control):
     np.testing.assert_allclose(cube["position"][:2], [0.5, 0.1], atol=1e-3)
     with pytest.raises(Conflict, match="not a free body"):
         control.set_pose("link4", [0.0, 0.0, 1.0])
+    with pytest.raises(Conflict, match=r"inside another body: scene/cube into scene/table "
+                                       r"\(15 mm deep\)"):
+        control.set_pose("cube", [0.5, 0.1, 0.01])
+    assert control.pose("cube")["position"] == cube["position"]  # as it was
 
 
 def test_reset_puts_arm_cube_and_hand_back(control, served):

@@ -167,6 +167,28 @@ def test_a_reset_into_the_table_is_refused(sim):
         Control(sim.host, timeout=300.0).reset(q=[0.0, 1.6, 0.0, -0.3, 0.0, 1.9, 0.78])
 
 
+def test_what_nothing_moves_is_refused_alike_and_genesis_records_nothing(sim, tmp_path):
+    """A push on the table or the arm's base, placing them, and placing the cube inside the
+    Hand: 409 on either engine, saying why. A recording through the control API replays on
+    MuJoCo: refused on Genesis."""
+    from franka_sim.control import Conflict
+
+    control = Control(sim.host, timeout=300.0)
+    cube = control.pose("cube")["position"]
+    with pytest.raises(Conflict, match="inside another body: scene/cube into "):
+        control.set_pose("cube", control.pose("hand")["position"])
+    assert control.pose("cube")["position"] == cube
+    for body in ("scene/table", "link0"):
+        with pytest.raises(Conflict, match="fixed to the world"):
+            control.push(body, [0.0, 0.0, 10.0])
+        with pytest.raises(Conflict, match="fixed to the world"):
+            control.set_pose(body, [0.0, 0.0, 1.0])
+    if sim.engine == "genesis":
+        with pytest.raises(Conflict, match="replays on MuJoCo"):
+            control.start_recording(str(tmp_path / "run.mcap"))
+        assert not (tmp_path / "run.mcap").exists()
+
+
 def test_the_hand_homes_and_grasps_the_cube(sim, robot):
     control = Control(sim.host, timeout=300.0)
     assert np.abs(np.array(control.pose("cube")["position"]) - pp.CUBE).max() < 1e-3
@@ -232,3 +254,21 @@ def test_the_engines_end_the_programs_in_the_same_poses():
     for name, kind in kinds.items():
         assert apart[name] < TOLERANCES[kind], apart
     assert math.isfinite(sum(apart.values()))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_scenes_free_body_whose_joint_has_no_name_is_served(engine, tmp_path):
+    """MJCF lets a free joint go unnamed (Genesis then names it after its body)."""
+    scene = tmp_path / "unnamed.xml"
+    scene.write_text(
+        '<mujoco><worldbody><body name="cube" pos="0.45 0 0.3"><freejoint/>'
+        '<geom type="box" size="0.025 0.025 0.025" mass="0.1"/></body></worldbody></mujoco>')
+    server = engine_server(engine, "--scene", str(scene))
+    try:
+        control = Control(server.host, timeout=300.0)
+        placed = control.set_pose("scene/cube", [0.5, 0.1, 0.4])
+        assert np.allclose(placed["position"], [0.5, 0.1, 0.4])
+        pushed = control.push("scene/cube", [0.0, 0.0, 0.5], duration=0.01)
+        assert pushed["body"] == "scene/cube"
+    finally:
+        server.stop()

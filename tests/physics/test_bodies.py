@@ -9,7 +9,7 @@ import pytest
 from franka_sim.physics.fingers import FINGERS
 from franka_sim.config import READY_POSE
 from franka_sim.physics.backend import JointCommand
-from franka_sim.physics.bodies import NotFree, UnknownBody
+from franka_sim.physics.bodies import Inside, NotFree, UnknownBody
 from franka_sim.physics.mujoco_backend import MujocoBackend
 from franka_sim.physics.scene import default_scene_path
 from franka_sim.robot.settings import DEFAULT_K_THETA
@@ -49,6 +49,21 @@ def test_a_placed_body_is_there_at_rest_and_falls_onto_the_table(world_backend):
     np.testing.assert_allclose(state.position[:2], [0.5, 0.1], atol=1e-3)
     with pytest.raises(NotFree):
         world.place_body("link3", [0.0, 0.0, 1.0])
+
+
+def test_a_body_placed_inside_another_is_refused_and_the_world_unchanged(world_backend):
+    """Into the Hand or the tabletop: refused, naming the deepest overlap; on the tabletop
+    (touching it) and between the open fingers it goes."""
+    world = world_backend.world
+    before = world.data.qpos.copy()
+    hand = world.body_state("hand").position
+    for position, others in [(hand, {"link7", "hand"}), ([0.45, 0.0, 0.01], {"scene/table"})]:
+        with pytest.raises(Inside) as refused:
+            world.place_body("cube", position)
+        assert refused.value.args[0] == "scene/cube" and refused.value.args[1].other in others
+        np.testing.assert_array_equal(world.data.qpos, before)
+    world.place_body("cube", [0.3, 0.2, 0.025])
+    np.testing.assert_array_equal(world.body_state("cube").position, [0.3, 0.2, 0.025])
 
 
 def test_a_push_acts_for_exactly_its_steps_and_reads_as_external_torque(world_backend):

@@ -29,7 +29,7 @@ from franka_sim.operations.ports import Jobs, Pacer
 from franka_sim.control.table import Kind
 from franka_sim.operations.values import (body_name, mode_name, number, numbers,
                                           refuse_if_failed, within)
-from franka_sim.physics.bodies import Immovable, NotFree, TooViolent, UnknownBody
+from franka_sim.physics.bodies import Immovable, Inside, NotFree, TooViolent, UnknownBody
 from franka_sim.protocol.enums import RobotMode
 from franka_sim.protocol.errors import ERROR_NAMES
 from franka_sim.protocol.timing import CYCLE_PERIOD
@@ -249,6 +249,8 @@ class ArmOps(DeskOps, FaultOps):
                            "starts from a reset world, and a reset of one robot of several "
                            "leaves the others as they are (record the whole run with "
                            "`serve --record`)")
+        if why := recordings.refused():
+            raise Conflict(why)
         if not isinstance(path, str) or not path:
             raise BadRequest(f"path must be the recording's file path, not {path!r}")
         from franka_sim.recording import mcap_missing
@@ -320,6 +322,10 @@ class ArmOps(DeskOps, FaultOps):
             except NotFree as exc:
                 raise Conflict(f"{exc.args[0]!r} is not a free body: {exc.args[1]} (only free "
                                "bodies can be placed)") from None
+            except Inside as exc:
+                raise Conflict(f"{exc.args[0]!r} placed there would be inside another body: "
+                               f"{exc.args[1]}; place it clear of the arm and the scene"
+                               ) from None
             self.driver.keep_running()
             return _pose(world.body_state(name))
         return await self._job(place, ("set_pose", {

@@ -46,6 +46,11 @@ class NotFree(ValueError):
     """Only a free body can be placed: args (its name, why this one cannot: `Bodies.why_fixed`)."""
 
 
+class Inside(ValueError):
+    """A body placed there would be inside another: args (its name, the deepest overlap:
+    physics/intrusions.py Intrusion)."""
+
+
 class Immovable(ValueError):
     """A push cannot move the body: args (its name, why: `Bodies.anchored`)."""
 
@@ -158,19 +163,35 @@ class Bodies:
     def place(self, name: str, position, quaternion=None) -> None:
         """Put a free body at `position` (world frame), turned to `quaternion` (w, x, y, z; None:
         as it is), at rest. The caller recomputes what derives from the state."""
+        m, d = self._model, self._data
+        qpos = self.placed(name, position, quaternion, d.qpos,
+                           (d.mocap_pos, d.mocap_quat) if m.nmocap else None)
+        d.qpos[:] = qpos
+        dof = m.jnt_dofadr[m.body_jntadr[self.id(name)]]
+        d.qvel[dof:dof + 6] = 0.0
+        d.qacc_warmstart[dof:dof + 6] = 0.0
+
+    def placed(self, name: str, position, quaternion, qpos: np.ndarray, mocap=None):
+        """The world's positions `qpos` (the model's layout; `mocap`: the mocap bodies' poses)
+        with the free body `name` at `position` and `quaternion` (None: as it is): a copy.
+        NotFree for another body; Inside where it would be inside another body, as a real
+        object cannot be put (MuJoCo's contact would throw it out, Genesis's may hold it)."""
+        from franka_sim.physics.intrusions import intrusions, subtree
+
         body = self.id(name)
         if body not in self._free:
             raise NotFree(self.find(name), self.why_fixed(body))
-        m, d = self._model, self._data
-        joint = m.body_jntadr[body]
-        qpos, dof = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
-        d.qpos[qpos:qpos + 3] = position
+        m = self._model
+        at = m.jnt_qposadr[m.body_jntadr[body]]
+        qpos = np.array(qpos, dtype=float)
+        qpos[at:at + 3] = position
         if quaternion is not None:
             quaternion = np.asarray(quaternion, dtype=float)
             quaternion = quaternion / np.abs(quaternion).max()  # (no overflow in the norm)
-            d.qpos[qpos + 3:qpos + 7] = quaternion / np.linalg.norm(quaternion)
-        d.qvel[dof:dof + 6] = 0.0
-        d.qacc_warmstart[dof:dof + 6] = 0.0
+            qpos[at + 3:at + 7] = quaternion / np.linalg.norm(quaternion)
+        if inside := intrusions(m, qpos, subtree(m, [self.find(name)]), mocap):
+            raise Inside(self.find(name), inside[0])
+        return qpos
 
 
 class Pushes:

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.drive import SETTLE
-from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
+from franka_sim.physics.bodies import Bodies, BodyState, Immovable, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount, opening
 from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.genesis.arm import GenesisArm
@@ -44,8 +44,9 @@ class GenesisBodies(Bodies):
         self._entity = entity
         self._joint_of = {}  # a free body's joint in Genesis
         for name, _ in super().free_qpos():
-            body = model.body(name)
-            self._joint_of[name] = entity.get_joint(model.joint(body.jntadr[0]).name)
+            # (an unnamed joint: Genesis names it after its body)
+            joint = model.joint(model.body(name).jntadr[0]).name or name
+            self._joint_of[name] = entity.get_joint(joint)
 
     def free_qpos(self) -> list[tuple[str, int]]:
         return [(name, int(joint.qs_idx_local[0])) for name, joint in self._joint_of.items()]
@@ -241,7 +242,7 @@ class GenesisWorld:
 
         found = self.bodies.find(name)
         if not self.bodies.is_free(found):
-            raise NotFree(found, "its pose follows its joints or the world")
+            raise NotFree(found, self.bodies.why_fixed(self.bodies.id(found)))
         joint = self.bodies._joint_of[found]
         qs, dofs = list(joint.qs_idx_local), list(joint.dofs_idx_local)
         values = self.entity.get_qpos(qs).cpu().numpy().copy()
@@ -249,13 +250,29 @@ class GenesisWorld:
         if quaternion is not None:
             quaternion = np.asarray(quaternion, dtype=float)
             values[3:7] = quaternion / np.linalg.norm(quaternion)
+        # Inside: checked on the MuJoCo model of the same document, the world as it is
+        self.bodies.placed(found, values[:3], values[3:7], self._mujoco_qpos())
         self.entity.set_qpos(values, qs, zero_velocity=False)
         self.entity.set_dofs_velocity(np.zeros(len(dofs)), dofs)
         self._still, self._asleep = 0, False
 
+    def _mujoco_qpos(self) -> np.ndarray:
+        """The world's positions now in the MuJoCo model's layout: the arm, its fingers and
+        the free bodies (a scene's other joints as the model has them at rest)."""
+        model, now = self.model, self.entity.get_qpos().cpu().numpy()
+        qpos = model.qpos0.copy()
+        qpos[self._arm_qpos + self._finger_qpos] = now[self._qs]
+        for name, at in self.bodies.free_qpos():
+            mujoco_at = model.jnt_qposadr[model.body(name).jntadr[0]]
+            qpos[mujoco_at:mujoco_at + 7] = now[at:at + 7]
+        return qpos
+
     def push(self, name: str, force, torque, steps: int) -> None:
+        """As the MuJoCo world's (physics/world.py)."""
         if steps <= 0:
             raise ValueError(f"a push lasts at least one step, not {steps}")
+        if why := self.bodies.anchored(self.bodies.id(name)):
+            raise Immovable(self.bodies.find(name), why)
         self.bodies.check_push(name, force, torque, steps * self.timestep)
         link = self.bodies.link(name).idx_local
         self._pushes[link] = [np.asarray(force, float), np.asarray(torque, float), steps]

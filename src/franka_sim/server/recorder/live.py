@@ -25,6 +25,16 @@ class Recordings:
         self.sim = sim
         self.live = None  # the recording the control API started, while it runs
 
+    def refused(self) -> str | None:
+        """Why this simulator's runs cannot be recorded through the control API (None: they
+        can): a recording replays on MuJoCo, so another engine's is refused, as `serve
+        --record` is."""
+        engine = self.sim.config.physics
+        if engine != "mujoco":
+            return (f"the {engine} engine's runs are not recorded: a recording replays on "
+                    "MuJoCo (docs/engines.md), as `serve --record` is refused with it")
+        return None
+
     def open(self, path: str | Path, start: str = START_RESET):
         """A Recorder writing to `path` (OSError: it cannot), not yet attached."""
         from franka_sim.server.recorder.recorder import Recorder  # mcap: only when recording
