@@ -2,9 +2,10 @@
 
 Before a request reaches the control API's or the Desk's handlers, aiohttp's own parser may
 refuse it (a malformed Content-Length or chunk, a line or header over its limits, a method it
-does not know) and answers 400 in plain text; it logs each refusal as an error with a traceback of its parser, and so does a handler
-whose client hung up mid-body. Neither is the server's error: each becomes one warning naming
-what was wrong and who sent it. A body whose Content-Encoding does not decode is refused by the
+does not know) and answers 400 in plain text; it logs each refusal as an error with a
+traceback of its parser (an unknown method at debug level), and so does a handler whose
+client hung up mid-body. Neither is the server's error: each becomes one warning naming what
+was wrong and who sent it. A body whose Content-Encoding does not decode is refused by the
 handler, which says so; aiohttp's own traceback of it, as it drains the rest, is dropped."""
 
 from __future__ import annotations
