@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import time
 from pathlib import Path
 
 import pytest
@@ -82,6 +83,27 @@ class _KeptRecordings:
         # Recordings begun and not yet kept or removed (this process's tests): at the summary,
         # those of a run interrupted mid-test (Ctrl-C), kept as far as they were written.
         self.started: dict[Path, str] = {}
+        self.since = time.time()  # (an xdist worker's are found in the directory: `_left`)
+
+    def _left(self, listed) -> list[Path]:
+        """An interrupted run's recordings its workers (pytest-xdist) began and never kept nor
+        removed: made in this run, not yet listed, not kept, and not being written (another
+        run's)."""
+        from franka_sim.recording import being_written
+
+        known = {str(path) for _, path in listed} | {str(path) for _, path in self.kept}
+        found = []
+        directory = self.directory
+        for path in sorted(directory.glob("*.mcap")) if directory is not None else ():
+            try:
+                if str(path) in known or path.stat().st_mtime < self.since:
+                    continue
+                with open(path, "rb") as stream:
+                    if not being_written(stream):
+                        found.append(path)
+            except OSError:  # (removed meanwhile)
+                continue
+        return found
 
     def pytest_unconfigure(self, config: pytest.Config) -> None:
         """A directory this run made and kept nothing in goes again (every test passed)."""
@@ -98,11 +120,13 @@ class _KeptRecordings:
 
     unavailable: str | None = None  # why no test was recorded (mcap is not installed)
 
-    def pytest_terminal_summary(self, terminalreporter) -> None:
+    def pytest_terminal_summary(self, terminalreporter, exitstatus) -> None:
         if self.unavailable is not None:
             terminalreporter.section("franka-sim recordings")
             terminalreporter.line(f"no test was recorded: {self.unavailable}")
         interrupted = [(nodeid, path) for path, nodeid in self.started.items() if path.exists()]
+        if exitstatus == pytest.ExitCode.INTERRUPTED:
+            interrupted += [("a worker's test", path) for path in self._left(interrupted)]
         if not self.kept and not interrupted:
             return
         terminalreporter.section("franka-sim recordings")

@@ -195,17 +195,19 @@ def test_a_run_whose_tests_all_pass_leaves_no_recordings_directory(tmp_path):
     assert done.returncode == 0 and (project / "franka-sim-recordings").is_dir()
 
 
-def _run_module(tmp_path: Path, name: str, text: str):
-    """pytest (no workers) on a project of one test module: (its directory, the run)."""
+def _run_module(tmp_path: Path, name: str, text: str, workers: int = 0):
+    """pytest (no workers, or `workers` of pytest-xdist's, the run in a process group of its
+    own) on a project of one test module: (its directory, the run)."""
     project = tmp_path / "project"
     project.mkdir()
     (project / name).write_text(text)
     installed = any(ep.name == "franka_sim" for ep in entry_points(group="pytest11"))
     plugin = [] if installed else ["-p", "franka_sim.pytest_plugin"]
     return project, subprocess.run(
-        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n", "0"],
-        cwd=project, capture_output=True, text=True, timeout=600,
-        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")})
+        [sys.executable, "-m", "pytest", *plugin, "-p", "no:cacheprovider", "-q", "-n",
+         str(workers)], cwd=project, capture_output=True, text=True, timeout=600,
+        env={k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")},
+        start_new_session=True)
 
 
 FAILING_AROUND = '''
@@ -269,3 +271,27 @@ def test_a_run_interrupted_mid_test_lists_the_recording_it_leaves(tmp_path):
     assert done.returncode == 2 and path.exists(), output  # pytest's: interrupted
     assert (f"test_interrupted.py::test_interrupted: {path} (interrupted: kept as far as it "
             "was written)") in output
+
+
+INTERRUPTED_ON_A_WORKER = '''
+import os, signal, time
+
+import pylibfranka
+
+
+def test_interrupted(franka_sim):
+    pylibfranka.Robot(franka_sim.host, pylibfranka.RealtimeConfig.kIgnore).read_once()
+    os.killpg(os.getpgid(0), signal.SIGINT)  # Ctrl-C: every process of the run
+    time.sleep(60)
+'''
+
+
+def test_a_run_on_workers_interrupted_mid_test_lists_the_recording_it_leaves(tmp_path):
+    """pytest-xdist: the worker's own summary is not shown; the run's lists what it left."""
+    project, done = _run_module(tmp_path, "test_interrupted.py", INTERRUPTED_ON_A_WORKER,
+                                workers=1)
+    output = done.stdout + done.stderr
+    path = project / "franka-sim-recordings" / recording_name(
+        "test_interrupted.py::test_interrupted")
+    assert done.returncode == 2 and path.exists(), output
+    assert f"a worker's test: {path} (interrupted: kept as far as it was written)" in output
