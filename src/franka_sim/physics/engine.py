@@ -67,10 +67,12 @@ class World(Protocol):
 
     def place_body(self, name: str, position, quaternion=None) -> None:
         """A free body at `position` (turned to `quaternion`; None: as it is), at rest
-        (NotFree for a link or a fixed body)."""
+        (NotFree for a link or a fixed body; Inside, the world unchanged, where it would be
+        inside another body: physics/bodies.py)."""
 
     def push(self, name: str, force, torque, steps: int) -> None:
-        """A wrench on a body (world frame, at its centre of mass) for the next `steps`."""
+        """A wrench on a body (world frame, at its centre of mass) for the next `steps`
+        (Immovable for a body no force moves; TooViolent past what a step integrates)."""
 
     def reset(self, q0: Mapping[str, np.ndarray],
               tool_settings: Mapping[str, object] | None = None) -> None:
