@@ -86,9 +86,9 @@ def test_each_arm_may_carry_its_own_tool():
         assert Control(right).state()["gripper_width"] > 0.07
 
 
-def test_the_desks_gripper_homing_on_an_arm_with_the_pump_is_logged_and_skipped(tmp_path):
+def test_the_desks_gripper_homing_on_an_arm_with_the_pump_is_refused_in_one_line(tmp_path):
     """A Panda's Desk (system 4) asked to home the gripper while the arm carries the vacuum
-    gripper: one log line, and the pump and the Desk serve on."""
+    gripper: 409 saying so, one log line, and the pump and the Desk serve on."""
     import json
     import ssl
     import urllib.request
@@ -114,7 +114,10 @@ def test_the_desks_gripper_homing_on_an_arm_with_the_pump_is_logged_and_skipped(
                        {"login": "admin", "password": browser_password("admin", "secret")})
         token = call(sim.host, "/admin/api/control-token/request", {"requestedBy": "admin"},
                      cookie=session)
-        call(sim.host, "/desk/api/gripper/homing", headers={"X-Control-Token": token["token"]},
-             cookie=session)
-        assert sim.wait_for_log("the Desk's gripper homing: 404: no Franka Hand on this arm")
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            call(sim.host, "/desk/api/gripper/homing",
+                 headers={"X-Control-Token": token["token"]}, cookie=session)
+        assert refused.value.code == 409
+        assert "no Franka Hand on this arm" in json.loads(refused.value.read())["error"]
+        assert len(sim.wait_for_log("refused (409 Conflict): no Franka Hand on this arm")) == 1
         socket.create_connection((sim.host, 1339), timeout=5).close()
