@@ -154,3 +154,46 @@ def test_a_recording_that_replaces_a_file_says_so(tmp_path):
         assert sim.wait_for_log(f"recording to {path} replaces the 1000-byte file")
     with running_sim("--record", str(tmp_path / "new.mcap")) as sim:
         assert not sim.log_matching("-byte file that was there")
+
+
+def test_a_start_that_fails_or_never_comes_leaves_the_last_runs_file(tmp_path):
+    """The file that was there stays until the recording starts: a start refused (its
+    address in use) or an embedded simulator made and dropped leave it byte for byte, and no
+    temporary beside it."""
+    import gc
+
+    from franka_sim import FrankaSim
+
+    path = tmp_path / "run.mcap"
+    last_run = b"the last run's recording" * 100
+    path.write_bytes(last_run)
+    with running_sim("--control-port", "0") as sim:
+        done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host", sim.host,
+                               "--record", str(path)], capture_output=True, text=True,
+                              timeout=60)
+        assert done.returncode == 1 and "in use" in done.stderr, done.stderr
+    assert path.read_bytes() == last_run
+    dropped = FrankaSim(host=fresh_loopback_address(), record=str(path))
+    del dropped
+    gc.collect()
+    assert path.read_bytes() == last_run
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
+
+
+def test_an_embedder_records_to_a_path_and_replays_it(tmp_path):
+    """`await sim.start_recording(Path)`, as Config.record takes one."""
+    import asyncio
+
+    from franka_sim import FrankaSim
+
+    path = tmp_path / "embedded.mcap"
+
+    async def app():
+        async with FrankaSim(host=fresh_loopback_address(), control_port=0,
+                             clock="lockstep") as sim:
+            assert (await sim.start_recording(path))["path"] == str(path)
+            await sim.set_pose("cube", [0.45, 0.1, 0.2])
+            return await sim.finish_recording()
+
+    assert asyncio.run(app())["path"] == str(path)
+    assert _replay(path).startswith("identical")

@@ -130,9 +130,9 @@ class FrankaSim(EmbeddedOperations):
             await self._halt_once(started, keep_recording=False)
             raise
         self._started = True
-        if self.recorder is not None:
-            self.recorder.start()  # (what the taps queued so far is written first)
         try:
+            if self.recorder is not None:  # (what the taps queued so far is written first;
+                self.recorder.start()  # OSError: another process took the file since)
             self._log_start()
         except BaseException:
             await self.stop()

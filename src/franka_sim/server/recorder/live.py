@@ -73,12 +73,13 @@ class Recordings:
         return self.sim.taps.detach()
 
     def discard(self, recorder) -> None:
-        """A recording whose start was refused or failed: closed, its file removed."""
+        """A recording whose start was refused or failed: closed, its file removed (one never
+        started leaves the target as it was)."""
         if self.sim.taps.recorder is recorder:
             self.sim.taps.detach()
         self.live = None
         recorder.stop()
-        if recorder.path.is_file():  # (a device given as the target, /dev/null, stays)
+        if recorder.started and recorder.path.is_file():  # (a device, /dev/null, stays)
             recorder.path.unlink(missing_ok=True)
 
     def close(self) -> None:

@@ -30,15 +30,10 @@ class Recorder:
         self._limit = limit
         self.dropped = 0
         self._stopped = False
-        try:  # (a container restarted with the same --record: the last run's file goes)
-            replaced = self.path.stat().st_size if self.path.is_file() else 0
-        except OSError:
-            replaced = 0
+        self.started = False
         # Opening the file now: a target that cannot be written stops the server at start.
+        # (The file that was there stays until the recording starts: target.py.)
         self._writer = RecordingWriter(self.path, metadata, robots, self._queue, self)
-        if replaced:
-            log.warning("recording to %s replaces the %d-byte file that was there",
-                        self.path, replaced)
 
     def describe_world(self, free_bodies: list[tuple[str, int]]) -> None:
         """(name, qpos address) of the world's free bodies, whose poses the records of qpos
@@ -46,13 +41,20 @@ class Recorder:
         self._writer.free_bodies = free_bodies
 
     def start(self) -> None:
+        """Its file takes the target's place, and what is queued is written (OSError: the
+        target cannot be replaced: another process records to it since)."""
         self._writer.start()
+        self.started = True
 
     def stop(self) -> None:
-        """Write what is queued and close the file (a valid MCAP with its summary); once."""
+        """Write what is queued and close the file (a valid MCAP with its summary); once. A
+        recording never started leaves nothing, the target as it was."""
         if not self._stopped:
             self._stopped = True
-            self._writer.stop()
+            if self.started:
+                self._writer.stop()
+            else:
+                self._writer.abandon()
 
     @property
     def failure(self) -> OSError | None:

@@ -13,13 +13,9 @@ one after another are written as one run (first, last), before whatever came aft
 from __future__ import annotations
 
 import base64
-import errno
-import fcntl
 import json
 import logging
 import math
-import os
-import stat
 import threading
 import time
 from pathlib import Path
@@ -33,6 +29,7 @@ from franka_sim.recording.channels import (COMMAND_PREFIX, METADATA_NAME, TOOL_S
 from franka_sim.recording.wire_json import SERVICES, RequestDecoder, decode_reply
 from franka_sim.robot.events import EXTRAPOLATED
 from franka_sim.server.recorder import events as ev
+from franka_sim.server.recorder.target import Target
 from franka_sim.thinned_log import worth_logging
 
 log = logging.getLogger(__name__)
@@ -41,38 +38,11 @@ FLUSH_PERIOD = 1.0  # s: what a crash may lose at most
 DRAIN_PERIOD = 0.05  # s between two looks at the queue
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes of messages before a chunk closes by itself
 
-def _take(path: Path):
-    """The target, opened for writing; a file is locked (flock) for as long as this process
-    records to it, then emptied. One another process records to (a second server given the
-    same --record) is refused before a byte of it changes: emptied, the first server's
-    recording was lost, and removed with it when the second's start failed. A device (a FIFO,
-    /dev/null) is written as it is; a file system without locks records unlocked."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o666)
-    try:
-        if stat.S_ISREG(os.fstat(fd).st_mode):
-            _lock(fd, path)
-            os.ftruncate(fd, 0)
-    except BaseException:
-        os.close(fd)
-        raise
-    return os.fdopen(fd, "wb")
-
-
-def _lock(fd: int, path: Path) -> None:
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        raise OSError(errno.EBUSY, "another process is recording to it", str(path)) from None
-    except OSError as exc:
-        if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
-            raise
-        log.warning("recording to %s unlocked (its file system has no locks: %s): another "
-                    "process given the same path would write over it", path, exc.strerror)
-
-
 class RecordingWriter:
     def __init__(self, path: Path, metadata: dict, robots: list[str], queue, owner) -> None:
-        self._file = _take(path)  # OSError here: the caller says the target is unwritable
+        # OSError here: the caller says the target cannot be written (target.py)
+        self.target = Target(path)
+        self._file = self.target.stream
         self._path = path
         self._queue, self._owner = queue, owner
         self._mcap = Writer(self._file, chunk_size=CHUNK_SIZE, compression=CompressionType.ZSTD)
@@ -105,7 +75,13 @@ class RecordingWriter:
         return self._mcap.register_channel(channel.topic, channel.message_encoding, schema)
 
     def start(self) -> None:
+        """The file takes its place (OSError: it cannot), then the thread drains the queue."""
+        self.target.commit()
         self._thread.start()
+
+    def abandon(self) -> None:
+        """Never started: nothing of it stays, and the target is as it was."""
+        self.target.abandon()
 
     def stop(self) -> None:
         self._stop.set()
