@@ -43,6 +43,10 @@ class ArmParts:
         self.description, self.urdf_text = description, urdf_text
         self.robot = config.robot_of(spec)  # its kind: fr3 or fer
         self.q0 = np.array(config.q0, dtype=float)
+        if np.any(self.q0 < description.lower) or np.any(self.q0 > description.upper):
+            raise SceneError(f"arm {spec.name}: its start pose q0 {self.q0.tolist()} is outside "
+                             f"its joint limits [{description.lower.tolist()}, "
+                             f"{description.upper.tolist()}]")
         self.core = ArmCore(
             description, self.q0, urdf=urdf_text.encode(), enforce_comm_constraints=config.enforce_comm_constraints,
             enforce_motion_limits=config.enforce_motion_limits,

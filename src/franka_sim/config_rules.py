@@ -8,8 +8,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import ipaddress
+from pathlib import Path
 
-from franka_sim.config import DESK_BOOTS, ROBOTS, WORLD_REACH, ClockMode, Config
+from franka_sim.config import DESK_BOOTS, ROBOTS, WORLD_REACH, ArmSpec, ClockMode, Config
 from franka_sim.control.errors import header_safe
 
 RESERVED_PORTS = range(1337, 1340)  # the FCI, the Franka Hand, the vacuum gripper
@@ -31,6 +32,10 @@ def checked(config: Config) -> Config:
             raise ConfigError("--clock", f"{config.clock!r} is not a clock (one of "
                               f"{', '.join(mode.value for mode in ClockMode)})")
         config = dataclasses.replace(config, clock=ClockMode(config.clock))
+    if paths := {name: Path(value) for name in ("urdf", "record", "meshes", "desk_cert",
+                                                "desk_key")
+                 if isinstance(value := getattr(config, name), str)}:
+        config = dataclasses.replace(config, **paths)  # (an embedder's strings)
     if config.control_port in RESERVED_PORTS:
         raise ConfigError("--control-port", (
             f"{config.control_port} is the FCI's, the Hand's or the vacuum gripper's port "
@@ -131,13 +136,38 @@ def _kinds(config: Config) -> None:
                               "(0-65535)")
     if isinstance(config.seed, bool) or not isinstance(config.seed, int) or config.seed < 0:
         raise ConfigError("--seed", f"{config.seed!r} is not a non-negative integer")
+    for name, port in (("robot_port", config.robot_port), ("tool_port", config.tool_port)):
+        if port is None and name == "tool_port":
+            continue  # (the tool's own)
+        if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+            raise ConfigError(name, f"{port!r} is not a TCP port (1-65535; libfranka connects "
+                              "to the FCI's 1337 and the Hand's 1338)")
+    if config.robot_port in (config.control_port, config.desk_port, config.web_port):
+        raise ConfigError("robot_port", f"{config.robot_port} is another service's port")
+    if not isinstance(config.host, str) or not config.host:
+        raise ConfigError("--host", f"{config.host!r} is not an address")
+    _start_pose(config.q0)
     for spec in config.arms:
+        if not isinstance(spec, ArmSpec):
+            raise ConfigError("--arm", f"{spec!r} is not an ArmSpec(name, host, base=None, "
+                              "robot=None, tool=None)")
         if spec.base is not None and len(spec.base) not in (3, 4):
             raise ConfigError("--arm", f"arm {spec.name}: its base {spec.base!r} is x, y, z "
                               "and an optional yaw in degrees")
         if spec.base is not None and not math.hypot(*spec.base[:3]) <= WORLD_REACH:
             raise ConfigError("--arm", f"arm {spec.name}: its base {tuple(spec.base[:3])} is "
                               f"over {WORLD_REACH:g} m from the world's origin")
+
+
+def _start_pose(q0) -> None:
+    """Seven finite joint angles (each arm's description then holds them to its joint limits:
+    assembly.py)."""
+    try:
+        values = [float(v) for v in q0]
+    except (TypeError, ValueError):
+        raise ConfigError("q0", f"{q0!r} is not 7 joint angles (rad)") from None
+    if len(values) != 7 or not all(map(math.isfinite, values)):
+        raise ConfigError("q0", f"{tuple(q0)!r} is not 7 finite joint angles (rad)")
 
 
 def _desk(config: Config) -> None:

@@ -138,10 +138,34 @@ def test_the_clock_by_its_name_and_a_misspelt_setting():
     ({"seed": -1}, "-1 is not a non-negative integer"),
     ({"desk_boot": "locked"}, "brought up through its Desk: give --desk-port"),
     ({"arms": (ArmSpec("left", "127.0.0.2", (0.0, 0.0)),)}, "its base (0.0, 0.0) is x, y, z"),
+    # what only an embedder can give
+    ({"robot_port": 70000}, "70000 is not a TCP port"),
+    ({"robot_port": 0}, "0 is not a TCP port"),
+    ({"robot_port": "1337"}, "'1337' is not a TCP port"),
+    ({"robot_port": 1340}, "1340 is another service's port"),
+    ({"tool_port": "1338"}, "'1338' is not a TCP port"),
+    ({"q0": (float("nan"),) * 7}, "is not 7 finite joint angles"),
+    ({"q0": (0.0,) * 6}, "is not 7 finite joint angles"),
+    ({"q0": "ready"}, "'ready' is not 7 joint angles"),
+    ({"arms": (("left", "127.0.0.2"),)}, "('left', '127.0.0.2') is not an ArmSpec"),
 ])
 def test_settings_serve_refuses_are_refused_by_name_in_embedding_too(settings, said):
     with pytest.raises(ConfigError, match=re.escape(said)):
         FrankaSim(host=fresh_loopback_address(), **settings)
+
+
+def test_a_start_pose_past_a_joint_limit_is_refused_and_paths_may_be_strings(tmp_path):
+    from franka_sim.config import READY_POSE
+    from franka_sim.description.urdf import default_urdf_text
+    from franka_sim.physics.scene import SceneError
+
+    with pytest.raises(SceneError, match=r"its start pose q0 \[3.0, .* is outside its joint "
+                                         r"limits"):
+        FrankaSim(host=fresh_loopback_address(), q0=(3.0, *READY_POSE[1:]))
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(default_urdf_text())
+    sim = FrankaSim(host=fresh_loopback_address(), urdf=str(urdf))
+    assert sim.urdf_text == urdf.read_text()
 
 
 def test_an_arm_that_would_start_inside_a_body_is_refused_and_leaves_no_thread(tmp_path):
