@@ -130,6 +130,12 @@ def test_embedded_the_faults_are_async_methods_with_the_same_errors():
             with pytest.raises(BadRequest, match="a spec .* or its fields as a dict"):
                 await sim.set_faults(["loss=0.1"])
             assert (await sim.set_faults("delay=2ms"))["spec"] == "delay=2ms"  # a spec alone
+            # as the HTTP client takes them: a spec and a seed, or the fields as keywords
+            assert (await sim.set_faults("delay=2ms", seed=7))["seed"] == 7
+            assert (await sim.set_faults(loss=0.01, dir="commands"))["spec"] == \
+                "loss=0.01,dir=commands"
+            with pytest.raises(TypeError, match="'lossy'"):
+                await sim.set_faults(lossy=0.01)
             second = await sim.set_faults({"burst": "10@60s"})
             cleared = await sim.clear_faults()
             return first, second, cleared, sim.driver.faults, sim.udp.faults

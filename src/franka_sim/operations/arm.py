@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import errno
+import os
 import threading
 from typing import Any, Callable
 
@@ -251,6 +252,8 @@ class ArmOps(DeskOps, FaultOps):
                            "`serve --record`)")
         if why := recordings.refused():
             raise Conflict(why)
+        if isinstance(path, os.PathLike):  # (an embedder's Path)
+            path = os.fspath(path)
         if not isinstance(path, str) or not path:
             raise BadRequest(f"path must be the recording's file path, not {path!r}")
         from franka_sim.recording import mcap_missing

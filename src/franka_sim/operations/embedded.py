@@ -24,18 +24,33 @@ def _signature(operation: Operation) -> inspect.Signature:
     return inspect.Signature(parameters)
 
 
+def _callers_signature(operation: Operation) -> inspect.Signature:
+    """A row that collects its body's fields into one dict (set_faults) is called as the HTTP
+    client calls it: a spec, or its fields as keywords."""
+    parameters = [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    parameters += [inspect.Parameter(arg.name, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                     default=None) for arg in operation.arguments]
+    return inspect.Signature(parameters)
+
+
 def _delegate(operation: Operation):
-    name = operation.name
+    name, collect = operation.name, operation.collect
+    signature = _signature(operation) if collect is None else _callers_signature(operation)
 
     async def method(self, *args, **kwargs):
         self.check_serving()
+        if collect is not None and not (len(args) == 1 and not kwargs
+                                        and isinstance(args[0], (dict, list))):
+            bound = signature.bind(self, *args, **kwargs)  # TypeError: not the row's fields
+            args, kwargs = ({key: value for key, value in bound.arguments.items()
+                             if key != "self" and value is not None},), {}
         result = getattr(self.control, name)(*args, **kwargs)
         return await result if inspect.isawaitable(result) else result  # (health: no job)
 
     method.__name__ = name
     method.__qualname__ = f"EmbeddedOperations.{name}"
     method.__doc__ = operation.doc
-    method.__signature__ = _signature(operation)
+    method.__signature__ = signature
     return method
 
 
