@@ -43,12 +43,12 @@ class Target:
             if not os.access(self.place, os.W_OK):
                 raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
         self.temporary = self.place.with_name(f".{self.place.name}.{os.getpid()}.part")
-        fd = os.open(self.temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        fd = os.open(self.temporary, os.O_WRONLY | os.O_CREAT, 0o666)
         try:
-            _lock(fd, path)
+            _lock(fd, path)  # (this process's other recording to the same target: refused,
+            os.ftruncate(fd, 0)  # its temporary left as it is)
         except BaseException:
             os.close(fd)
-            self.temporary.unlink(missing_ok=True)
             raise
         self.stream = os.fdopen(fd, "wb")
         # Made and never started (an embedder's simulator dropped): the temporary goes.
