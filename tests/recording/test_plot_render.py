@@ -210,16 +210,49 @@ def test_truncated_foreign_and_incompatible_files(lockstep_run, tmp_path, comman
     version = str(FORMAT_VERSION).encode()
     (tmp_path / "future.mcap").write_bytes(data.replace(b"format_version\x01\x00\x00\x00" + version,
                                                         b"format_version\x01\x00\x00\x009"))
+    for name, edits in [("no_robots", {"robots": "[]"}), ("no_clock", {"clock": None}),
+                        ("bad_q0", {"q0": "[1, 2]"}), ("bad_urdf", {"urdf": "<robot/>"})]:
+        _with_metadata(path, tmp_path / f"{name}.mcap", edits)
     extra = {"replay": [], "plot": ["-o", str(tmp_path / "p.png")],
              "render": ["-o", str(tmp_path / "r.mp4")]}[command]
     for name, message in [("truncated", "truncated"), ("foreign", "not an MCAP file"),
                           ("other", "not a franka-sim recording"),
                           ("future", "recording format v9"),
                           ("damaged", "damaged, not as it was written"),
-                          ("head", "truncated before its first complete record")]:
+                          ("head", "truncated before its first complete record"),
+                          ("no_robots", "its metadata is damaged: robots '[]' is not a list"),
+                          ("no_clock", "its metadata is damaged: no clock"),
+                          ("bad_q0", "its metadata is damaged: q0 '[1, 2]' is not 7 joint"),
+                          *([("bad_urdf", "the recorded world cannot be built: missing "
+                              "required joints")] if command == "replay" else [])]:
         done = franka_sim(command, str(tmp_path / f"{name}.mcap"), *extra)
         assert done.returncode == 1, (name, done.stdout, done.stderr)
         assert message in done.stderr and done.stderr.count("\n") == 1, (name, done.stderr)
+
+
+def _with_metadata(source: Path, target: Path, edits: dict) -> None:
+    """A copy of a recording whose franka-sim metadata has `edits` (None: the field left
+    out), as a file damaged or edited by hand would have it."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(source, "rb") as given, open(target, "wb") as copy:
+        reader = make_reader(given)
+        summary = reader.get_summary()
+        writer = Writer(copy)
+        writer.start()
+        schemas = {key: writer.register_schema(s.name, s.encoding, s.data)
+                   for key, s in summary.schemas.items()}
+        channels = {key: writer.register_channel(c.topic, c.message_encoding,
+                                                 schemas.get(c.schema_id, 0), c.metadata)
+                    for key, c in summary.channels.items()}
+        for record in reader.iter_metadata():
+            fields = {**record.metadata, **edits}
+            writer.add_metadata(record.name, {k: v for k, v in fields.items() if v is not None})
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            writer.add_message(channels[channel.id], message.log_time, message.data,
+                               message.publish_time, message.sequence)
+        writer.finish()
 
 
 def test_an_unwritable_record_target_stops_serve_at_start(tmp_path):

@@ -12,6 +12,24 @@ import numpy as np
 from franka_sim.protocol.codec import STATE_DTYPE
 
 
+def recorded_physics(recording, workdir: str, meshes=None):
+    """(config, parts, physics) of the world `recording` was made in, built from its metadata
+    (`workdir`: where a recorded URDF or scene is written; `meshes`: how it is drawn).
+    Incompatible where this franka-sim cannot build it (a recorded URDF it cannot read);
+    SceneError for --meshes or a recorded scene."""
+    from franka_sim.assembly import WorldParts
+    from franka_sim.description.urdf import DescriptionError
+    from franka_sim.recording.metadata import Incompatible, replay_config
+
+    config = replay_config(recording.metadata, workdir)
+    config.meshes = meshes
+    try:
+        parts = WorldParts(config)
+        return config, parts, parts.make_physics()
+    except DescriptionError as exc:
+        raise Incompatible(f"the recorded world cannot be built: {exc}") from None
+
+
 class RecordedWorld:
     """`recording` over `physics` (the world it was made in, built from its metadata):
     `arms`, `names`, each arm's `states` and their `ids`, and `first` / `last`, the cycles it

@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from franka_sim.protocol.timing import CYCLE_PERIOD
-from franka_sim.recording.metadata import replay_config
 from franka_sim.recording.reader import Recording
 
 WIDTH, HEIGHT = 640, 480
@@ -70,18 +69,17 @@ class Frames:
     def __init__(self, recording: Recording, *, fps: float = 30.0, camera: str | None = None,
                  segmentation: bool = False, meshes: Path | None = None) -> None:
         mujoco = import_mujoco_with_gl()
-        from franka_sim.assembly import WorldParts  # (MuJoCo's importers: after its GL is set)
-        from franka_sim.playback.recorded_world import RecordedWorld
+        # (MuJoCo's importers: after its GL is set)
+        from franka_sim.playback.recorded_world import RecordedWorld, recorded_physics
         from franka_sim.recording.metadata import Incompatible
 
-        with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
-            config = replay_config(recording.metadata, workdir)
-            config.meshes = meshes  # (how it is drawn: never part of a recording)
-            physics = WorldParts(config).make_physics()
-        self.model, self.data = physics.world.model, physics.world.data
         try:
+            with tempfile.TemporaryDirectory(prefix="franka-sim-render-") as workdir:
+                # (meshes: how it is drawn, never part of a recording)
+                _, _, physics = recorded_physics(recording, workdir, meshes)
+            self.model, self.data = physics.world.model, physics.world.data
             self._world = RecordedWorld(recording, physics)
-        except Incompatible as exc:  # (nothing to show)
+        except Incompatible as exc:  # (nothing to show, or no world to show it in)
             raise RenderError(f"{recording.path}: {exc}") from None
         self._world.put(self.data, self._world.first)  # (the camera frames the start)
         mujoco.mj_forward(self.model, self.data)

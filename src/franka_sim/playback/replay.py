@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from franka_sim.assembly import WorldParts
 from franka_sim.control.errors import ControlError
 from franka_sim.operations.arm import ArmOps
 from franka_sim.control.table import BY_NAME, Effect
@@ -37,7 +36,8 @@ from franka_sim.protocol.codec import STATE_DTYPE
 from franka_sim.protocol.gripper_messages import GripperState
 from franka_sim.protocol.vacuum_gripper_messages import VacuumGripperState
 from franka_sim.recording.channels import TOOL_STATE_KEYS
-from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible, replay_config
+from franka_sim.playback.recorded_world import recorded_physics
+from franka_sim.recording.metadata import START_FRESH, START_RESET, Incompatible
 from franka_sim.recording.reader import Recording, command_of, tcp_data
 from franka_sim.robot.session import SessionError
 
@@ -96,10 +96,11 @@ class Replayer:
     def __init__(self, recording: Recording) -> None:
         # Holds a recorded URDF or scene whose path is gone; removed with the replayer.
         self._workdir = tempfile.TemporaryDirectory(prefix="franka-sim-replay-")
-        self.config = replay_config(recording.metadata, self._workdir.name)
+        # The world and each robot's body in it (Incompatible: it cannot be built here).
+        self.config, self.world_parts, self.physics = recorded_physics(
+            recording, self._workdir.name)
+        parts = self.world_parts
         self.recording = recording
-        self.world_parts = parts = WorldParts(self.config)
-        self.physics = parts.make_physics()  # the world and each robot's body in it
         self.listening = [False] * len(parts.robots)  # a Hand client took its state stream
         # Each robot's tool states, by message_id, not yet compared: replayed (the server sent
         # only some: lockstep's settling sends the last cycle's alone), and recorded ahead of

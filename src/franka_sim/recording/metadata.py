@@ -58,6 +58,36 @@ class Incompatible(Exception):
     """The recording cannot be replayed by this franka-sim (the message says why)."""
 
 
+_TEXTS = ("urdf", "urdf_sha256", "scene_name", "scene_sha256", "scene", "start")
+
+
+def damage(meta: dict) -> str | None:
+    """What is wrong with a recording's metadata (fields as `describe` writes them, JSON where
+    not text); None: nothing a reader or replay would trip on."""
+    missing = [key for key in ("robots", "clock", "q0", "flags", *_TEXTS) if key not in meta]
+    if missing:
+        return f"no {', '.join(missing)}"
+    parsed = {}
+    for key in ("robots", "q0", "flags"):
+        try:
+            parsed[key] = json.loads(meta[key])
+        except ValueError:
+            return f"{key} {meta[key][:80]!r} is not JSON"
+    robots, q0, flags = parsed["robots"], parsed["q0"], parsed["flags"]
+    if not (isinstance(robots, list) and robots and all(
+            isinstance(r, dict) and isinstance(r.get("name"), str)
+            and r.get("kind") in ("arm", "base") for r in robots)):
+        return f"robots {meta['robots'][:80]!r} is not a list of named arms and bases"
+    if meta["clock"] not in {mode.value for mode in ClockMode}:
+        return f"clock {meta['clock'][:40]!r} is not a clock"
+    if not (isinstance(q0, list) and len(q0) == 7
+            and all(isinstance(v, (int, float)) for v in q0)):
+        return f"q0 {meta['q0'][:80]!r} is not 7 joint angles"
+    if not isinstance(flags, dict) or set(flags) - set(_FLAGS):
+        return f"flags {meta['flags'][:80]!r} are not this franka-sim's"
+    return None
+
+
 def robot_names(meta: dict) -> list[str]:
     """The recorded robots' names, in the world's order (their channels' prefixes)."""
     return [robot["name"] for robot in json.loads(meta["robots"])]

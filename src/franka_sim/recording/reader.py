@@ -150,6 +150,10 @@ def open_recording(path: str | Path) -> Recording:
     if version != str(FORMAT_VERSION):
         raise RecordingError(f"{path}: recording format v{version}; this franka-sim reads "
                              f"v{FORMAT_VERSION}")
+    from franka_sim.recording.metadata import damage
+
+    if (why := damage(metadata)) is not None:
+        raise RecordingError(f"{path}: its metadata is damaged: {why}")
     robots = [robot["name"] for robot in json.loads(metadata["robots"])]
     keys = {channel.topic: (key, None) for key, channel in world_channels().items()}
     for index, name in enumerate(robots):

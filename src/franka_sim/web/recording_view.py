@@ -87,13 +87,10 @@ class RecordingTimeline(RecordedWorld):
 
 def timeline_of(recording, meshes=None) -> RecordingTimeline:
     """The recording's timeline over the world it was made in (`meshes`: how it is drawn)."""
-    from franka_sim.assembly import WorldParts
-    from franka_sim.recording.metadata import replay_config
+    from franka_sim.playback.recorded_world import recorded_physics
 
     with tempfile.TemporaryDirectory(prefix="franka-sim-view-") as workdir:
-        config = replay_config(recording.metadata, workdir)
-        config.meshes = meshes
-        physics = WorldParts(config).make_physics()
+        _, _, physics = recorded_physics(recording, workdir, meshes)
     return RecordingTimeline(recording, physics)
 
 
