@@ -266,6 +266,17 @@ def test_an_unwritable_record_target_stops_serve_at_start(tmp_path):
         "No such file or directory")
 
 
+def test_a_fifo_as_record_target_is_refused_without_waiting_for_a_reader(tmp_path):
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    done = subprocess.run([sys.executable, "-m", "franka_sim", "serve", "--host", "127.0.0.1",
+                           "--record", str(fifo)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines()[-1] == (
+        f"franka-sim: cannot record to {fifo}: a FIFO cannot take a recording (it is written "
+        "with seeks)")
+
+
 def test_a_start_refused_leaves_no_recording_behind(tmp_path):
     """The arms placed into each other: serve stops as it builds the world, and the file
     --record opened, which would hold nothing of a run, goes."""
@@ -322,3 +333,12 @@ def test_a_device_is_recorded_to_by_as_many_servers_as_ask():
         for server in servers:
             server.stop()
             assert server.proc.returncode == 0, server.lines
+
+
+def test_replay_until_before_the_first_state_says_that_is_why_nothing_was_compared(
+        lockstep_run):
+    path, _ = lockstep_run
+    done = franka_sim("replay", str(path), "--until", "0")
+    assert done.returncode == 0
+    assert done.stdout.strip() == ("identical (0 cycles: no state was sent by cycle 0, so "
+                                   "nothing was compared)")

@@ -49,6 +49,7 @@ class Outcome:
     divergence: int | None = None  # the first cycle that differs
     fields: list[str] = field(default_factory=list)  # what differs there
     note: str = ""
+    cut: int | None = None  # `until`, where it left out a state the recording holds
 
     @property
     def identical(self) -> bool:
@@ -57,8 +58,9 @@ class Outcome:
     def line(self) -> str:
         if self.identical:
             if not self.cycles and not self.tool_states:
-                return ("identical (0 cycles: no client was sent a state, so nothing was "
-                        "compared)")
+                why = ("no client was sent a state" if self.cut is None
+                       else f"no state was sent by cycle {self.cut}")
+                return f"identical (0 cycles: {why}, so nothing was compared)"
             tools = f", {_counted(self.tool_states, 'tool state')}" if self.tool_states else ""
             return f"identical ({_counted(self.cycles, 'cycle')}{tools})"
         return f"diverged at cycle {self.divergence}: {', '.join(self.fields)}" + (
@@ -182,6 +184,7 @@ class Replayer:
                     n = int.from_bytes(entry.data[:8], "little")  # its message_id
                     if until is not None and n > until:  # (a tool state up to it may follow)
                         self._record_tools(entries[k:], until)
+                        outcome.cut = until
                         break
                     self.advance(n, False)
                     replayed = self.released.robots[robot].state

@@ -6,8 +6,9 @@ control API's before its reset), and a start may still fail (an address in use) 
 (an embedded simulator made and dropped). Until the start the file that was there stays as it
 was: a failed start no longer costs the last run's recording. The target is claimed at once: a
 file another process records to now (it holds an flock on it for as long as it records) is
-refused before a byte of it changes, and so is one this process may not write. A device (a
-FIFO, /dev/null) is written as it is; a file system without locks records unlocked.
+refused before a byte of it changes, and so is one this process may not write. A device
+(/dev/null) is written as it is; a FIFO cannot take one (MCAP's writer seeks: refused before
+it is opened, which would wait for a reader); a file system without locks records unlocked.
 """
 
 from __future__ import annotations
@@ -34,6 +35,9 @@ class Target:
             mode = os.stat(path).st_mode
         except FileNotFoundError:
             mode = None
+        if mode is not None and stat.S_ISFIFO(mode):
+            raise OSError(errno.ESPIPE, "a FIFO cannot take a recording (it is written with "
+                          "seeks)", str(path))
         if mode is not None and not stat.S_ISREG(mode):
             self.stream = os.fdopen(os.open(path, os.O_WRONLY), "wb")
             return
