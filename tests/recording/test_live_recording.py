@@ -197,3 +197,24 @@ def test_an_embedder_records_to_a_path_and_replays_it(tmp_path):
 
     assert asyncio.run(app())["path"] == str(path)
     assert _replay(path).startswith("identical")
+
+
+def test_a_serve_record_that_failed_makes_way_for_one_through_the_control_api(tmp_path):
+    """--record stopped by its disk (failure as the writer sets it on ENOSPC): the control API
+    records again rather than answering 409 for a recording that no longer records."""
+    import asyncio
+    import errno
+
+    from franka_sim import FrankaSim
+
+    async def app():
+        async with FrankaSim(host=fresh_loopback_address(), control_port=0, clock="lockstep",
+                             record=tmp_path / "full.mcap") as sim:
+            sim.recorder._writer.failure = OSError(errno.ENOSPC, "No space left on device")
+            started = await sim.start_recording(tmp_path / "next.mcap")
+            await sim.set_pose("cube", [0.45, 0.1, 0.2])
+            return started, await sim.finish_recording()
+
+    started, finished = asyncio.run(app())
+    assert started["path"] == finished["path"] == str(tmp_path / "next.mcap")
+    assert _replay(tmp_path / "next.mcap").startswith("identical")

@@ -261,8 +261,8 @@ class ArmOps(DeskOps, FaultOps):
         if missing := mcap_missing():
             raise BadRequest(missing)
         taps = self.taps
-        if taps.recorder is not None:  # checked before the file is opened: it may be this one
-            raise Conflict(f"already recording to {taps.recorder.path}")
+        if (busy := recordings.in_the_way()) is not None:  # before the file is opened: it
+            raise Conflict(f"already recording to {busy.path}")  # may be this one
         q, _ = self._reset_arguments(None, None)
         try:
             recorder = recordings.open(path)  # here, not in the cycle thread: file I/O
@@ -273,8 +273,8 @@ class ArmOps(DeskOps, FaultOps):
 
         def start(world, arm) -> dict:
             with self.lock:
-                if taps.recorder is not None:
-                    raise Conflict(f"already recording to {taps.recorder.path}")
+                if (busy := recordings.in_the_way()) is not None:
+                    raise Conflict(f"already recording to {busy.path}")
                 self._refuse_busy()
                 recordings.attach(recorder, world)  # Conflict: a client is connected
                 at = taps.position()

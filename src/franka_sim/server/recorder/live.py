@@ -35,6 +35,15 @@ class Recordings:
                     "MuJoCo (docs/engines.md), as `serve --record` is refused with it")
         return None
 
+    def in_the_way(self):
+        """The recording a new one must wait for (None: none): one under way, or one started
+        here that failed and is not finished yet (DELETE /recording says why). A `serve
+        --record` that failed (a full disk) makes way."""
+        recorder = self.sim.taps.recorder
+        if recorder is None or (recorder.failure is not None and recorder is not self.live):
+            return None
+        return recorder
+
     def open(self, path: str | Path, start: str = START_RESET):
         """A Recorder writing to `path` (OSError: it cannot), not yet attached."""
         from franka_sim.server.recorder.recorder import Recorder  # mcap: only when recording
@@ -60,6 +69,8 @@ class Recordings:
                 raise Conflict(f"{' and '.join(connected)} connected: a recording starts with "
                                "none (it begins from a reset world, without their sessions)")
         recorder.describe_world(world.bodies.free_qpos())
+        if sim.taps.recorder is not None:  # serve --record's, failed (`in_the_way`)
+            sim.taps.detach()
         sim.taps.attach(recorder, cycle or sim.driver.cycle, world.positions())
         if not fresh:
             recorder.start()
