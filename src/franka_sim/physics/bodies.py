@@ -112,9 +112,12 @@ class Bodies:
         return self._ids[self.find(name)]
 
     def check_push(self, name: str, force, torque, seconds: float) -> None:
-        """TooViolent if a wrench held `seconds` on a free body would take it, from rest and
-        unopposed, past MAX_PUSHED_SPEED or MAX_PUSHED_SPIN (an arm's link: its joints hold)."""
+        """Immovable if no force moves the body (`anchored`); TooViolent if a wrench held
+        `seconds` on a free body would take it, from rest and unopposed, past MAX_PUSHED_SPEED
+        or MAX_PUSHED_SPIN (an arm's link: its joints hold). Every engine's push asks this."""
         body = self.id(name)
+        if why := self.anchored(body):
+            raise Immovable(self.find(name), why)
         if body not in self._free:
             return
         m = self._model

@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.arm import Arm
-from franka_sim.physics.bodies import Bodies, BodyState, Immovable, Pushes
+from franka_sim.physics.bodies import Bodies, BodyState, Pushes
 from franka_sim.physics.intrusions import Intrusion, contacts, intrusions, subtree
 from franka_sim.physics.scene import ArmPlacement, build_world_model
 
@@ -306,7 +306,5 @@ class World:
         """A wrench (world frame, at the body's centre of mass) on a body during the next
         `steps` steps; replaces a push still acting on it (Immovable: no force moves it)."""
         body = self.bodies.id(name)
-        if why := self.bodies.anchored(body):
-            raise Immovable(self.bodies.find(name), why)
-        self.bodies.check_push(name, force, torque, steps * self.timestep)
+        self.bodies.check_push(name, force, torque, steps * self.timestep)  # Immovable too
         self._pushes.push(body, force, torque, steps)

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from franka_sim.physics.drive import SETTLE
-from franka_sim.physics.bodies import Bodies, BodyState, Immovable, UnknownBody
+from franka_sim.physics.bodies import Bodies, BodyState, UnknownBody
 from franka_sim.physics.fingers import FINGER_JOINTS, FingersMount, opening
 from franka_sim.physics.intrusions import Intrusion, intrusions, subtree
 from franka_sim.physics.genesis.arm import GenesisArm
@@ -271,8 +271,6 @@ class GenesisWorld:
         """As the MuJoCo world's (physics/world.py)."""
         if steps <= 0:
             raise ValueError(f"a push lasts at least one step, not {steps}")
-        if why := self.bodies.anchored(self.bodies.id(name)):
-            raise Immovable(self.bodies.find(name), why)
         self.bodies.check_push(name, force, torque, steps * self.timestep)
         link = self.bodies.link(name).idx_local
         self._pushes[link] = [np.asarray(force, float), np.asarray(torque, float), steps]
